@@ -1,0 +1,161 @@
+// Thin Fast DDS 2.x helpers: a participant pinned to the project's XML profile, typed writers and
+// readers, and the QoS of every topic in one table (DESIGN.md §3).
+//
+// Readers deliver samples and QoS events (liveliness, deadline) through callbacks on the middleware's
+// thread; nodes only push them into their own queue (see EventQueue) and decide on their own thread.
+#pragma once
+
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <stdexcept>
+#include <string>
+
+namespace dh::dds {
+
+namespace fdds = eprosima::fastdds::dds;
+
+/// The QoS classes of DESIGN.md §3.
+enum class Qos {
+  Announce,    ///< reliable, transient-local, liveliness AUTOMATIC lease 1 s
+  Command,     ///< reliable, keep-last 1 per channel
+  Status,      ///< reliable, keep-last 16
+  Lease,       ///< reliable, keep-last 1, deadline 1 s
+  Action,      ///< reliable, keep-last 1
+  Observation, ///< reliable, keep-last 1
+  Verdict,     ///< reliable, keep-all
+  Planner,     ///< reliable, keep-last 8
+  Episode,     ///< reliable, transient-local, keep-last 1 per channel
+};
+
+struct QosPair {
+  fdds::DataWriterQos writer;
+  fdds::DataReaderQos reader;
+};
+QosPair qos_for(Qos kind);
+
+/// Liveliness lease of capability announcements and the lease-topic deadline, in seconds.
+inline constexpr double kLivelinessLeaseSec = 1.0;
+inline constexpr double kLeaseDeadlineSec = 1.0;
+
+/// DDS domain: DH_DOMAIN_ID, default 42.
+int domain_id();
+
+class Participant {
+ public:
+  /// Creates a participant from the XML profile (paths::dds_profile()); throws std::runtime_error
+  /// when the profile is missing or invalid, never falling back to default (multicast-everywhere)
+  /// transports.
+  explicit Participant(const std::string& name);
+  ~Participant();
+  Participant(const Participant&) = delete;
+  Participant& operator=(const Participant&) = delete;
+
+  fdds::DomainParticipant* raw() const { return participant_; }
+  fdds::Publisher* publisher() const { return publisher_; }
+  fdds::Subscriber* subscriber() const { return subscriber_; }
+  /// The topic `name` of `type`, created once.
+  fdds::Topic* topic(const std::string& name, fdds::TypeSupport type);
+
+ private:
+  fdds::DomainParticipant* participant_ = nullptr;
+  fdds::Publisher* publisher_ = nullptr;
+  fdds::Subscriber* subscriber_ = nullptr;
+  std::mutex mutex_;
+  std::map<std::string, fdds::Topic*> topics_;
+};
+
+template <class PubSub>
+class Writer {
+ public:
+  using T = typename PubSub::type;
+  Writer(Participant& p, const std::string& topic, Qos qos) : participant_(p) {
+    writer_ = p.publisher()->create_datawriter(p.topic(topic, fdds::TypeSupport(new PubSub())),
+                                               qos_for(qos).writer);
+    if (!writer_) throw std::runtime_error("cannot create a writer on " + topic);
+  }
+  ~Writer() { participant_.publisher()->delete_datawriter(writer_); }
+  Writer(const Writer&) = delete;
+  Writer& operator=(const Writer&) = delete;
+
+  bool write(const T& sample) { return writer_->write(const_cast<T*>(&sample)); }
+  /// Asserts liveliness by hand (AUTOMATIC liveliness needs no call; kept for MANUAL kinds).
+  fdds::DataWriter* raw() const { return writer_; }
+  fdds::InstanceHandle_t handle() const { return writer_->get_instance_handle(); }
+  /// Number of matched readers.
+  std::size_t matched() const {
+    fdds::PublicationMatchedStatus s;
+    writer_->get_publication_matched_status(s);
+    return static_cast<std::size_t>(s.current_count);
+  }
+
+ private:
+  Participant& participant_;
+  fdds::DataWriter* writer_ = nullptr;
+};
+
+template <class PubSub>
+class Reader : public fdds::DataReaderListener {
+ public:
+  using T = typename PubSub::type;
+  struct Callbacks {
+    std::function<void(const T&, const fdds::SampleInfo&)> on_data;
+    std::function<void(const fdds::LivelinessChangedStatus&)> on_liveliness;
+    std::function<void(const fdds::RequestedDeadlineMissedStatus&)> on_deadline;
+  };
+
+  Reader(Participant& p, const std::string& topic, Qos qos, Callbacks cb)
+      : participant_(p), cb_(std::move(cb)) {
+    fdds::StatusMask mask = fdds::StatusMask::data_available();
+    if (cb_.on_liveliness) mask << fdds::StatusMask::liveliness_changed();
+    if (cb_.on_deadline) mask << fdds::StatusMask::requested_deadline_missed();
+    reader_ = p.subscriber()->create_datareader(p.topic(topic, fdds::TypeSupport(new PubSub())),
+                                                qos_for(qos).reader, this, mask);
+    if (!reader_) throw std::runtime_error("cannot create a reader on " + topic);
+  }
+  ~Reader() override {
+    reader_->set_listener(nullptr);
+    participant_.subscriber()->delete_datareader(reader_);
+  }
+  Reader(const Reader&) = delete;
+  Reader& operator=(const Reader&) = delete;
+
+  std::size_t matched() const {
+    fdds::SubscriptionMatchedStatus s;
+    reader_->get_subscription_matched_status(s);
+    return static_cast<std::size_t>(s.current_count);
+  }
+
+  void on_data_available(fdds::DataReader* reader) override {
+    T sample;
+    fdds::SampleInfo info;
+    while (reader->take_next_sample(&sample, &info) == ReturnCode_t::RETCODE_OK) {
+      if (info.valid_data && cb_.on_data) cb_.on_data(sample, info);
+    }
+  }
+  void on_liveliness_changed(fdds::DataReader*, const fdds::LivelinessChangedStatus& s) override {
+    if (cb_.on_liveliness) cb_.on_liveliness(s);
+  }
+  void on_requested_deadline_missed(fdds::DataReader*,
+                                    const fdds::RequestedDeadlineMissedStatus& s) override {
+    if (cb_.on_deadline) cb_.on_deadline(s);
+  }
+
+ private:
+  Participant& participant_;
+  Callbacks cb_;
+  fdds::DataReader* reader_ = nullptr;
+};
+
+}  // namespace dh::dds

@@ -1,0 +1,36 @@
+// What the robot seam observes at one control step, as plain data for logic libraries (no DDS).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace dh {
+
+struct EntityState {
+  std::string name, kind;
+  std::array<double, 3> p{};               ///< bottom centre, m
+  std::array<double, 4> q{1, 0, 0, 0};     ///< w, x, y, z
+  std::array<double, 3> half_extents{};    ///< m
+};
+
+struct Observation {
+  std::uint32_t step = 0;
+  std::uint32_t budget_steps = 0;
+  std::array<double, 3> ee_p{};
+  std::array<double, 4> ee_q{1, 0, 0, 0};
+  double gripper_opening = 0;
+  bool contact_left = false, contact_right = false;
+  std::array<double, 7> q{}, dq{};
+  std::vector<EntityState> entities;
+  bool goal_holds = false;  ///< the benchmark predicate at this step
+
+  const EntityState* entity(const std::string& name) const {
+    for (const auto& e : entities)
+      if (e.name == name) return &e;
+    return nullptr;
+  }
+};
+
+}  // namespace dh

@@ -1,0 +1,20 @@
+// Every DDS topic name in one place (ROS 2 naming: rt/dh/...). QoS per topic: dds.hpp, qos_for().
+#pragma once
+
+namespace dh::topics {
+
+inline constexpr const char* kAnnounce = "rt/dh/capability/announce";
+inline constexpr const char* kCommand = "rt/dh/command";
+inline constexpr const char* kCommandStatus = "rt/dh/command/status";
+inline constexpr const char* kLease = "rt/dh/lease";
+inline constexpr const char* kAction = "rt/dh/action";
+inline constexpr const char* kObservation = "rt/dh/observation";
+inline constexpr const char* kVerdict = "rt/dh/verdict";
+inline constexpr const char* kSeamEvent = "rt/dh/seam/event";
+inline constexpr const char* kPlanRequest = "rt/dh/planner/request";
+inline constexpr const char* kAdvice = "rt/dh/planner/advice";
+inline constexpr const char* kEpisodeRequest = "rt/dh/episode/request";
+inline constexpr const char* kEpisodeResult = "rt/dh/episode/result";
+inline constexpr const char* kChannelStatus = "rt/dh/sim/channel";
+
+}  // namespace dh::topics

@@ -1,0 +1,120 @@
+#include "dh/common/dds.hpp"
+
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+
+#include <cstdlib>
+#include <filesystem>
+
+#include "dh/common/paths.hpp"
+
+namespace dh::dds {
+
+namespace {
+eprosima::fastrtps::Duration_t seconds(double s) { return eprosima::fastrtps::Duration_t(s); }
+constexpr const char* kProfileName = "dh_participant";
+}  // namespace
+
+QosPair qos_for(Qos kind) {
+  QosPair q;
+  auto& w = q.writer;
+  auto& r = q.reader;
+  w.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  r.reliability().kind = fdds::RELIABLE_RELIABILITY_QOS;
+  w.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+  r.durability().kind = fdds::VOLATILE_DURABILITY_QOS;
+  w.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  r.history().kind = fdds::KEEP_LAST_HISTORY_QOS;
+  // Our types hold strings and sequences (unbounded), so data-sharing cannot apply; turning it off
+  // also avoids the fast_datasharing_* files a killed process would leave in /dev/shm.
+  w.data_sharing().off();
+  r.data_sharing().off();
+  int depth = 1;
+  switch (kind) {
+    case Qos::Announce:
+      w.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      r.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      w.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
+      r.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
+      w.liveliness().lease_duration = seconds(kLivelinessLeaseSec);
+      r.liveliness().lease_duration = seconds(kLivelinessLeaseSec);
+      w.liveliness().announcement_period = seconds(kLivelinessLeaseSec / 4);
+      depth = 1;
+      break;
+    case Qos::Lease:
+      w.deadline().period = seconds(kLeaseDeadlineSec);
+      r.deadline().period = seconds(kLeaseDeadlineSec);
+      depth = 1;
+      break;
+    case Qos::Command:
+    case Qos::Action:
+    case Qos::Observation:
+      depth = 1;
+      break;
+    case Qos::Status:
+      depth = 16;
+      break;
+    case Qos::Planner:
+      depth = 8;
+      break;
+    case Qos::Verdict:
+      w.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
+      r.history().kind = fdds::KEEP_ALL_HISTORY_QOS;
+      break;
+    case Qos::Episode:
+      w.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      r.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      depth = 1;
+      break;
+  }
+  w.history().depth = depth;
+  r.history().depth = depth;
+  return q;
+}
+
+int domain_id() {
+  const char* v = std::getenv("DH_DOMAIN_ID");
+  if (!v || !*v) return 42;
+  char* end = nullptr;
+  long id = std::strtol(v, &end, 10);
+  if (*end != '\0' || id < 0 || id > 232)
+    throw std::runtime_error(std::string("DH_DOMAIN_ID='") + v + "' is not a DDS domain id (0-232)");
+  return static_cast<int>(id);
+}
+
+Participant::Participant(const std::string& name) {
+  auto* factory = fdds::DomainParticipantFactory::get_instance();
+  const std::filesystem::path profile = paths::dds_profile();
+  if (!std::filesystem::exists(profile))
+    throw std::runtime_error("DDS profile " + profile.string() +
+                             " not found; set DH_DDS_PROFILE to a Fast DDS XML profile");
+  if (factory->load_XML_profiles_file(profile.string()) != ReturnCode_t::RETCODE_OK)
+    throw std::runtime_error("DDS profile " + profile.string() + " is not a valid Fast DDS XML file");
+  fdds::DomainParticipantQos qos;
+  if (factory->get_participant_qos_from_profile(kProfileName, qos) != ReturnCode_t::RETCODE_OK)
+    throw std::runtime_error("DDS profile " + profile.string() + " has no participant profile '" +
+                             kProfileName + "'");
+  qos.name(name);
+  participant_ = factory->create_participant(domain_id(), qos);
+  if (!participant_) throw std::runtime_error("cannot create DDS participant " + name);
+  publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
+  subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
+  if (!publisher_ || !subscriber_) throw std::runtime_error("cannot create publisher/subscriber");
+}
+
+Participant::~Participant() {
+  if (!participant_) return;
+  participant_->delete_contained_entities();
+  fdds::DomainParticipantFactory::get_instance()->delete_participant(participant_);
+}
+
+fdds::Topic* Participant::topic(const std::string& name, fdds::TypeSupport type) {
+  std::lock_guard lock(mutex_);
+  if (auto it = topics_.find(name); it != topics_.end()) return it->second;
+  type.register_type(participant_);
+  fdds::Topic* t = participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
+  if (!t) throw std::runtime_error("cannot create topic " + name);
+  topics_[name] = t;
+  return t;
+}
+
+}  // namespace dh::dds

@@ -1,0 +1,71 @@
+// One MuJoCo workcell (one channel): physics at 2 ms, control at 20 Hz. An action is robosuite
+// OSC_POSE-like: Δposition × 0.05 m and Δrotation (axis-angle, world frame) × 0.5 rad from the current
+// tool pose, gripper -1 open … +1 close. A damped-least-squares IK turns the pose target into joint
+// targets, tracked by joint PD plus bias (gravity, Coriolis) compensation; the 50 Hz safety check
+// runs inside the step.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "dh/common/observation.hpp"
+#include "dh/common/suite.hpp"
+#include "dh/sim/safety.hpp"
+#include "dh/sim/scene.hpp"
+
+struct mjModel_;
+struct mjData_;
+
+namespace dh::sim {
+
+inline constexpr double kMaxDeltaPos = 0.05;  ///< m per step at |a| = 1 (OSC_POSE output_max)
+inline constexpr double kMaxDeltaRot = 0.5;   ///< rad per step at |a| = 1
+inline constexpr int kSubsteps = 25;          ///< 20 Hz control over 2 ms physics
+inline constexpr int kSafetyEvery = 10;       ///< substeps between safety checks: 50 Hz
+
+struct StepEvent {
+  enum Kind { SafetyHold, WorkspaceClamp } kind;
+  std::string reason;
+};
+
+class Workcell {
+ public:
+  /// Compiles the scene's model once; throws ConfigError/runtime_error with MuJoCo's message.
+  explicit Workcell(SceneSpec scene);
+  ~Workcell();
+  Workcell(const Workcell&) = delete;
+  Workcell& operator=(const Workcell&) = delete;
+
+  /// Puts the arm at its ready pose and the objects where `seed` places them, lets them settle.
+  /// Throws std::invalid_argument when a goal predicate names an unknown entity or predicate.
+  void reset(std::uint64_t seed, const std::vector<PredicateSpec>& goal);
+  /// Applies one 7-d action for one control step (50 ms); returns what the seam corrected.
+  std::vector<StepEvent> step(const std::array<double, 7>& action);
+  /// The observation after the last step (step and budget fields are the caller's to fill).
+  Observation observe() const;
+  bool goal_holds() const;
+  const SceneSpec& scene() const { return scene_; }
+  const SafetyLimits& limits() const { return limits_; }
+  /// Full physics state (qpos, qvel, act, time) for evidence and probes.
+  std::vector<double> state() const;
+
+ private:
+  struct Ids;
+  void solve_ik(const std::array<double, 3>& p_goal, const double r_goal[9], double q_goal[7]);
+  bool holds(const PredicateSpec& p) const;
+  bool in_contact(int body_a, int body_b) const;
+
+  SceneSpec scene_;
+  SafetyLimits limits_;
+  mjModel_* m_ = nullptr;
+  mjData_* d_ = nullptr;
+  mjData_* ik_ = nullptr;
+  std::unique_ptr<Ids> ids_;
+  std::vector<PredicateSpec> goal_;
+  double on_xy_tolerance_ = 0.03;
+};
+
+}  // namespace dh::sim

@@ -1,0 +1,288 @@
+#include "dh/sim/workcell.hpp"
+
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Dense>
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+
+namespace dh::sim {
+
+namespace {
+// Joint-space PD gains of the tracking controller (per arm joint, base to tip).
+constexpr std::array<double, 7> kKp{900, 900, 700, 700, 300, 200, 100};
+constexpr std::array<double, 7> kKd{80, 80, 60, 60, 20, 15, 8};
+constexpr double kIkDamping = 0.05;
+constexpr double kNullGain = 0.1;
+// The controller's own speed limit sits below the seam's envelope, so the check only trips on faults.
+constexpr double kRefSpeedFraction = 0.9;
+}  // namespace
+
+struct Workcell::Ids {
+  std::array<int, 7> arm_qpos{}, arm_dof{}, arm_act{};
+  std::vector<int> finger_qpos;
+  int gripper_act = -1;
+  int tcp_site = -1;
+  int finger_left_body = -1, finger_right_body = -1;
+  std::vector<int> object_body, object_qpos;
+  std::vector<double> q_lower, q_upper;
+  std::vector<double> effort;
+};
+
+Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
+  limits_.workspace_min = scene_.workspace_min;
+  limits_.workspace_max = scene_.workspace_max;
+  // The envelope: the paper's 2 rad/s, never above any joint's own URDF limit.
+  for (const auto& j : scene_.robot.arm) limits_.joint_speed = std::min(limits_.joint_speed, j.velocity);
+
+  std::vector<Placement> nominal;
+  for (const auto& o : scene_.objects) nominal.push_back({o.name, o.nominal_xy[0], o.nominal_xy[1], 0});
+  const std::string xml = scene_mjcf(scene_, nominal);
+  auto vfs = std::make_unique<mjVFS>();
+  mj_defaultVFS(vfs.get());
+  const char* fname = "workcell.xml";
+  if (mj_makeEmptyFileVFS(vfs.get(), fname, static_cast<int>(xml.size())) != 0)
+    throw std::runtime_error("MuJoCo VFS: cannot hold the workcell model");
+  std::memcpy(vfs->filedata[mj_findFileVFS(vfs.get(), fname)], xml.data(), xml.size());
+  char err[1024] = "";
+  m_ = mj_loadXML(fname, vfs.get(), err, sizeof err);
+  mj_deleteVFS(vfs.get());
+  if (!m_) throw std::runtime_error(scene_.file.string() + ": MuJoCo rejected the workcell model: " + err);
+  d_ = mj_makeData(m_);
+  ik_ = mj_makeData(m_);
+
+  ids_ = std::make_unique<Ids>();
+  auto need = [&](mjtObj type, const std::string& name) {
+    const int id = mj_name2id(m_, type, name.c_str());
+    if (id < 0) throw std::runtime_error("workcell model has no " + name);
+    return id;
+  };
+  for (int i = 0; i < 7; ++i) {
+    const auto& j = scene_.robot.arm[i];
+    const int jid = need(mjOBJ_JOINT, j.name);
+    ids_->arm_qpos[i] = m_->jnt_qposadr[jid];
+    ids_->arm_dof[i] = m_->jnt_dofadr[jid];
+    ids_->arm_act[i] = need(mjOBJ_ACTUATOR, j.name + "_motor");
+    ids_->q_lower.push_back(j.lower);
+    ids_->q_upper.push_back(j.upper);
+    ids_->effort.push_back(j.effort);
+  }
+  for (const auto& f : scene_.robot.fingers)
+    ids_->finger_qpos.push_back(m_->jnt_qposadr[need(mjOBJ_JOINT, f.name)]);
+  ids_->gripper_act = need(mjOBJ_ACTUATOR, "gripper");
+  ids_->tcp_site = need(mjOBJ_SITE, "tcp");
+  ids_->finger_left_body = m_->jnt_bodyid[need(mjOBJ_JOINT, scene_.robot.fingers.front().name)];
+  ids_->finger_right_body = m_->jnt_bodyid[need(mjOBJ_JOINT, scene_.robot.fingers.back().name)];
+  for (const auto& o : scene_.objects) {
+    ids_->object_body.push_back(need(mjOBJ_BODY, o.name));
+    ids_->object_qpos.push_back(m_->jnt_qposadr[need(mjOBJ_JOINT, o.name + "_free")]);
+  }
+}
+
+Workcell::~Workcell() {
+  if (ik_) mj_deleteData(ik_);
+  if (d_) mj_deleteData(d_);
+  if (m_) mj_deleteModel(m_);
+}
+
+void Workcell::reset(std::uint64_t seed, const std::vector<PredicateSpec>& goal) {
+  for (const auto& p : goal) {
+    if (p.name != "On")
+      throw std::invalid_argument("predicate '" + p.name + "' is not evaluated by this workcell (On)");
+    if (p.args.size() != 2) throw std::invalid_argument(p.text() + ": On takes two entities");
+    for (const auto& a : p.args)
+      if (mj_name2id(m_, mjOBJ_BODY, a.c_str()) < 0)
+        throw std::invalid_argument(p.text() + ": no entity '" + a + "' in scene " + scene_.name);
+  }
+  goal_ = goal;
+  const auto placements = sample_placements(scene_, seed);
+  mj_resetData(m_, d_);
+  for (int i = 0; i < 7; ++i) d_->qpos[ids_->arm_qpos[i]] = scene_.ready_q[i];
+  for (int a : ids_->finger_qpos) d_->qpos[a] = 0.04;
+  for (std::size_t i = 0; i < placements.size(); ++i) {
+    double* q = d_->qpos + ids_->object_qpos[i];
+    q[0] = placements[i].x;
+    q[1] = placements[i].y;
+    q[2] = 0.001;
+    q[3] = std::cos(placements[i].yaw / 2);
+    q[4] = 0;
+    q[5] = 0;
+    q[6] = std::sin(placements[i].yaw / 2);
+  }
+  mj_forward(m_, d_);
+  // Settle: hold the ready pose with the gripper open for 0.3 s.
+  for (int s = 0; s < 6; ++s) step({0, 0, 0, 0, 0, 0, -1});
+}
+
+void Workcell::solve_ik(const std::array<double, 3>& p_goal, const double r_goal[9], double q_goal[7]) {
+  std::memcpy(ik_->qpos, d_->qpos, sizeof(mjtNum) * m_->nq);
+  Eigen::Matrix<double, 3, Eigen::Dynamic> jacp(3, m_->nv), jacr(3, m_->nv);
+  Eigen::Matrix<double, 6, 7> J;
+  for (int iter = 0; iter < 4; ++iter) {
+    mj_kinematics(m_, ik_);
+    mj_comPos(m_, ik_);
+    const double* p = ik_->site_xpos + 3 * ids_->tcp_site;
+    const double* r = ik_->site_xmat + 9 * ids_->tcp_site;
+    Eigen::Matrix<double, 6, 1> err;
+    for (int k = 0; k < 3; ++k) err[k] = p_goal[k] - p[k];
+    // Orientation error: rotation vector of R_goal * R^T.
+    double qg[4], qc[4], dq[4], qc_neg[4];
+    mju_mat2Quat(qg, r_goal);
+    mju_mat2Quat(qc, r);
+    mju_negQuat(qc_neg, qc);
+    mju_mulQuat(dq, qg, qc_neg);
+    double rv[3];
+    mju_quat2Vel(rv, dq, 1.0);
+    for (int k = 0; k < 3; ++k) err[3 + k] = rv[k];
+    // jac functions write row-major 3 x nv.
+    std::vector<mjtNum> jp(3 * m_->nv), jr(3 * m_->nv);
+    mj_jacSite(m_, ik_, jp.data(), jr.data(), ids_->tcp_site);
+    for (int i = 0; i < 7; ++i)
+      for (int k = 0; k < 3; ++k) {
+        J(k, i) = jp[k * m_->nv + ids_->arm_dof[i]];
+        J(3 + k, i) = jr[k * m_->nv + ids_->arm_dof[i]];
+      }
+    const Eigen::Matrix<double, 6, 6> JJt =
+        J * J.transpose() + kIkDamping * kIkDamping * Eigen::Matrix<double, 6, 6>::Identity();
+    const Eigen::Matrix<double, 7, 6> Jpinv = J.transpose() * JJt.inverse();
+    Eigen::Matrix<double, 7, 1> q, q_ready;
+    for (int i = 0; i < 7; ++i) {
+      q[i] = ik_->qpos[ids_->arm_qpos[i]];
+      q_ready[i] = scene_.ready_q[i];
+    }
+    const Eigen::Matrix<double, 7, 7> N = Eigen::Matrix<double, 7, 7>::Identity() - Jpinv * J;
+    const Eigen::Matrix<double, 7, 1> step = Jpinv * err + N * (kNullGain * (q_ready - q));
+    for (int i = 0; i < 7; ++i)
+      ik_->qpos[ids_->arm_qpos[i]] =
+          std::clamp(q[i] + step[i], ids_->q_lower[i] + 0.01, ids_->q_upper[i] - 0.01);
+  }
+  for (int i = 0; i < 7; ++i) q_goal[i] = ik_->qpos[ids_->arm_qpos[i]];
+}
+
+std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
+  std::vector<StepEvent> events;
+  std::array<double, 7> a{};
+  for (int i = 0; i < 7; ++i) a[i] = std::clamp(std::isfinite(action_in[i]) ? action_in[i] : 0.0, -1.0, 1.0);
+
+  const double* p = d_->site_xpos + 3 * ids_->tcp_site;
+  const double* r = d_->site_xmat + 9 * ids_->tcp_site;
+  std::array<double, 3> p_goal{p[0] + kMaxDeltaPos * a[0], p[1] + kMaxDeltaPos * a[1],
+                               p[2] + kMaxDeltaPos * a[2]};
+  if (clamp_to_workspace(p_goal, limits_))
+    events.push_back({StepEvent::WorkspaceClamp, "position target clamped into the workspace box"});
+  // Rotation target: world-frame delta applied to the current orientation.
+  double rv[3] = {kMaxDeltaRot * a[3], kMaxDeltaRot * a[4], kMaxDeltaRot * a[5]};
+  double qd[4], qc[4], qg[4], r_goal[9];
+  const double angle = std::sqrt(rv[0] * rv[0] + rv[1] * rv[1] + rv[2] * rv[2]);
+  if (angle > 1e-12) {
+    double axis[3] = {rv[0] / angle, rv[1] / angle, rv[2] / angle};
+    mju_axisAngle2Quat(qd, axis, angle);
+  } else {
+    qd[0] = 1, qd[1] = qd[2] = qd[3] = 0;
+  }
+  mju_mat2Quat(qc, r);
+  mju_mulQuat(qg, qd, qc);
+  mju_quat2Mat(r_goal, qg);
+
+  double q_goal[7];
+  solve_ik(p_goal, r_goal, q_goal);
+  std::array<double, 7> q0{}, v_ref{};
+  constexpr double period = kSubsteps * 0.002;
+  for (int i = 0; i < 7; ++i) {
+    q0[i] = d_->qpos[ids_->arm_qpos[i]];
+    const double vmax = kRefSpeedFraction * limits_.joint_speed;
+    v_ref[i] = std::clamp((q_goal[i] - q0[i]) / period, -vmax, vmax);
+  }
+  d_->ctrl[ids_->gripper_act] = 0.04 * (1.0 - a[6]) / 2.0;
+
+  bool hold = false;
+  std::array<double, 7> q_hold{};
+  for (int s = 1; s <= kSubsteps; ++s) {
+    mj_step1(m_, d_);
+    const double t = s * 0.002;
+    for (int i = 0; i < 7; ++i) {
+      double q_ref = q0[i] + v_ref[i] * t, dq_ref = v_ref[i];
+      if ((v_ref[i] > 0 && q_ref > q_goal[i]) || (v_ref[i] < 0 && q_ref < q_goal[i])) {
+        q_ref = q_goal[i];
+        dq_ref = 0;
+      }
+      if (hold) q_ref = q_hold[i], dq_ref = 0;
+      const double q = d_->qpos[ids_->arm_qpos[i]], dq = d_->qvel[ids_->arm_dof[i]];
+      const double tau = kKp[i] * (q_ref - q) + kKd[i] * (dq_ref - dq) + d_->qfrc_bias[ids_->arm_dof[i]];
+      d_->ctrl[ids_->arm_act[i]] = std::clamp(tau, -ids_->effort[i], ids_->effort[i]);
+    }
+    mj_step2(m_, d_);
+    if (s % kSafetyEvery == 0 && !hold) {
+      std::array<double, 7> dq{};
+      for (int i = 0; i < 7; ++i) dq[i] = d_->qvel[ids_->arm_dof[i]];
+      const SafetyVerdict v = check_joint_speeds(dq, limits_);
+      if (!v.ok) {
+        hold = true;
+        for (int i = 0; i < 7; ++i) q_hold[i] = d_->qpos[ids_->arm_qpos[i]];
+        events.push_back({StepEvent::SafetyHold, v.reason + "; holding position"});
+      }
+    }
+  }
+  mj_forward(m_, d_);
+  return events;
+}
+
+bool Workcell::in_contact(int body_a, int body_b) const {
+  for (int i = 0; i < d_->ncon; ++i) {
+    const int b1 = m_->geom_bodyid[d_->contact[i].geom1], b2 = m_->geom_bodyid[d_->contact[i].geom2];
+    if ((b1 == body_a && b2 == body_b) || (b1 == body_b && b2 == body_a)) return true;
+  }
+  return false;
+}
+
+bool Workcell::holds(const PredicateSpec& p) const {
+  // On(a, b), as LIBERO checks it for an object b: a rests on b (contact), a is not below b, and
+  // their origins are within a small horizontal distance.
+  const int a = mj_name2id(m_, mjOBJ_BODY, p.args[0].c_str());
+  const int b = mj_name2id(m_, mjOBJ_BODY, p.args[1].c_str());
+  const double* pa = d_->xpos + 3 * a;
+  const double* pb = d_->xpos + 3 * b;
+  return pb[2] <= pa[2] && in_contact(a, b) && std::hypot(pa[0] - pb[0], pa[1] - pb[1]) < on_xy_tolerance_;
+}
+
+bool Workcell::goal_holds() const {
+  if (goal_.empty()) return false;
+  return std::all_of(goal_.begin(), goal_.end(), [&](const PredicateSpec& p) { return holds(p); });
+}
+
+Observation Workcell::observe() const {
+  Observation o;
+  const double* p = d_->site_xpos + 3 * ids_->tcp_site;
+  std::copy(p, p + 3, o.ee_p.begin());
+  mju_mat2Quat(o.ee_q.data(), d_->site_xmat + 9 * ids_->tcp_site);
+  for (int a : ids_->finger_qpos) o.gripper_opening += d_->qpos[a];
+  for (int i = 0; i < 7; ++i) {
+    o.q[i] = d_->qpos[ids_->arm_qpos[i]];
+    o.dq[i] = d_->qvel[ids_->arm_dof[i]];
+  }
+  for (std::size_t k = 0; k < ids_->object_body.size(); ++k) {
+    o.contact_left |= in_contact(ids_->finger_left_body, ids_->object_body[k]);
+    o.contact_right |= in_contact(ids_->finger_right_body, ids_->object_body[k]);
+    EntityState e;
+    e.name = scene_.objects[k].name;
+    e.kind = scene_.objects[k].kind_name;
+    const int b = ids_->object_body[k];
+    std::copy(d_->xpos + 3 * b, d_->xpos + 3 * b + 3, e.p.begin());
+    std::copy(d_->xquat + 4 * b, d_->xquat + 4 * b + 4, e.q.begin());
+    e.half_extents = scene_.objects[k].half_extents();
+    o.entities.push_back(std::move(e));
+  }
+  o.goal_holds = goal_holds();
+  return o;
+}
+
+std::vector<double> Workcell::state() const {
+  std::vector<double> s(d_->qpos, d_->qpos + m_->nq);
+  s.insert(s.end(), d_->qvel, d_->qvel + m_->nv);
+  s.push_back(d_->time);
+  return s;
+}
+
+}  // namespace dh::sim
