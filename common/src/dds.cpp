@@ -45,9 +45,14 @@ QosPair qos_for(Qos kind) {
       r.deadline().period = seconds(kLeaseDeadlineSec);
       depth = 1;
       break;
+    case Qos::Observation:
+      // A late-joining governor or capability still gets the channel's latest observation.
+      w.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      r.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      depth = 1;
+      break;
     case Qos::Command:
     case Qos::Action:
-    case Qos::Observation:
       depth = 1;
       break;
     case Qos::Status:

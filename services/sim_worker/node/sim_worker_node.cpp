@@ -1,1 +1,260 @@
-int main(){}
+// dh_sim_worker: K MuJoCo workcells (channels) in one process; the robot seam for simulation.
+//
+// Reads   rt/dh/episode/request (Episode)   reset a channel to suite/task/seed
+//         rt/dh/action          (Action)    one 7-d action per step, lock-step
+//         rt/dh/lease           (Lease, deadline 1 s) the governor's grant for the running command
+//         rt/dh/episode/result  (Episode)   the channel goes idle
+// Writes  rt/dh/observation     (Observation) after reset (step 0) and after every applied action
+//         rt/dh/verdict         (Verdict)   every change of the task predicate
+//         rt/dh/seam/event      (Status)    rejected actions and safety corrections, with reasons
+//         rt/dh/sim/channel     (Episode)   idle/running per channel, so clients find a free one
+// Parameters: --channels K, --first-channel C, --lease-grace-ms (how long an action waits for a
+// lease renewal before it is rejected), --name.
+#include <CLI/CLI.hpp>
+
+#include <atomic>
+#include <map>
+#include <memory>
+#include <thread>
+#include <variant>
+
+#include "dh/common/convert.hpp"
+#include "dh/common/dds.hpp"
+#include "dh/common/event_queue.hpp"
+#include "dh/common/log.hpp"
+#include "dh/common/paths.hpp"
+#include "dh/common/shutdown.hpp"
+#include "dh/common/suite.hpp"
+#include "dh/common/topics.hpp"
+#include "dh/msg/command.h"
+#include "dh/msg/commandPubSubTypes.h"
+#include "dh/msg/episode.h"
+#include "dh/msg/episodePubSubTypes.h"
+#include "dh/msg/robotPubSubTypes.h"
+#include "dh/sim/seam.hpp"
+#include "dh/sim/workcell.hpp"
+
+namespace dh {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct LeaseSilent {};
+using Event = std::variant<msg::EpisodeRequest, msg::Action, msg::Lease, msg::EpisodeResult, LeaseSilent>;
+
+struct Writers {
+  dds::Writer<msg::ObservationPubSubType> obs;
+  dds::Writer<msg::VerdictPubSubType> verdict;
+  dds::Writer<msg::SeamEventPubSubType> seam;
+  dds::Writer<msg::ChannelStatusPubSubType> channel;
+  explicit Writers(dds::Participant& p)
+      : obs(p, topics::kObservation, dds::Qos::Observation),
+        verdict(p, topics::kVerdict, dds::Qos::Verdict),
+        seam(p, topics::kSeamEvent, dds::Qos::Status),
+        channel(p, topics::kChannelStatus, dds::Qos::Episode) {}
+};
+
+class Channel {
+ public:
+  Channel(std::uint32_t id, std::string worker, const std::map<std::string, SuiteDef>& suites, Writers& w,
+          std::chrono::milliseconds grace, std::shared_ptr<spdlog::logger> log)
+      : id_(id), worker_(std::move(worker)), suites_(suites), w_(w), grace_(grace), log_(std::move(log)) {}
+
+  EventQueue<Event>& queue() { return queue_; }
+
+  void run() {
+    announce(msg::CHANNEL_IDLE);
+    while (!shutdown_requested()) {
+      if (auto e = queue_.pop(std::chrono::milliseconds(20))) std::visit([&](auto& ev) { handle(ev); }, *e);
+      try_pending();
+    }
+  }
+
+ private:
+  void announce(msg::ChannelState s) {
+    msg::ChannelStatus st;
+    st.channel(id_);
+    st.worker(worker_);
+    st.state(s);
+    st.episode_id(episode_);
+    w_.channel.write(st);
+  }
+
+  void handle(msg::EpisodeRequest& r) {
+    if (r.episode_id() == episode_) return;  // transient-local redelivery
+    try {
+      const TaskDef& task = find_task(suites_, r.suite(), r.task());
+      auto& cell = cells_[task.scene_file.string()];
+      if (!cell) cell = std::make_unique<sim::Workcell>(sim::load_scene(task.scene_file));
+      cell->reset(r.seed(), task.goal);
+      cell_ = cell.get();
+      goal_text_ = task.goal.front().text();
+    } catch (const std::exception& e) {
+      log_->error("channel={} episode={} cannot start: {}", id_, r.episode_id(), e.what());
+      return;
+    }
+    episode_ = r.episode_id();
+    budget_ = r.budget_steps();
+    step_ = 0;
+    lease_ = {};
+    pending_.reset();
+    predicate_ = false;
+    log_->info("channel={} episode={} suite={} task={} seed={} started", id_, episode_, r.suite(), r.task(), r.seed());
+    announce(msg::CHANNEL_RUNNING);
+    publish_observation();
+  }
+
+  void handle(msg::Lease& l) {
+    if (l.episode_id() != episode_) return;
+    lease_.known = true;
+    lease_.command_id = l.command_id();
+    lease_.valid_until_step = l.valid_until_step();
+    lease_.budget_until_step = l.budget_until_step();
+    lease_.revoked = l.revoked();
+    lease_.writer_silent = false;
+  }
+
+  void handle(LeaseSilent&) {
+    if (lease_.known && !lease_.revoked) {
+      lease_.writer_silent = true;
+      log_->warn("channel={} lease writer missed its {} s deadline", id_, dds::kLeaseDeadlineSec);
+    }
+  }
+
+  void handle(msg::Action& a) {
+    if (a.episode_id() != episode_ || !cell_) {
+      seam_event(a.step(), a.command_id(), msg::SEAM_REJECTED_COMMAND,
+                 "action for episode '" + a.episode_id() + "' which is not running on this channel");
+      return;
+    }
+    if (pending_)
+      seam_event(pending_->step(), pending_->command_id(), msg::SEAM_REJECTED_STEP, "superseded by a newer action");
+    pending_ = a;
+    pending_since_ = Clock::now();
+  }
+
+  void handle(msg::EpisodeResult& r) {
+    if (r.episode_id() != episode_) return;
+    log_->info("channel={} episode={} ended success={} steps={}", id_, episode_, r.success(), r.steps());
+    cell_ = nullptr;
+    pending_.reset();
+    announce(msg::CHANNEL_IDLE);
+    episode_.clear();
+  }
+
+  void try_pending() {
+    if (!pending_ || !cell_) return;
+    const bool grace_elapsed = Clock::now() - pending_since_ >= grace_;
+    const auto r = sim::admit_action(pending_->command_id(), pending_->step(), step_, budget_, lease_, grace_elapsed);
+    if (r.decision == sim::Admission::WaitForLease) return;
+    msg::Action a = *pending_;
+    pending_.reset();
+    if (r.decision != sim::Admission::Apply) {
+      const auto kind = r.decision == sim::Admission::RejectBudget  ? msg::SEAM_REJECTED_BUDGET
+                        : r.decision == sim::Admission::RejectLease ? msg::SEAM_REJECTED_LEASE
+                        : r.decision == sim::Admission::RejectStep  ? msg::SEAM_REJECTED_STEP
+                                                                    : msg::SEAM_REJECTED_COMMAND;
+      seam_event(a.step(), a.command_id(), kind, r.reason);
+      log_->warn("channel={} step={} action rejected: {}", id_, a.step(), r.reason);
+      return;
+    }
+    std::array<double, 7> act{};
+    std::copy_n(a.a().begin(), 7, act.begin());
+    for (const auto& e : cell_->step(act))
+      seam_event(step_, a.command_id(),
+                 e.kind == sim::StepEvent::SafetyHold ? msg::SEAM_SAFETY_HOLD : msg::SEAM_WORKSPACE_CLAMP, e.reason);
+    ++step_;
+    publish_observation();
+  }
+
+  void publish_observation() {
+    Observation o = cell_->observe();
+    o.step = step_;
+    o.budget_steps = budget_;
+    if (o.goal_holds != predicate_) {
+      predicate_ = o.goal_holds;
+      msg::Verdict v;
+      v.channel(id_);
+      v.episode_id(episode_);
+      v.step(step_);
+      v.predicate(goal_text_);
+      v.value(predicate_);
+      w_.verdict.write(v);
+    }
+    w_.obs.write(convert::to_msg(o, id_, episode_));
+  }
+
+  void seam_event(std::uint32_t step, const std::string& command, msg::SeamEventKind kind, const std::string& why) {
+    msg::SeamEvent e;
+    e.channel(id_);
+    e.episode_id(episode_);
+    e.step(step);
+    e.command_id(command);
+    e.kind(kind);
+    e.reason(why);
+    w_.seam.write(e);
+  }
+
+  std::uint32_t id_;
+  std::string worker_;
+  const std::map<std::string, SuiteDef>& suites_;
+  Writers& w_;
+  std::chrono::milliseconds grace_;
+  std::shared_ptr<spdlog::logger> log_;
+  EventQueue<Event> queue_;
+  std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  // one model per scene
+  sim::Workcell* cell_ = nullptr;
+  std::string episode_, goal_text_;
+  std::uint32_t budget_ = 0, step_ = 0;
+  sim::LeaseState lease_;
+  std::optional<msg::Action> pending_;
+  Clock::time_point pending_since_;
+  bool predicate_ = false;
+};
+
+int run(int argc, char** argv) {
+  CLI::App app{"dh_sim_worker: MuJoCo workcell channels behind the robot seam"};
+  unsigned channels = 1, first = 0, grace_ms = 1000;
+  std::string name = "sim_worker";
+  app.add_option("--channels", channels, "number of channels (workcells) in this process")->check(CLI::Range(1, 64));
+  app.add_option("--first-channel", first, "id of the first channel");
+  app.add_option("--lease-grace-ms", grace_ms, "wall time an action waits for a lease renewal");
+  app.add_option("--name", name, "worker name in channel announcements");
+  CLI11_PARSE(app, argc, argv);
+  auto log = make_logger("dh_sim_worker");
+  install_shutdown_handlers();
+  try {
+    const auto suites = load_suites(paths::config_dir());
+    dds::Participant participant("dh_sim_worker");
+    Writers writers(participant);
+    std::vector<std::unique_ptr<Channel>> chans;
+    for (unsigned i = 0; i < channels; ++i)
+      chans.push_back(std::make_unique<Channel>(first + i, name, suites, writers, std::chrono::milliseconds(grace_ms), log));
+    auto route = [&](std::uint32_t ch) -> Channel* {
+      return ch >= first && ch < first + channels ? chans[ch - first].get() : nullptr;
+    };
+    dds::Reader<msg::EpisodeRequestPubSubType> req(participant, topics::kEpisodeRequest, dds::Qos::Episode,
+        {[&](const msg::EpisodeRequest& m, const auto&) { if (auto c = route(m.channel())) c->queue().push(m); }, {}, {}});
+    dds::Reader<msg::ActionPubSubType> act(participant, topics::kAction, dds::Qos::Action,
+        {[&](const msg::Action& m, const auto&) { if (auto c = route(m.channel())) c->queue().push(m); }, {}, {}});
+    dds::Reader<msg::LeasePubSubType> lease(participant, topics::kLease, dds::Qos::Lease,
+        {[&](const msg::Lease& m, const auto&) { if (auto c = route(m.channel())) c->queue().push(m); }, {},
+         [&](const auto&) { for (auto& c : chans) c->queue().push(LeaseSilent{}); }});
+    dds::Reader<msg::EpisodeResultPubSubType> res(participant, topics::kEpisodeResult, dds::Qos::Episode,
+        {[&](const msg::EpisodeResult& m, const auto&) { if (auto c = route(m.channel())) c->queue().push(m); }, {}, {}});
+    log->info("worker={} channels={}..{} domain={} up", name, first, first + channels - 1, dds::domain_id());
+    std::vector<std::thread> threads;
+    for (auto& c : chans) threads.emplace_back([&c] { c->run(); });
+    for (auto& t : threads) t.join();
+    log->info("shutting down");
+  } catch (const std::exception& e) {
+    log->error("{}", e.what());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace dh
+
+int main(int argc, char** argv) { return dh::run(argc, argv); }

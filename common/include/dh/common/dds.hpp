@@ -33,7 +33,7 @@ enum class Qos {
   Status,      ///< reliable, keep-last 16
   Lease,       ///< reliable, keep-last 1, deadline 1 s
   Action,      ///< reliable, keep-last 1
-  Observation, ///< reliable, keep-last 1
+  Observation, ///< reliable, transient-local, keep-last 1
   Verdict,     ///< reliable, keep-all
   Planner,     ///< reliable, keep-last 8
   Episode,     ///< reliable, transient-local, keep-last 1 per channel

@@ -1,0 +1,24 @@
+// Conversions between generated DDS types and the plain structs logic libraries use.
+#pragma once
+
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "dh/common/observation.hpp"
+#include "dh/msg/robot.h"
+#include "dh/msg/types.h"
+
+namespace dh::convert {
+
+Observation from_msg(const msg::Observation& m);
+msg::Observation to_msg(const Observation& o, std::uint32_t channel, const std::string& episode_id);
+
+std::vector<std::pair<std::string, std::string>> from_msg(const std::vector<msg::Binding>& b);
+std::vector<msg::Binding> to_msg(const std::vector<std::pair<std::string, std::string>>& b);
+
+std::map<std::string, double> from_msg(const std::vector<msg::Param>& p);
+std::vector<msg::Param> to_msg(const std::map<std::string, double>& p);
+
+}  // namespace dh::convert

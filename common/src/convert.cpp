@@ -1,0 +1,91 @@
+#include "dh/common/convert.hpp"
+
+#include <algorithm>
+
+namespace dh::convert {
+
+Observation from_msg(const msg::Observation& m) {
+  Observation o;
+  o.step = m.step();
+  o.budget_steps = m.budget_steps();
+  std::copy_n(m.ee().p().begin(), 3, o.ee_p.begin());
+  std::copy_n(m.ee().q().begin(), 4, o.ee_q.begin());
+  o.gripper_opening = m.gripper_opening();
+  o.contact_left = m.contact_left();
+  o.contact_right = m.contact_right();
+  std::copy_n(m.q().begin(), 7, o.q.begin());
+  std::copy_n(m.dq().begin(), 7, o.dq.begin());
+  for (const auto& e : m.entities()) {
+    EntityState s;
+    s.name = e.name();
+    s.kind = e.kind();
+    std::copy_n(e.pose().p().begin(), 3, s.p.begin());
+    std::copy_n(e.pose().q().begin(), 4, s.q.begin());
+    std::copy_n(e.half_extents().begin(), 3, s.half_extents.begin());
+    o.entities.push_back(std::move(s));
+  }
+  o.goal_holds = m.task_predicate();
+  return o;
+}
+
+msg::Observation to_msg(const Observation& o, std::uint32_t channel, const std::string& episode_id) {
+  msg::Observation m;
+  m.channel(channel);
+  m.episode_id(episode_id);
+  m.step(o.step);
+  m.budget_steps(o.budget_steps);
+  std::copy_n(o.ee_p.begin(), 3, m.ee().p().begin());
+  std::copy_n(o.ee_q.begin(), 4, m.ee().q().begin());
+  m.gripper_opening(o.gripper_opening);
+  m.contact_left(o.contact_left);
+  m.contact_right(o.contact_right);
+  std::copy_n(o.q.begin(), 7, m.q().begin());
+  std::copy_n(o.dq.begin(), 7, m.dq().begin());
+  for (const auto& e : o.entities) {
+    msg::EntityPose p;
+    p.name(e.name);
+    p.kind(e.kind);
+    std::copy_n(e.p.begin(), 3, p.pose().p().begin());
+    std::copy_n(e.q.begin(), 4, p.pose().q().begin());
+    std::copy_n(e.half_extents.begin(), 3, p.half_extents().begin());
+    m.entities().push_back(std::move(p));
+  }
+  m.task_predicate(o.goal_holds);
+  return m;
+}
+
+std::vector<std::pair<std::string, std::string>> from_msg(const std::vector<msg::Binding>& b) {
+  std::vector<std::pair<std::string, std::string>> out;
+  for (const auto& x : b) out.emplace_back(x.role(), x.entity());
+  return out;
+}
+
+std::vector<msg::Binding> to_msg(const std::vector<std::pair<std::string, std::string>>& b) {
+  std::vector<msg::Binding> out;
+  for (const auto& [role, entity] : b) {
+    msg::Binding x;
+    x.role(role);
+    x.entity(entity);
+    out.push_back(std::move(x));
+  }
+  return out;
+}
+
+std::map<std::string, double> from_msg(const std::vector<msg::Param>& p) {
+  std::map<std::string, double> out;
+  for (const auto& x : p) out[x.name()] = x.value();
+  return out;
+}
+
+std::vector<msg::Param> to_msg(const std::map<std::string, double>& p) {
+  std::vector<msg::Param> out;
+  for (const auto& [name, value] : p) {
+    msg::Param x;
+    x.name(name);
+    x.value(value);
+    out.push_back(std::move(x));
+  }
+  return out;
+}
+
+}  // namespace dh::convert

@@ -1,0 +1,64 @@
+// The fast brain's decision: a deterministic function of the execution state (DESIGN.md §5). It is
+// called at every decision step (every 10 control steps, 2 Hz of a 20 Hz controller) and whenever a
+// command ends; each decision carries its reason and is recorded.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace dh::gov {
+
+/// Verdict latch: v_k = v_{k-1} OR any verdict event since the previous decision (Eq. 3).
+class VerdictLatch {
+ public:
+  void record(std::uint32_t step, bool value);  ///< an event from the checks (every step)
+  /// Reads the events up to `step` into the latch and returns v_k. Once true, it stays true.
+  bool decide(std::uint32_t step);
+  bool latched() const { return latched_; }
+  std::uint32_t event_step() const { return event_step_; }  ///< first step the predicate held
+
+ private:
+  bool latched_ = false;
+  bool pending_ = false;
+  std::uint32_t pending_step_ = 0, event_step_ = 0;
+};
+
+enum class ExecutorMode { Full, Static, Seq };
+
+enum class CommandPhase { None, Running, Completed, Failed, Lost, Refused, Expired };
+const char* to_string(CommandPhase p);
+
+struct DecisionState {
+  ExecutorMode mode = ExecutorMode::Full;
+  bool latched = false;
+  CommandPhase phase = CommandPhase::None;
+  std::uint32_t step = 0, budget_steps = 0;
+  double progress = 0;
+  std::uint32_t stagnant_decisions = 0;  ///< decisions in a row without progress
+  int failures_of_capability = 0;        ///< failures of the current capability in this episode
+  int replans_used = 0;
+  bool other_instance_alive = false;     ///< the capability has another live instance (hot swap)
+  bool substitute_available = false;     ///< another eligible capability serves the same goal
+  bool recovery_available = false;
+  bool vla_available = false;
+};
+
+struct DecisionLimits {
+  int max_retries = 1;            ///< re-grounds of the same step per capability
+  int max_replans = 4;            ///< slow-brain calls after the first
+  std::uint32_t stagnation_decisions = 8;
+};
+
+enum class DecisionKind {
+  Continue, StopSuccess, Retry, Substitute, InsertRecovery, HandToVla, RequestReplan, GiveUp
+};
+const char* to_string(DecisionKind k);
+
+struct Decision {
+  DecisionKind kind = DecisionKind::Continue;
+  std::string reason;
+};
+
+Decision decide(const DecisionState& s, const DecisionLimits& limits);
+
+}  // namespace dh::gov

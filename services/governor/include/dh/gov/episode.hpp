@@ -1,0 +1,118 @@
+// One channel's episode under the fast brain: plan -> ground (or refuse) -> dispatch -> monitor and
+// decide every `decision_period` steps -> end on the latched verdict, budget exhaustion or giving up.
+// Pure logic: inputs are plain messages and a monotonic time; outputs are Effects the node publishes.
+// Every observation summary, decision, refusal, dispatch, outcome and reason goes to the evidence store.
+#pragma once
+
+#include <chrono>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "dh/common/evidence.hpp"
+#include "dh/common/observation.hpp"
+#include "dh/gov/decide.hpp"
+#include "dh/gov/grounding.hpp"
+#include "dh/gov/registry.hpp"
+#include "dh/gov/types.hpp"
+
+namespace dh::gov {
+
+using Clock = std::chrono::steady_clock;
+
+struct GovernorConfig {
+  std::uint32_t decision_period = 10;  ///< control steps between decisions (2 Hz at 20 Hz)
+  ExecutorMode mode = ExecutorMode::Full;
+  DecisionLimits limits;
+  int max_refusals = 4;                ///< refusals in a row before the episode is given up
+  std::set<std::string> masked;        ///< capabilities switched off (ablations)
+  std::chrono::milliseconds planner_timeout{10000};
+  std::chrono::milliseconds ack_timeout{3000};
+  std::chrono::milliseconds first_observation_timeout{15000};
+  std::chrono::milliseconds step_stall_timeout{10000};  ///< no observation while a command runs
+};
+
+struct EpisodeSpec {
+  std::uint32_t channel = 0;
+  std::string episode_id, instruction, arm;
+  std::uint32_t budget_steps = 0;
+};
+
+struct PlanRequestOut {
+  std::string request_id, instruction;
+  std::vector<std::string> entities, capabilities, history;
+  std::uint32_t step = 0;
+};
+
+struct EpisodeEnd {
+  bool success = false;
+  std::uint32_t steps = 0;
+  std::string outcome;  ///< success | budget_exhausted | gave_up | infrastructure
+  std::string reason;
+  std::uint32_t decisions = 0, refusals = 0;
+};
+
+struct Effects {
+  std::optional<PlanRequestOut> plan_request;
+  std::optional<Command> command;
+  std::optional<Lease> lease;
+  std::optional<std::string> cancel_command;
+  std::optional<EpisodeEnd> end;
+};
+
+class EpisodeMachine {
+ public:
+  EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, const Registry& registry,
+                 EvidenceWriter& evidence, Clock::time_point now);
+
+  Effects on_observation(const Observation& obs, Clock::time_point now);
+  Effects on_advice(const Advice& advice, Clock::time_point now);
+  Effects on_status(const CommandStatus& status, Clock::time_point now);
+  Effects on_capability_lost(const std::string& instance, Clock::time_point now);
+  void on_verdict(std::uint32_t step, const std::string& predicate, bool value);
+  void on_seam_event(std::uint32_t step, const std::string& command_id, const std::string& kind,
+                     const std::string& reason);
+  /// Ends waits whose computed deadline passed (planner, acknowledgement, stalled steps).
+  Effects on_tick(Clock::time_point now);
+
+  bool ended() const { return phase_ == Phase::Ended; }
+  const EpisodeSpec& spec() const { return spec_; }
+  std::uint32_t decisions() const { return decisions_; }
+
+ private:
+  enum class Phase { WaitingFirstObservation, Planning, Running, Ended };
+  Effects request_plan(const std::string& why, Clock::time_point now);
+  Effects ground_and_dispatch(const Advice& advice, Clock::time_point now);
+  Effects refuse(Refusal r, const std::string& reason, Clock::time_point now);
+  Effects decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now);
+  Effects end(bool success, const std::string& outcome, const std::string& reason);
+  Effects stop_command(Effects fx);
+  Effects finish_command(const CommandStatus& st, Clock::time_point now);
+  nlohmann::json obs_summary(const Observation& o) const;
+
+  EpisodeSpec spec_;
+  GovernorConfig config_;
+  const Registry& registry_;
+  EvidenceWriter& evidence_;
+  Phase phase_ = Phase::WaitingFirstObservation;
+  Clock::time_point deadline_;
+  std::string deadline_what_;
+
+  Observation last_obs_;
+  bool have_obs_ = false;
+  VerdictLatch latch_;
+  std::optional<Advice> last_advice_;
+  std::optional<Command> running_;
+  std::optional<CommandStatus> deferred_end_;  ///< a command end reported before its observation arrived
+  bool acknowledged_ = false;
+  double last_progress_ = 0;
+  std::uint32_t stagnant_ = 0;
+  std::map<std::string, int> failures_;
+  std::vector<std::string> history_;
+  std::string pending_request_;
+  std::uint32_t decisions_ = 0, refusals_total_ = 0;
+  int refusals_in_row_ = 0, replans_ = 0, plans_ = 0, commands_ = 0;
+};
+
+}  // namespace dh::gov

@@ -1,0 +1,50 @@
+// Grounding G(z, c) -> command or refusal: the first half of the execution contract. The advisory is
+// symbolic; grounding checks the registry, resolves every argument against the observed scene, checks
+// the capability's declared preconditions and whether the remaining budget pays for its cost model.
+#pragma once
+
+#include <optional>
+#include <set>
+#include <string>
+
+#include "dh/common/observation.hpp"
+#include "dh/gov/registry.hpp"
+#include "dh/gov/types.hpp"
+
+namespace dh::gov {
+
+enum class Refusal {
+  PlannerRefused,      ///< the slow brain itself returned a refusal
+  UnknownCapability,   ///< never announced
+  CapabilityNotAlive,  ///< announced, but its liveliness lapsed
+  CapabilityMasked,    ///< switched off by the executor configuration
+  MissingArgument,     ///< a role the capability needs is absent
+  UnresolvedEntity,    ///< an argument names no entity in the scene
+  Precondition,        ///< a declared precondition does not hold
+  Budget,              ///< remaining steps cannot pay for the cost model
+};
+const char* to_string(Refusal r);
+
+struct GroundingResult {
+  std::optional<Command> command;  ///< set when grounded
+  Refusal refusal = Refusal::PlannerRefused;
+  std::string reason;              ///< set when refused
+};
+
+struct GroundingInput {
+  const Advice& advice;
+  const Registry& registry;
+  const Observation& obs;
+  std::uint32_t remaining_steps;
+  const std::set<std::string>& masked;  ///< capabilities the executor configuration switches off
+  std::string command_id;
+  std::uint32_t decision_period;  ///< steps between decisions (the lease length)
+};
+
+GroundingResult ground(const GroundingInput& in);
+
+/// The command's budget: the cost model × 1.1 + 10 steps of margin, never more than what remains
+/// (cf. MoveIt's expected duration × 1.1 + 0.5 s).
+std::uint32_t command_budget(std::uint32_t cost_steps, std::uint32_t remaining_steps);
+
+}  // namespace dh::gov

@@ -1,0 +1,28 @@
+// The capability registry: every announced instance and whether its liveliness holds. New commands go
+// to the newest live instance (hot swap); a running command stays on the instance it started on.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dh/gov/types.hpp"
+
+namespace dh::gov {
+
+class Registry {
+ public:
+  void announce(const CapabilityInfo& info);  ///< adds or refreshes an instance (alive again)
+  void set_alive(const std::string& instance, bool alive);
+  /// The newest live instance of `capability`, or nullopt.
+  std::optional<CapabilityInfo> newest_alive(const std::string& capability) const;
+  bool known(const std::string& capability) const;
+  bool alive(const std::string& instance) const;
+  /// Names of capabilities with at least one live instance, sorted.
+  std::vector<std::string> alive_capabilities() const;
+
+ private:
+  std::vector<CapabilityInfo> instances_;
+};
+
+}  // namespace dh::gov

@@ -1,0 +1,55 @@
+// Plain-data views of the messages the governor reads and writes (the node converts to/from DDS).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace dh::gov {
+
+using Bindings = std::vector<std::pair<std::string, std::string>>;  ///< role -> entity, in order
+
+struct Advice {
+  std::string request_id;
+  bool refused = false;
+  std::string capability;
+  Bindings args;
+  std::string rationale, reason, backend;
+};
+
+struct CapabilityInfo {
+  std::string capability, instance, version;
+  std::vector<std::string> arguments;       ///< roles it needs
+  std::vector<std::string> preconditions;   ///< e.g. "gripper_empty", "object_graspable"
+  std::map<std::string, double> parameters; ///< revisable θ
+  std::uint32_t cost_steps = 0;
+  std::uint64_t started_ns = 0;
+  bool alive = true;
+};
+
+struct Command {
+  std::string command_id, capability, instance;
+  Bindings args;
+  std::map<std::string, double> theta;
+  std::uint32_t start_step = 0, budget_steps = 0, lease_until_step = 0;
+};
+
+struct Lease {
+  std::string command_id;
+  std::uint32_t valid_until_step = 0, budget_until_step = 0;
+  bool revoked = false;
+};
+
+enum class CommandState { Accepted, Refused, Running, Completed, Failed, Expired, Cancelled };
+const char* to_string(CommandState s);
+
+struct CommandStatus {
+  std::string command_id, instance;
+  CommandState state = CommandState::Running;
+  std::string reason, stage;
+  std::uint32_t step = 0, steps_used = 0;
+  double progress = 0;
+};
+
+}  // namespace dh::gov

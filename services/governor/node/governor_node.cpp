@@ -1,0 +1,303 @@
+// dh_governor: the fast brain and the execution contract's writer side, one EpisodeMachine per channel.
+//
+// Reads   rt/dh/episode/request (Episode)     starts a channel's episode
+//         rt/dh/observation     (Observation) every step; decisions every 10th
+//         rt/dh/planner/advice  (Planner)
+//         rt/dh/command/status  (Status)
+//         rt/dh/capability/announce (Announce, liveliness 1 s: a lost lease marks the instance dead)
+//         rt/dh/verdict, rt/dh/seam/event     recorded and latched
+// Writes  rt/dh/planner/request (Planner), rt/dh/command (Command), rt/dh/lease (Lease, deadline 1 s),
+//         rt/dh/episode/result  (Episode)
+// Evidence: one JSON-lines file per episode under --runs-dir/evidence/.
+// Parameters: --config FILE (default configs/governor.yaml), --runs-dir DIR (default DH_RUNS_DIR or ./runs).
+#include <CLI/CLI.hpp>
+
+#include <map>
+#include <variant>
+
+#include "dh/common/config.hpp"
+#include "dh/common/convert.hpp"
+#include "dh/common/dds.hpp"
+#include "dh/common/event_queue.hpp"
+#include "dh/common/log.hpp"
+#include "dh/common/paths.hpp"
+#include "dh/common/shutdown.hpp"
+#include "dh/common/topics.hpp"
+#include "dh/gov/episode.hpp"
+#include "dh/msg/capabilityPubSubTypes.h"
+#include "dh/msg/commandPubSubTypes.h"
+#include "dh/msg/episodePubSubTypes.h"
+#include "dh/msg/plannerPubSubTypes.h"
+#include "dh/msg/robotPubSubTypes.h"
+
+namespace dh {
+namespace {
+
+struct Announced {
+  msg::CapabilityAnnounce a;
+  dds::fdds::InstanceHandle_t writer;
+};
+struct LivelinessChange {
+  dds::fdds::InstanceHandle_t writer;
+  bool alive;
+};
+using Event = std::variant<msg::EpisodeRequest, msg::Observation, msg::Advice, msg::CommandStatus, Announced,
+                           LivelinessChange, msg::Verdict, msg::SeamEvent>;
+
+gov::GovernorConfig load_config(const std::filesystem::path& file) {
+  const ConfigNode c = ConfigNode::load_file(file);
+  gov::GovernorConfig g;
+  g.decision_period = c.get<unsigned>("decision_period_steps");
+  if (g.decision_period == 0) c.fail("decision_period_steps", "must be at least 1");
+  const std::string mode = c.get<std::string>("mode");
+  if (mode == "full") g.mode = gov::ExecutorMode::Full;
+  else if (mode == "static") g.mode = gov::ExecutorMode::Static;
+  else if (mode == "seq") g.mode = gov::ExecutorMode::Seq;
+  else c.fail("mode", "expected full, static or seq, got '" + mode + "'");
+  for (const auto& m : c.get_or<std::vector<std::string>>("masked_capabilities", {})) g.masked.insert(m);
+  g.limits.max_retries = c.get<int>("max_retries");
+  g.limits.max_replans = c.get<int>("max_replans");
+  g.limits.stagnation_decisions = c.get<unsigned>("stagnation_decisions");
+  g.max_refusals = c.get<int>("max_refusals_in_row");
+  g.planner_timeout = std::chrono::milliseconds(c.get<unsigned>("planner_timeout_ms"));
+  g.ack_timeout = std::chrono::milliseconds(c.get<unsigned>("ack_timeout_ms"));
+  g.first_observation_timeout = std::chrono::milliseconds(c.get<unsigned>("first_observation_timeout_ms"));
+  g.step_stall_timeout = std::chrono::milliseconds(c.get<unsigned>("step_stall_timeout_ms"));
+  return g;
+}
+
+std::string file_safe(std::string s) {
+  for (char& ch : s)
+    if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '-' && ch != '_' && ch != '.') ch = '_';
+  return s;
+}
+
+class Governor {
+ public:
+  Governor(dds::Participant& p, gov::GovernorConfig config, std::filesystem::path runs,
+           std::shared_ptr<spdlog::logger> log)
+      : config_(std::move(config)), runs_(std::move(runs)), log_(std::move(log)),
+        plan_(p, topics::kPlanRequest, dds::Qos::Planner),
+        command_(p, topics::kCommand, dds::Qos::Command),
+        lease_(p, topics::kLease, dds::Qos::Lease),
+        result_(p, topics::kEpisodeResult, dds::Qos::Episode) {}
+
+  void handle(const msg::EpisodeRequest& r) {
+    auto& ch = channels_[r.channel()];
+    if (ch.machine && ch.machine->spec().episode_id == r.episode_id()) return;  // redelivery
+    if (std::find(done_.begin(), done_.end(), r.episode_id()) != done_.end()) return;
+    if (ch.machine && !ch.machine->ended())
+      log_->warn("channel={} episode={} replaced by {}", r.channel(), ch.machine->spec().episode_id, r.episode_id());
+    const auto path = runs_ / "evidence" / (file_safe(r.episode_id()) + ".jsonl");
+    ch.machine.reset();
+    ch.evidence = std::make_unique<EvidenceWriter>(path);
+    ch.evidence->append("governor", "episode_request",
+                        {{"suite", r.suite()}, {"task", r.task()}, {"seed", r.seed()}, {"cell", r.cell()},
+                         {"arm", r.arm()}});
+    gov::EpisodeSpec spec{r.channel(), r.episode_id(), r.instruction(), r.arm(), r.budget_steps()};
+    ch.machine = std::make_unique<gov::EpisodeMachine>(spec, config_, registry_, *ch.evidence, gov::Clock::now());
+    log_->info("channel={} episode={} evidence={}", r.channel(), r.episode_id(), path.string());
+  }
+
+  void handle(const msg::Observation& m) {
+    if (auto* mc = machine(m.channel(), m.episode_id())) apply(m.channel(), mc->on_observation(convert::from_msg(m), gov::Clock::now()));
+  }
+  void handle(const msg::Advice& a) {
+    auto* mc = machine(a.channel(), a.episode_id());
+    if (!mc) return;
+    gov::Advice adv{a.request_id(), a.refused(), a.capability(), convert::from_msg(a.args()), a.rationale(), a.reason(), a.backend()};
+    apply(a.channel(), mc->on_advice(adv, gov::Clock::now()));
+  }
+  void handle(const msg::CommandStatus& s) {
+    auto* mc = machine(s.channel(), s.episode_id());
+    if (!mc) return;
+    gov::CommandStatus st{s.command_id(), s.instance(), static_cast<gov::CommandState>(s.state()), s.reason(),
+                          s.stage(), s.step(), s.steps_used(), s.progress()};
+    apply(s.channel(), mc->on_status(st, gov::Clock::now()));
+  }
+  void handle(const Announced& a) {
+    gov::CapabilityInfo info{a.a.capability(), a.a.instance(), a.a.version(), a.a.arguments(), a.a.preconditions(),
+                             convert::from_msg(a.a.parameters()), a.a.cost_steps(), a.a.started_ns(), true};
+    writers_[a.writer] = info.instance;
+    registry_.announce(info);
+    log_->info("capability={} instance={} announced (cost {} steps)", info.capability, info.instance, info.cost_steps);
+  }
+  void handle(const LivelinessChange& c) {
+    auto it = writers_.find(c.writer);
+    if (it == writers_.end()) return;
+    registry_.set_alive(it->second, c.alive);
+    if (c.alive) log_->info("instance={} liveliness asserted", it->second);
+    else log_->warn("instance={} liveliness lost", it->second);
+    if (c.alive) return;
+    for (auto& [id, ch] : channels_)
+      if (ch.machine) apply(id, ch.machine->on_capability_lost(it->second, gov::Clock::now()));
+  }
+  void handle(const msg::Verdict& v) {
+    if (auto* mc = machine(v.channel(), v.episode_id())) mc->on_verdict(v.step(), v.predicate(), v.value());
+  }
+  void handle(const msg::SeamEvent& e) {
+    static const char* kinds[] = {"rejected_lease", "rejected_budget", "rejected_command", "rejected_step",
+                                  "safety_hold", "workspace_clamp"};
+    if (auto* mc = machine(e.channel(), e.episode_id()))
+      mc->on_seam_event(e.step(), e.command_id(), kinds[static_cast<int>(e.kind())], e.reason());
+  }
+  void tick() {
+    for (auto& [id, ch] : channels_)
+      if (ch.machine && !ch.machine->ended()) apply(id, ch.machine->on_tick(gov::Clock::now()));
+  }
+
+ private:
+  struct ChannelState {
+    std::unique_ptr<EvidenceWriter> evidence;
+    std::unique_ptr<gov::EpisodeMachine> machine;
+  };
+
+  gov::EpisodeMachine* machine(std::uint32_t channel, const std::string& episode) {
+    auto it = channels_.find(channel);
+    if (it == channels_.end() || !it->second.machine || it->second.machine->spec().episode_id != episode ||
+        it->second.machine->ended())
+      return nullptr;
+    return it->second.machine.get();
+  }
+
+  void apply(std::uint32_t channel, const gov::Effects& fx) {
+    const auto& ch = channels_[channel];
+    const std::string& episode = ch.machine->spec().episode_id;
+    if (fx.cancel_command) {
+      msg::Command c;
+      c.channel(channel);
+      c.episode_id(episode);
+      c.command_id(*fx.cancel_command);
+      c.kind(msg::COMMAND_CANCEL);
+      c.instance(instance_of_.count(*fx.cancel_command) ? instance_of_[*fx.cancel_command] : "");
+      command_.write(c);
+    }
+    if (fx.lease) {
+      msg::Lease l;
+      l.channel(channel);
+      l.episode_id(episode);
+      l.command_id(fx.lease->command_id);
+      l.valid_until_step(fx.lease->valid_until_step);
+      l.budget_until_step(fx.lease->budget_until_step);
+      l.revoked(fx.lease->revoked);
+      lease_.write(l);
+    }
+    if (fx.command) {
+      const auto& g = *fx.command;
+      instance_of_[g.command_id] = g.instance;
+      msg::Command c;
+      c.channel(channel);
+      c.episode_id(episode);
+      c.command_id(g.command_id);
+      c.kind(msg::COMMAND_START);
+      c.capability(g.capability);
+      c.instance(g.instance);
+      c.args(convert::to_msg(g.args));
+      c.theta(convert::to_msg(g.theta));
+      c.start_step(g.start_step);
+      c.budget_steps(g.budget_steps);
+      c.lease_until_step(g.lease_until_step);
+      command_.write(c);
+      log_->info("channel={} dispatch {} -> {} budget={}", channel, g.command_id, g.instance, g.budget_steps);
+    }
+    if (fx.plan_request) {
+      const auto& r = *fx.plan_request;
+      msg::PlanRequest m;
+      m.channel(channel);
+      m.request_id(r.request_id);
+      m.episode_id(episode);
+      m.instruction(r.instruction);
+      m.entities(r.entities);
+      m.capabilities(r.capabilities);
+      m.history(r.history);
+      m.step(r.step);
+      plan_.write(m);
+    }
+    if (fx.end) {
+      const auto& e = *fx.end;
+      msg::EpisodeResult r;
+      r.channel(channel);
+      r.episode_id(episode);
+      r.success(e.success);
+      r.steps(e.steps);
+      r.outcome(e.outcome);
+      r.reason(e.reason);
+      r.evidence_path(ch.evidence->path().string());
+      r.decisions(e.decisions);
+      r.refusals(e.refusals);
+      result_.write(r);
+      done_.push_back(episode);
+      if (done_.size() > 256) done_.erase(done_.begin());
+      log_->info("channel={} episode={} outcome={} steps={} reason={}", channel, episode, e.outcome, e.steps, e.reason);
+    }
+  }
+
+  gov::GovernorConfig config_;
+  std::filesystem::path runs_;
+  std::shared_ptr<spdlog::logger> log_;
+  dds::Writer<msg::PlanRequestPubSubType> plan_;
+  dds::Writer<msg::CommandPubSubType> command_;
+  dds::Writer<msg::LeasePubSubType> lease_;
+  dds::Writer<msg::EpisodeResultPubSubType> result_;
+  gov::Registry registry_;
+  std::map<dds::fdds::InstanceHandle_t, std::string> writers_;
+  std::map<std::string, std::string> instance_of_;
+  std::map<std::uint32_t, ChannelState> channels_;
+  std::vector<std::string> done_;
+};
+
+int run(int argc, char** argv) {
+  CLI::App app{"dh_governor: fast brain and execution contract"};
+  std::string config, runs;
+  app.add_option("--config", config, "governor YAML (default: configs/governor.yaml)");
+  app.add_option("--runs-dir", runs, "where evidence goes (default: DH_RUNS_DIR or ./runs)");
+  CLI11_PARSE(app, argc, argv);
+  auto log = make_logger("dh_governor");
+  install_shutdown_handlers();
+  try {
+    if (config.empty()) config = (paths::config_dir() / "governor.yaml").string();
+    const std::filesystem::path runs_dir = runs.empty() ? paths::runs_dir() : std::filesystem::path(runs);
+    dds::Participant participant("dh_governor");
+    Governor gov(participant, load_config(config), std::filesystem::absolute(runs_dir), log);
+    EventQueue<Event> q;
+    auto push = [&q](auto m) { q.push(std::move(m)); };
+    dds::Reader<msg::EpisodeRequestPubSubType> r1(participant, topics::kEpisodeRequest, dds::Qos::Episode,
+        {[&](const msg::EpisodeRequest& m, const auto&) { push(m); }, {}, {}});
+    dds::Reader<msg::ObservationPubSubType> r2(participant, topics::kObservation, dds::Qos::Observation,
+        {[&](const msg::Observation& m, const auto&) { push(m); }, {}, {}});
+    dds::Reader<msg::AdvicePubSubType> r3(participant, topics::kAdvice, dds::Qos::Planner,
+        {[&](const msg::Advice& m, const auto&) { push(m); }, {}, {}});
+    dds::Reader<msg::CommandStatusPubSubType> r4(participant, topics::kCommandStatus, dds::Qos::Status,
+        {[&](const msg::CommandStatus& m, const auto&) { push(m); }, {}, {}});
+    dds::Reader<msg::CapabilityAnnouncePubSubType> r5(participant, topics::kAnnounce, dds::Qos::Announce,
+        {[&](const msg::CapabilityAnnounce& m, const dds::fdds::SampleInfo& i) { push(Announced{m, i.publication_handle}); },
+         [&](const dds::fdds::LivelinessChangedStatus& s) {
+           if (s.not_alive_count_change > 0) push(LivelinessChange{s.last_publication_handle, false});
+           if (s.alive_count_change > 0) push(LivelinessChange{s.last_publication_handle, true});
+         },
+         {}});
+    dds::Reader<msg::VerdictPubSubType> r6(participant, topics::kVerdict, dds::Qos::Verdict,
+        {[&](const msg::Verdict& m, const auto&) { push(m); }, {}, {}});
+    dds::Reader<msg::SeamEventPubSubType> r7(participant, topics::kSeamEvent, dds::Qos::Status,
+        {[&](const msg::SeamEvent& m, const auto&) { push(m); }, {}, {}});
+    log->info("domain={} runs={} up", dds::domain_id(), runs_dir.string());
+    auto next_tick = gov::Clock::now();
+    while (!shutdown_requested()) {
+      if (auto e = q.pop(std::chrono::milliseconds(20))) std::visit([&](auto& ev) { gov.handle(ev); }, *e);
+      if (gov::Clock::now() >= next_tick) {
+        gov.tick();
+        next_tick = gov::Clock::now() + std::chrono::milliseconds(50);
+      }
+    }
+    log->info("shutting down");
+  } catch (const std::exception& e) {
+    log->error("{}", e.what());
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+}  // namespace dh
+
+int main(int argc, char** argv) { return dh::run(argc, argv); }

@@ -1,0 +1,322 @@
+#include "dh/gov/episode.hpp"
+
+namespace dh::gov {
+
+const char* to_string(CommandState s) {
+  switch (s) {
+    case CommandState::Accepted: return "accepted";
+    case CommandState::Refused: return "refused";
+    case CommandState::Running: return "running";
+    case CommandState::Completed: return "completed";
+    case CommandState::Failed: return "failed";
+    case CommandState::Expired: return "expired";
+    case CommandState::Cancelled: return "cancelled";
+  }
+  return "?";
+}
+
+namespace {
+nlohmann::json bindings_json(const Bindings& b) {
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [role, e] : b) j[role] = e;
+  return j;
+}
+}  // namespace
+
+EpisodeMachine::EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, const Registry& registry,
+                               EvidenceWriter& evidence, Clock::time_point now)
+    : spec_(std::move(spec)), config_(config), registry_(registry), evidence_(evidence) {
+  deadline_ = now + config_.first_observation_timeout;
+  deadline_what_ = "first observation from the simulator channel";
+  evidence_.append("governor", "episode_start",
+                   {{"episode_id", spec_.episode_id}, {"channel", spec_.channel},
+                    {"instruction", spec_.instruction}, {"arm", spec_.arm},
+                    {"budget_steps", spec_.budget_steps}, {"decision_period", config_.decision_period}});
+}
+
+nlohmann::json EpisodeMachine::obs_summary(const Observation& o) const {
+  nlohmann::json entities = nlohmann::json::object();
+  for (const auto& e : o.entities) entities[e.name] = {e.p[0], e.p[1], e.p[2]};
+  return {{"step", o.step},
+          {"ee", {o.ee_p[0], o.ee_p[1], o.ee_p[2]}},
+          {"gripper_opening", o.gripper_opening},
+          {"contacts", {o.contact_left, o.contact_right}},
+          {"entities", entities},
+          {"predicate", o.goal_holds}};
+}
+
+Effects EpisodeMachine::on_observation(const Observation& obs, Clock::time_point now) {
+  if (phase_ == Phase::Ended) return {};
+  latch_.record(obs.step, obs.goal_holds);
+  last_obs_ = obs;
+  have_obs_ = true;
+  if (phase_ == Phase::WaitingFirstObservation) {
+    evidence_.append("governor", "observation", obs_summary(obs));
+    return request_plan("episode start", now);
+  }
+  if (phase_ != Phase::Running) return {};
+  if (deferred_end_ && obs.step >= deferred_end_->step) {
+    const CommandStatus st = *deferred_end_;
+    deferred_end_.reset();
+    return finish_command(st, now);
+  }
+  deadline_ = now + config_.step_stall_timeout;
+  deadline_what_ = "next observation while '" + running_->command_id + "' runs";
+  if (obs.step % config_.decision_period != 0 || obs.step <= running_->start_step) return {};
+  evidence_.append("governor", "observation", obs_summary(obs));
+  return decide_now(CommandPhase::Running, "decision step", now);
+}
+
+Effects EpisodeMachine::request_plan(const std::string& why, Clock::time_point now) {
+  phase_ = Phase::Planning;
+  PlanRequestOut r;
+  r.request_id = spec_.episode_id + "/p" + std::to_string(plans_++);
+  r.instruction = spec_.instruction;
+  for (const auto& e : last_obs_.entities) r.entities.push_back(e.name);
+  for (const auto& c : registry_.alive_capabilities())
+    if (!config_.masked.count(c)) r.capabilities.push_back(c);
+  r.history = history_;
+  r.step = last_obs_.step;
+  pending_request_ = r.request_id;
+  deadline_ = now + config_.planner_timeout;
+  deadline_what_ = "planner advice for " + r.request_id;
+  evidence_.append("governor", "plan_request",
+                   {{"request_id", r.request_id}, {"step", r.step}, {"why", why},
+                    {"capabilities", r.capabilities}, {"history_len", r.history.size()}});
+  Effects fx;
+  fx.plan_request = std::move(r);
+  return fx;
+}
+
+Effects EpisodeMachine::on_advice(const Advice& advice, Clock::time_point now) {
+  if (phase_ != Phase::Planning || advice.request_id != pending_request_) {
+    evidence_.append("governor", "advice_ignored",
+                     {{"request_id", advice.request_id}, {"reason", "not the pending request"}});
+    return {};
+  }
+  pending_request_.clear();
+  evidence_.append("planner", "advice",
+                   {{"request_id", advice.request_id}, {"step", last_obs_.step}, {"refused", advice.refused},
+                    {"capability", advice.capability}, {"args", bindings_json(advice.args)},
+                    {"rationale", advice.rationale}, {"reason", advice.reason}, {"backend", advice.backend}});
+  last_advice_ = advice;
+  return ground_and_dispatch(advice, now);
+}
+
+Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_point now) {
+  const std::uint32_t remaining = spec_.budget_steps > last_obs_.step ? spec_.budget_steps - last_obs_.step : 0;
+  const std::string command_id = spec_.episode_id + "/c" + std::to_string(commands_);
+  const GroundingResult g = ground({advice, registry_, last_obs_, remaining, config_.masked, command_id,
+                                    config_.decision_period});
+  if (!g.command) return refuse(g.refusal, g.reason, now);
+  ++commands_;
+  refusals_in_row_ = 0;
+  const Command& c = *g.command;
+  evidence_.append("governor", "grounding",
+                   {{"step", last_obs_.step}, {"result", "grounded"}, {"command_id", c.command_id},
+                    {"capability", c.capability}, {"instance", c.instance}, {"args", bindings_json(c.args)},
+                    {"theta", c.theta}});
+  evidence_.append("governor", "dispatch",
+                   {{"step", last_obs_.step}, {"command_id", c.command_id}, {"instance", c.instance},
+                    {"budget_steps", c.budget_steps}, {"lease_until_step", c.lease_until_step}});
+  history_.push_back("step " + std::to_string(last_obs_.step) + ": dispatched " + c.capability + " " +
+                     bindings_json(c.args).dump());
+  running_ = c;
+  acknowledged_ = false;
+  deferred_end_.reset();
+  last_progress_ = 0;
+  stagnant_ = 0;
+  phase_ = Phase::Running;
+  deadline_ = now + config_.ack_timeout;
+  deadline_what_ = "acknowledgement of '" + c.command_id + "' from " + c.instance;
+  Effects fx;
+  fx.lease = Lease{c.command_id, c.lease_until_step, c.start_step + c.budget_steps, false};
+  fx.command = c;
+  return fx;
+}
+
+Effects EpisodeMachine::refuse(Refusal r, const std::string& reason, Clock::time_point now) {
+  ++refusals_total_;
+  ++refusals_in_row_;
+  evidence_.append("governor", "refusal",
+                   {{"step", last_obs_.step}, {"refusal", to_string(r)}, {"reason", reason},
+                    {"in_row", refusals_in_row_}});
+  history_.push_back("step " + std::to_string(last_obs_.step) + ": refused (" + to_string(r) + "): " + reason);
+  if (refusals_in_row_ >= config_.max_refusals)
+    return end(false, "gave_up", std::to_string(refusals_in_row_) + " refusals in a row; last: " + reason);
+  return request_plan(std::string("refusal: ") + to_string(r), now);
+}
+
+Effects EpisodeMachine::on_status(const CommandStatus& st, Clock::time_point now) {
+  if (phase_ != Phase::Running || !running_ || st.command_id != running_->command_id) return {};
+  const bool terminal = st.state != CommandState::Accepted && st.state != CommandState::Running;
+  if (!acknowledged_ || terminal) {
+    evidence_.append(st.instance.empty() ? "capability" : st.instance, "command_status",
+                     {{"step", st.step}, {"command_id", st.command_id}, {"state", to_string(st.state)},
+                      {"reason", st.reason}, {"stage", st.stage}, {"steps_used", st.steps_used},
+                      {"progress", st.progress}});
+  }
+  acknowledged_ = true;
+  if (st.progress > last_progress_) last_progress_ = st.progress;
+  if (!terminal) {
+    deadline_ = now + config_.step_stall_timeout;
+    deadline_what_ = "next observation while '" + running_->command_id + "' runs";
+    return {};
+  }
+  // Decide on the observation of the step the command ended at (DDS does not order two topics).
+  if (st.step > last_obs_.step) {
+    deferred_end_ = st;
+    return {};
+  }
+  return finish_command(st, now);
+}
+
+Effects EpisodeMachine::finish_command(const CommandStatus& st, Clock::time_point now) {
+  history_.push_back("step " + std::to_string(st.step) + ": " + running_->capability + " " +
+                     to_string(st.state) + (st.reason.empty() ? "" : ": " + st.reason));
+  CommandPhase phase = CommandPhase::Failed;
+  if (st.state == CommandState::Completed) phase = CommandPhase::Completed;
+  else if (st.state == CommandState::Refused) phase = CommandPhase::Refused;
+  else if (st.state == CommandState::Expired) phase = CommandPhase::Expired;
+  if (phase != CommandPhase::Completed) ++failures_[running_->capability];
+  return decide_now(phase, std::string("command ") + to_string(st.state), now);
+}
+
+Effects EpisodeMachine::on_capability_lost(const std::string& instance, Clock::time_point now) {
+  evidence_.append("governor", "capability_lost", {{"step", last_obs_.step}, {"instance", instance}});
+  if (phase_ != Phase::Running || !running_ || running_->instance != instance) return {};
+  ++failures_[running_->capability];
+  history_.push_back("step " + std::to_string(last_obs_.step) + ": " + running_->capability +
+                     " lost (liveliness lease expired)");
+  return decide_now(CommandPhase::Lost, "capability instance " + instance + " lost its liveliness", now);
+}
+
+void EpisodeMachine::on_verdict(std::uint32_t step, const std::string& predicate, bool value) {
+  latch_.record(step, value);
+  evidence_.append("sim_worker", "verdict_event", {{"step", step}, {"predicate", predicate}, {"value", value}});
+}
+
+void EpisodeMachine::on_seam_event(std::uint32_t step, const std::string& command_id, const std::string& kind,
+                                   const std::string& reason) {
+  evidence_.append("seam", kind, {{"step", step}, {"command_id", command_id}, {"reason", reason}});
+}
+
+Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now) {
+  const std::uint32_t k = decisions_++;
+  DecisionState s;
+  s.mode = config_.mode;
+  s.latched = latch_.decide(last_obs_.step);
+  s.phase = phase;
+  s.step = last_obs_.step;
+  s.budget_steps = spec_.budget_steps;
+  if (phase == CommandPhase::Running) {
+    stagnant_ = last_progress_ > 0 || last_obs_.step < running_->start_step + 2 * config_.decision_period
+                    ? 0 : stagnant_ + 1;
+  }
+  s.progress = last_progress_;
+  s.stagnant_decisions = stagnant_;
+  const std::string cap = running_ ? running_->capability : "";
+  s.failures_of_capability = failures_.count(cap) ? failures_.at(cap) : 0;
+  s.replans_used = replans_;
+  s.other_instance_alive = running_ && registry_.newest_alive(cap).has_value();
+  const auto alive = registry_.alive_capabilities();
+  auto has = [&](const std::string& n) {
+    return std::find(alive.begin(), alive.end(), n) != alive.end() && !config_.masked.count(n);
+  };
+  s.recovery_available = has("recovery") && cap != "recovery";
+  s.vla_available = has("vla_act") && cap != "vla_act";
+  const Decision d = decide(s, config_.limits);
+  evidence_.append("governor", "decision",
+                   {{"k", k}, {"step", s.step}, {"cause", cause}, {"phase", to_string(phase)},
+                    {"decision", to_string(d.kind)}, {"reason", d.reason}, {"latched", s.latched},
+                    {"progress", s.progress}, {"stagnant", s.stagnant_decisions},
+                    {"failures", s.failures_of_capability}, {"command_id", running_ ? running_->command_id : ""}});
+  Effects fx;
+  switch (d.kind) {
+    case DecisionKind::Continue: {
+      fx.lease = Lease{running_->command_id, s.step + config_.decision_period,
+                       running_->start_step + running_->budget_steps, false};
+      return fx;
+    }
+    case DecisionKind::StopSuccess:
+      return end(true, "success", d.reason + " (predicate first held at step " +
+                                      std::to_string(latch_.event_step()) + ")");
+    case DecisionKind::GiveUp:
+      return end(false, s.step >= s.budget_steps ? "budget_exhausted" : "gave_up", d.reason);
+    case DecisionKind::Retry:
+      fx = stop_command({});
+      if (last_advice_) {
+        Effects g = ground_and_dispatch(*last_advice_, now);
+        g.cancel_command = fx.cancel_command;
+        return g;
+      }
+      return request_plan(d.reason, now);
+    case DecisionKind::InsertRecovery:
+    case DecisionKind::HandToVla:
+    case DecisionKind::Substitute: {
+      fx = stop_command({});
+      Advice a = last_advice_.value_or(Advice{});
+      a.refused = false;
+      if (d.kind == DecisionKind::InsertRecovery) a.capability = "recovery";
+      if (d.kind == DecisionKind::HandToVla) a.capability = "vla_act";
+      a.rationale = "fast brain: " + d.reason;
+      Effects g = ground_and_dispatch(a, now);
+      g.cancel_command = fx.cancel_command;
+      return g;
+    }
+    case DecisionKind::RequestReplan: {
+      ++replans_;
+      fx = stop_command({});
+      Effects p = request_plan(d.reason, now);
+      p.cancel_command = fx.cancel_command;
+      p.lease = fx.lease;
+      return p;
+    }
+  }
+  return fx;
+}
+
+Effects EpisodeMachine::stop_command(Effects fx) {
+  if (running_) {
+    fx.cancel_command = running_->command_id;
+    fx.lease = Lease{running_->command_id, last_obs_.step, last_obs_.step, true};
+    running_.reset();
+  }
+  return fx;
+}
+
+Effects EpisodeMachine::end(bool success, const std::string& outcome, const std::string& reason) {
+  Effects fx = stop_command({});
+  phase_ = Phase::Ended;
+  EpisodeEnd e{success, last_obs_.step, outcome, reason, decisions_, refusals_total_};
+  evidence_.append("governor", "episode_end",
+                   {{"step", e.steps}, {"success", success}, {"outcome", outcome}, {"reason", reason},
+                    {"latched", latch_.latched()}, {"verdict_step", latch_.event_step()},
+                    {"decisions", decisions_}, {"refusals", refusals_total_}});
+  fx.end = e;
+  return fx;
+}
+
+Effects EpisodeMachine::on_tick(Clock::time_point now) {
+  if (phase_ == Phase::Ended || now < deadline_) return {};
+  const std::string what = deadline_what_;
+  evidence_.append("governor", "deadline_missed", {{"step", last_obs_.step}, {"waiting_for", what}});
+  switch (phase_) {
+    case Phase::WaitingFirstObservation:
+      return end(false, "infrastructure", "no " + what);
+    case Phase::Planning:
+      pending_request_.clear();
+      return refuse(Refusal::PlannerRefused, "planner timeout: no " + what, now);
+    case Phase::Running:
+      if (!acknowledged_) {
+        ++failures_[running_->capability];
+        return decide_now(CommandPhase::Failed, "no " + what, now);
+      }
+      return end(false, "infrastructure", "no " + what);
+    case Phase::Ended:
+      break;
+  }
+  return {};
+}
+
+}  // namespace dh::gov

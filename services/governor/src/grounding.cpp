@@ -1,0 +1,95 @@
+#include "dh/gov/grounding.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace dh::gov {
+
+const char* to_string(Refusal r) {
+  switch (r) {
+    case Refusal::PlannerRefused: return "planner_refused";
+    case Refusal::UnknownCapability: return "unknown_capability";
+    case Refusal::CapabilityNotAlive: return "capability_not_alive";
+    case Refusal::CapabilityMasked: return "capability_masked";
+    case Refusal::MissingArgument: return "missing_argument";
+    case Refusal::UnresolvedEntity: return "unresolved_entity";
+    case Refusal::Precondition: return "precondition";
+    case Refusal::Budget: return "budget";
+  }
+  return "?";
+}
+
+std::uint32_t command_budget(std::uint32_t cost_steps, std::uint32_t remaining_steps) {
+  const auto b = static_cast<std::uint32_t>(std::ceil(cost_steps * 1.1)) + 10;
+  return std::min(b, remaining_steps);
+}
+
+namespace {
+GroundingResult refuse(Refusal r, std::string why) { return {std::nullopt, r, std::move(why)}; }
+
+const std::string* arg(const Advice& a, const std::string& role) {
+  for (const auto& [r, e] : a.args)
+    if (r == role) return &e;
+  return nullptr;
+}
+
+// Declared preconditions the governor can check from the observation alone.
+std::optional<std::string> precondition_fails(const std::string& pre, const Advice& a, const Observation& obs) {
+  if (pre == "gripper_empty") {
+    if (obs.contact_left && obs.contact_right && obs.gripper_opening > 0.002)
+      return std::string("the gripper already holds something");
+    return std::nullopt;
+  }
+  if (pre == "distinct_entities") {
+    std::set<std::string> seen;
+    for (const auto& [role, e] : a.args)
+      if (!seen.insert(e).second) return "entity '" + e + "' is given for two roles";
+    return std::nullopt;
+  }
+  if (pre == "object_not_on_target") {
+    const std::string* o = arg(a, "object");
+    const std::string* t = arg(a, "target");
+    if (o && t && obs.goal_holds) return "'" + *o + "' already rests on '" + *t + "' (verdict true)";
+    return std::nullopt;
+  }
+  return "precondition '" + pre + "' is not known to the governor";
+}
+}  // namespace
+
+GroundingResult ground(const GroundingInput& in) {
+  const Advice& a = in.advice;
+  if (a.refused) return refuse(Refusal::PlannerRefused, "planner refused: " + a.reason);
+  if (in.masked.count(a.capability))
+    return refuse(Refusal::CapabilityMasked, "capability '" + a.capability + "' is switched off in this arm");
+  if (!in.registry.known(a.capability))
+    return refuse(Refusal::UnknownCapability, "no capability '" + a.capability + "' was ever announced");
+  const auto info = in.registry.newest_alive(a.capability);
+  if (!info)
+    return refuse(Refusal::CapabilityNotAlive,
+                  "every instance of '" + a.capability + "' lost its liveliness lease");
+  for (const auto& role : info->arguments)
+    if (!arg(a, role))
+      return refuse(Refusal::MissingArgument, "'" + a.capability + "' needs argument '" + role + "'");
+  for (const auto& [role, entity] : a.args)
+    if (!in.obs.entity(entity))
+      return refuse(Refusal::UnresolvedEntity,
+                    "argument " + role + "='" + entity + "' names no entity in the scene");
+  for (const auto& pre : info->preconditions)
+    if (auto why = precondition_fails(pre, a, in.obs)) return refuse(Refusal::Precondition, *why);
+  if (info->cost_steps > in.remaining_steps)
+    return refuse(Refusal::Budget, std::to_string(in.remaining_steps) + " steps remain, '" + a.capability +
+                                       "' costs " + std::to_string(info->cost_steps));
+  Command c;
+  c.command_id = in.command_id;
+  c.capability = a.capability;
+  c.instance = info->instance;
+  c.args = a.args;
+  c.theta = info->parameters;
+  c.start_step = in.obs.step;
+  c.budget_steps = command_budget(info->cost_steps, in.remaining_steps);
+  const std::uint32_t p = std::max<std::uint32_t>(1, in.decision_period);
+  c.lease_until_step = (in.obs.step / p + 1) * p;
+  return {c, Refusal::PlannerRefused, ""};
+}
+
+}  // namespace dh::gov

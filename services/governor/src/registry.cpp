@@ -1,0 +1,49 @@
+#include "dh/gov/registry.hpp"
+
+#include <algorithm>
+#include <set>
+
+namespace dh::gov {
+
+void Registry::announce(const CapabilityInfo& info) {
+  for (auto& i : instances_)
+    if (i.instance == info.instance) {
+      i = info;
+      i.alive = true;
+      return;
+    }
+  instances_.push_back(info);
+  instances_.back().alive = true;
+}
+
+void Registry::set_alive(const std::string& instance, bool alive) {
+  for (auto& i : instances_)
+    if (i.instance == instance) i.alive = alive;
+}
+
+std::optional<CapabilityInfo> Registry::newest_alive(const std::string& capability) const {
+  const CapabilityInfo* best = nullptr;
+  for (const auto& i : instances_)
+    if (i.capability == capability && i.alive && (!best || i.started_ns > best->started_ns)) best = &i;
+  if (!best) return std::nullopt;
+  return *best;
+}
+
+bool Registry::known(const std::string& capability) const {
+  return std::any_of(instances_.begin(), instances_.end(),
+                     [&](const CapabilityInfo& i) { return i.capability == capability; });
+}
+
+bool Registry::alive(const std::string& instance) const {
+  return std::any_of(instances_.begin(), instances_.end(),
+                     [&](const CapabilityInfo& i) { return i.instance == instance && i.alive; });
+}
+
+std::vector<std::string> Registry::alive_capabilities() const {
+  std::set<std::string> names;
+  for (const auto& i : instances_)
+    if (i.alive) names.insert(i.capability);
+  return {names.begin(), names.end()};
+}
+
+}  // namespace dh::gov
