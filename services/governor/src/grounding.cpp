@@ -1,7 +1,6 @@
 #include "dh/gov/grounding.hpp"
 
 #include <algorithm>
-#include <cmath>
 
 namespace dh::gov {
 
@@ -20,7 +19,7 @@ const char* to_string(Refusal r) {
 }
 
 std::uint32_t command_budget(std::uint32_t cost_steps, std::uint32_t remaining_steps) {
-  const auto b = static_cast<std::uint32_t>(std::ceil(cost_steps * 1.1)) + 10;
+  const std::uint32_t b = (cost_steps * 11 + 9) / 10 + 10;  // ceil(cost × 1.1) + 10, in integers
   return std::min(b, remaining_steps);
 }
 

@@ -1,0 +1,35 @@
+// Shared test fixtures: a scene observation and a registry with pick_place announced.
+#pragma once
+
+#include "dh/common/observation.hpp"
+#include "dh/gov/registry.hpp"
+
+namespace dh::test {
+
+inline Observation scene_observation(std::uint32_t step = 0) {
+  Observation o;
+  o.step = step;
+  o.budget_steps = 300;
+  o.ee_p = {-0.1, 0, 0.25};
+  o.ee_q = {0, 1, 0, 0};
+  o.gripper_opening = 0.08;
+  EntityState bowl{"bowl", "bowl", {0, -0.15, 0}, {1, 0, 0, 0}, {0.065, 0.065, 0.025}};
+  EntityState plate{"plate", "plate", {0, 0.15, 0}, {1, 0, 0, 0}, {0.09, 0.09, 0.006}};
+  o.entities = {bowl, plate};
+  return o;
+}
+
+inline gov::CapabilityInfo pick_place_info(const std::string& instance = "pick_place@a", std::uint64_t started = 1) {
+  gov::CapabilityInfo i;
+  i.capability = "pick_place";
+  i.instance = instance;
+  i.version = "0.1.0";
+  i.arguments = {"object", "target"};
+  i.preconditions = {"distinct_entities", "gripper_empty", "object_not_on_target"};
+  i.parameters = {{"corridor_height", 0.16}};
+  i.cost_steps = 221;
+  i.started_ns = started;
+  return i;
+}
+
+}  // namespace dh::test

@@ -1,0 +1,106 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "dh/common/config.hpp"
+#include "dh/common/evidence.hpp"
+#include "dh/common/paths.hpp"
+#include "dh/common/suite.hpp"
+#include "dh/sim/scene.hpp"
+
+using namespace dh;
+namespace fs = std::filesystem;
+
+namespace {
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+struct TempDir {
+  fs::path dir = fs::temp_directory_path() /
+                 ("dh_cfg_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+  TempDir() { fs::create_directories(dir); }
+  ~TempDir() { fs::remove_all(dir); }
+  fs::path write(const std::string& name, const std::string& text) {
+    fs::create_directories((dir / name).parent_path());
+    std::ofstream(dir / name) << text;
+    return dir / name;
+  }
+};
+}  // namespace
+
+TEST(Config, MissingFileIsNamed) {
+  const auto e = error_of([] { ConfigNode::load_file("/nonexistent/dh.yaml"); });
+  EXPECT_NE(e.find("/nonexistent/dh.yaml"), std::string::npos);
+  EXPECT_NE(e.find("not found"), std::string::npos);
+}
+
+TEST(Config, MalformedYamlNamesFileAndLine) {
+  TempDir t;
+  const auto f = t.write("bad.yaml", "a: 1\nb: [1, 2\n");
+  const auto e = error_of([&] { ConfigNode::load_file(f); });
+  EXPECT_NE(e.find("bad.yaml"), std::string::npos);
+  EXPECT_NE(e.find("malformed YAML at line"), std::string::npos);
+}
+
+TEST(Config, MissingKeyAndWrongTypeNameTheKeyPathAndExpectedType) {
+  const auto n = ConfigNode::load_string("robot:\n  base: [1, 2, x]\n  name: 3\n", "inline.yaml");
+  auto e = error_of([&] { n.child("robot").get<std::string>("urdf"); });
+  EXPECT_NE(e.find("inline.yaml: key 'robot.urdf': missing (expected a string)"), std::string::npos) << e;
+  e = error_of([&] { n.child("robot").get<std::vector<double>>("base"); });
+  EXPECT_NE(e.find("key 'robot.base': expected a list of numbers"), std::string::npos) << e;
+  e = error_of([&] { ConfigNode::load_string("steps: -3", "s.yaml").get<unsigned>("steps"); });
+  EXPECT_NE(e.find("key 'steps'"), std::string::npos) << e;
+}
+
+TEST(Suites, UnknownSuiteAndTaskListWhatExists) {
+  const auto suites = load_suites(paths::config_dir());
+  auto e = error_of([&] { find_task(suites, "spatial", 0); });
+  EXPECT_NE(e.find("unknown suite 'spatial' (known: goal"), std::string::npos) << e;
+  e = error_of([&] { find_task(suites, "goal", 42); });
+  EXPECT_NE(e.find("suite 'goal' has no task 42"), std::string::npos) << e;
+  EXPECT_EQ(find_task(suites, "goal", 8).instruction, "put the bowl on the plate");
+}
+
+TEST(Suites, ASuiteWithoutAGoalIsRejected) {
+  TempDir t;
+  t.write("scenes/s.yaml", "scene: s\n");
+  t.write("suites/x.yaml", "suite: x\nbudget_steps: 10\nscene: s.yaml\ntasks:\n  - {id: 0, instruction: hi, goal: []}\n");
+  const auto e = error_of([&] { load_suites(t.dir); });
+  EXPECT_NE(e.find("x.yaml: key 'tasks[0].goal'"), std::string::npos) << e;
+}
+
+TEST(Scene, UnknownObjectKindAndBadUrdfAreNamed) {
+  TempDir t;
+  const std::string head = "scene: s\ntable: {size: [1, 1, 0.05]}\nworkspace: {min: [0,0,0], max: [1,1,1]}\n";
+  t.write("robots/bad.urdf", "<robot name='x'><link name='a'/></robot>");
+  auto f = t.write("s1.yaml", head + "robot: {urdf: robots/bad.urdf, base: [0,0,0], ready_q: [0,0,0,0,0,0,0]}\nobjects: []\n");
+  auto e = error_of([&] { sim::load_scene(f); });
+  EXPECT_NE(e.find("bad.urdf: expected 7 revolute arm joints"), std::string::npos) << e;
+  const fs::path urdf = paths::config_dir() / "robots" / "panda.urdf";
+  f = t.write("s2.yaml", head + "robot: {urdf: " + urdf.string() +
+                             ", base: [0,0,0], ready_q: [0,0,0,0,0,0,0]}\nobjects:\n  - {name: t, kind: teapot, mass: 1}\n");
+  e = error_of([&] { sim::load_scene(f); });
+  EXPECT_NE(e.find("key 'objects[0].kind': unknown object kind 'teapot'"), std::string::npos) << e;
+}
+
+TEST(Evidence, AppendsFlushedRecordsAndSkipsATornLine) {
+  TempDir t;
+  const auto f = t.dir / "e.jsonl";
+  {
+    EvidenceWriter w(f);
+    w.append("governor", "decision", {{"step", 10}});
+    // A crash mid-write leaves a torn last line; readers keep every complete record.
+    std::ofstream(f, std::ios::app) << "{\"kind\": \"decis";
+  }
+  const auto recs = read_evidence(f);
+  ASSERT_EQ(recs.size(), 1u);
+  EXPECT_EQ(recs[0]["kind"], "decision");
+  EXPECT_EQ(recs[0]["step"], 10);
+}

@@ -1,0 +1,130 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "dh/gov/episode.hpp"
+#include "fixtures.hpp"
+
+using namespace dh;
+using namespace dh::gov;
+using namespace std::chrono_literals;
+
+namespace {
+struct Machine : ::testing::Test {
+  std::filesystem::path file = std::filesystem::temp_directory_path() /
+                               ("dh_machine_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
+                                ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".jsonl");
+  Registry registry;
+  GovernorConfig config;
+  std::unique_ptr<EvidenceWriter> evidence;
+  std::unique_ptr<EpisodeMachine> m;
+  Clock::time_point t0 = Clock::time_point{} + 1000s;
+
+  void SetUp() override {
+    std::filesystem::remove(file);
+    registry.announce(test::pick_place_info());
+    evidence = std::make_unique<EvidenceWriter>(file);
+    m = std::make_unique<EpisodeMachine>(EpisodeSpec{0, "ep", "put the bowl on the plate", "full", 300}, config,
+                                         registry, *evidence, t0);
+  }
+  void TearDown() override { std::filesystem::remove(file); }
+  Advice good(const std::string& id) { return {id, false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules"}; }
+  std::vector<std::string> kinds() {
+    std::vector<std::string> k;
+    for (const auto& r : read_evidence(file)) k.push_back(r["kind"]);
+    return k;
+  }
+};
+}  // namespace
+
+TEST_F(Machine, PlansGroundsDispatchesRenewsAndEndsOnTheLatchedVerdict) {
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  ASSERT_TRUE(fx.plan_request);
+  EXPECT_EQ(fx.plan_request->capabilities, std::vector<std::string>{"pick_place"});
+  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  ASSERT_TRUE(fx.command);
+  ASSERT_TRUE(fx.lease);
+  EXPECT_EQ(fx.lease->valid_until_step, 10u);
+  m->on_status({"ep/c0", "pick_place@a", CommandState::Accepted, "", "", 0, 0, 0}, t0);
+  for (std::uint32_t t = 1; t < 10; ++t) EXPECT_FALSE(m->on_observation(test::scene_observation(t), t0).lease);
+  m->on_status({"ep/c0", "pick_place@a", CommandState::Running, "", "lift", 10, 10, 0.1}, t0);
+  fx = m->on_observation(test::scene_observation(10), t0);
+  ASSERT_TRUE(fx.lease) << "a decision step renews the lease";
+  EXPECT_EQ(fx.lease->valid_until_step, 20u);
+  Observation done = test::scene_observation(165);
+  done.goal_holds = true;
+  EXPECT_FALSE(m->on_observation(done, t0).end) << "the latch is read at the next decision";
+  fx = m->on_observation(test::scene_observation(170), t0);
+  ASSERT_TRUE(fx.end);
+  EXPECT_TRUE(fx.end->success);
+  EXPECT_EQ(fx.end->steps, 170u);
+  EXPECT_EQ(fx.cancel_command, "ep/c0");
+  ASSERT_TRUE(fx.lease);
+  EXPECT_TRUE(fx.lease->revoked);
+  const auto k = kinds();
+  for (const char* want : {"episode_start", "plan_request", "advice", "grounding", "dispatch", "command_status",
+                           "decision", "episode_end"})
+    EXPECT_NE(std::find(k.begin(), k.end(), want), k.end()) << want;
+}
+
+TEST_F(Machine, RefusalsAreRecordedAndEndTheEpisodeAfterTheLimit) {
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  for (int i = 0; i < config.max_refusals; ++i) {
+    ASSERT_TRUE(fx.plan_request) << i;
+    Advice a = good(fx.plan_request->request_id);
+    a.capability = "fly";
+    fx = m->on_advice(a, t0);
+  }
+  ASSERT_TRUE(fx.end);
+  EXPECT_FALSE(fx.end->success);
+  EXPECT_EQ(fx.end->outcome, "gave_up");
+  EXPECT_EQ(fx.end->refusals, static_cast<std::uint32_t>(config.max_refusals));
+  const auto recs = read_evidence(file);
+  const auto n = std::count_if(recs.begin(), recs.end(), [](const auto& r) {
+    return r["kind"] == "refusal" && r["refusal"] == "unknown_capability";
+  });
+  EXPECT_EQ(n, config.max_refusals);
+}
+
+TEST_F(Machine, ALostCapabilityEndsTheCommandWithoutAHang) {
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  m->on_status({"ep/c0", "pick_place@a", CommandState::Accepted, "", "", 0, 0, 0}, t0);
+  m->on_observation(test::scene_observation(7), t0);
+  registry.set_alive("pick_place@a", false);
+  fx = m->on_capability_lost("pick_place@a", t0);
+  EXPECT_EQ(fx.cancel_command, "ep/c0");
+  ASSERT_TRUE(fx.plan_request) << "no other instance: the planner is asked again";
+  EXPECT_TRUE(fx.plan_request->capabilities.empty());
+}
+
+TEST_F(Machine, AMissingAcknowledgementAndASilentPlannerHitTheirDeadlines) {
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  fx = m->on_tick(t0 + config.planner_timeout + 1ms);
+  ASSERT_TRUE(fx.plan_request) << "planner timeout counts as a refusal and asks again";
+  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  ASSERT_TRUE(fx.command);
+  fx = m->on_tick(t0 + config.ack_timeout + 1ms);
+  ASSERT_TRUE(fx.command) << "no acknowledgement: retried";
+  EXPECT_EQ(fx.command->command_id, "ep/c1");
+}
+
+TEST_F(Machine, NoFirstObservationIsAnInfrastructureFailure) {
+  const Effects fx = m->on_tick(t0 + config.first_observation_timeout + 1ms);
+  ASSERT_TRUE(fx.end);
+  EXPECT_EQ(fx.end->outcome, "infrastructure");
+}
+
+TEST_F(Machine, ACompletionReportedBeforeItsObservationWaitsForIt) {
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  m->on_observation(test::scene_observation(196), t0);
+  fx = m->on_status({"ep/c0", "pick_place@a", CommandState::Completed, "", "done", 197, 197, 1}, t0);
+  EXPECT_FALSE(fx.end);
+  EXPECT_FALSE(fx.plan_request);
+  Observation last = test::scene_observation(197);
+  last.goal_holds = true;
+  fx = m->on_observation(last, t0);
+  ASSERT_TRUE(fx.end);
+  EXPECT_TRUE(fx.end->success);
+}

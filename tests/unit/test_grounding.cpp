@@ -1,0 +1,105 @@
+#include <gtest/gtest.h>
+
+#include "dh/gov/grounding.hpp"
+#include "fixtures.hpp"
+
+using namespace dh;
+using namespace dh::gov;
+
+namespace {
+struct Grounding : ::testing::Test {
+  Registry registry;
+  Observation obs = test::scene_observation(40);
+  std::set<std::string> masked;
+  Advice advice{"p0", false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules"};
+  void SetUp() override { registry.announce(test::pick_place_info()); }
+  GroundingResult run(std::uint32_t remaining = 260) {
+    return ground({advice, registry, obs, remaining, masked, "ep/c0", 10});
+  }
+};
+}  // namespace
+
+TEST_F(Grounding, AGroundedCommandCarriesBudgetLeaseAndTheta) {
+  const auto g = run();
+  ASSERT_TRUE(g.command) << g.reason;
+  EXPECT_EQ(g.command->instance, "pick_place@a");
+  EXPECT_EQ(g.command->start_step, 40u);
+  EXPECT_EQ(g.command->lease_until_step, 50u) << "the lease runs to the next decision step";
+  EXPECT_EQ(g.command->budget_steps, command_budget(221, 260));
+  EXPECT_EQ(g.command->budget_steps, 254u);  // ceil(221 * 1.1) + 10
+  EXPECT_DOUBLE_EQ(g.command->theta.at("corridor_height"), 0.16);
+}
+
+TEST_F(Grounding, ThePlannersRefusalIsRecordedAsSuch) {
+  advice.refused = true;
+  advice.reason = "cannot parse";
+  const auto g = run();
+  EXPECT_FALSE(g.command);
+  EXPECT_EQ(g.refusal, Refusal::PlannerRefused);
+  EXPECT_NE(g.reason.find("cannot parse"), std::string::npos);
+}
+
+TEST_F(Grounding, UnknownCapability) {
+  advice.capability = "teleport";
+  EXPECT_EQ(run().refusal, Refusal::UnknownCapability);
+}
+
+TEST_F(Grounding, CapabilityNotAlive) {
+  registry.set_alive("pick_place@a", false);
+  EXPECT_EQ(run().refusal, Refusal::CapabilityNotAlive);
+}
+
+TEST_F(Grounding, CapabilityMasked) {
+  masked.insert("pick_place");
+  EXPECT_EQ(run().refusal, Refusal::CapabilityMasked);
+}
+
+TEST_F(Grounding, MissingArgument) {
+  advice.args = {{"object", "bowl"}};
+  const auto g = run();
+  EXPECT_EQ(g.refusal, Refusal::MissingArgument);
+  EXPECT_NE(g.reason.find("target"), std::string::npos);
+}
+
+TEST_F(Grounding, UnresolvedEntity) {
+  advice.args = {{"object", "mug"}, {"target", "plate"}};
+  const auto g = run();
+  EXPECT_EQ(g.refusal, Refusal::UnresolvedEntity);
+  EXPECT_NE(g.reason.find("mug"), std::string::npos);
+}
+
+TEST_F(Grounding, PreconditionDistinctEntities) {
+  advice.args = {{"object", "bowl"}, {"target", "bowl"}};
+  EXPECT_EQ(run().refusal, Refusal::Precondition);
+}
+
+TEST_F(Grounding, PreconditionGripperEmpty) {
+  obs.contact_left = obs.contact_right = true;
+  obs.gripper_opening = 0.01;
+  const auto g = run();
+  EXPECT_EQ(g.refusal, Refusal::Precondition);
+  EXPECT_NE(g.reason.find("holds"), std::string::npos);
+}
+
+TEST_F(Grounding, PreconditionAlreadyDone) {
+  obs.goal_holds = true;
+  EXPECT_EQ(run().refusal, Refusal::Precondition);
+}
+
+TEST_F(Grounding, BudgetCannotPayForTheCostModel) {
+  const auto g = run(200);
+  EXPECT_EQ(g.refusal, Refusal::Budget);
+  EXPECT_NE(g.reason.find("200 steps remain"), std::string::npos);
+}
+
+TEST_F(Grounding, HotSwapRoutesToTheNewestLiveInstance) {
+  registry.announce(test::pick_place_info("pick_place@b", 2));
+  EXPECT_EQ(run().command->instance, "pick_place@b");
+  registry.set_alive("pick_place@b", false);
+  EXPECT_EQ(run().command->instance, "pick_place@a");
+}
+
+TEST(CommandBudget, NeverMoreThanWhatRemains) {
+  EXPECT_EQ(command_budget(221, 100), 100u);
+  EXPECT_EQ(command_budget(100, 1000), 120u);
+}
