@@ -63,6 +63,12 @@ Deployment::Deployment(const std::vector<ServiceSpec>& services, const std::file
 
 Deployment::~Deployment() { stop(); }
 
+bool Deployment::signal(const std::string& name, int sig) {
+  for (auto& c : children_)
+    if (c.name == name && !c.reaped) return kill(c.pid, sig) == 0;
+  return false;
+}
+
 std::vector<std::string> Deployment::exited() {
   std::vector<std::string> out;
   for (auto& c : children_) {

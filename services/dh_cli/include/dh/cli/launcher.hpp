@@ -30,6 +30,8 @@ class Deployment {
 
   /// SIGTERM, then SIGKILL after `grace_ms` for any that did not exit.
   void stop(int grace_ms = 3000);
+  /// Sends `sig` to the named service (tests use SIGKILL to inject a crash); false if unknown.
+  bool signal(const std::string& name, int sig);
   /// Names of services that exited on their own (crashed) since start.
   std::vector<std::string> exited();
   const std::filesystem::path& log_dir() const { return log_dir_; }

@@ -1,0 +1,62 @@
+// Integration-test harness: real service processes on real DDS, isolated per test by a DDS domain of
+// their own and a temporary runs folder. Every profile stays on loopback (deploy/dds/loopback.xml).
+#pragma once
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdlib>
+#include <filesystem>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "dh/cli/launcher.hpp"
+#include "dh/common/paths.hpp"
+
+namespace dh::itest {
+
+/// Picks a DDS domain from the test's name and a fresh runs folder; both are inherited by children.
+struct IsolatedEnv {
+  std::filesystem::path runs;
+  IsolatedEnv() {
+    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+    const std::string name = std::string(info->test_suite_name()) + "." + info->name();
+    const int domain = 100 + static_cast<int>(std::hash<std::string>{}(name) % 100);
+    setenv("DH_DOMAIN_ID", std::to_string(domain).c_str(), 1);
+    runs = std::filesystem::temp_directory_path() / ("dh_itest_" + std::to_string(getpid()) + "_" + info->name());
+    std::filesystem::remove_all(runs);
+    std::filesystem::create_directories(runs);
+    setenv("DH_RUNS_DIR", runs.c_str(), 1);
+  }
+  ~IsolatedEnv() {
+    if (!::testing::Test::HasFailure()) std::filesystem::remove_all(runs);
+  }
+};
+
+inline cli::ServiceSpec service(const std::string& name, std::vector<std::string> args = {}) {
+  return {name, name, std::move(args)};
+}
+
+/// Waits until `pred` holds or `timeout` passes; returns pred().
+template <class Pred>
+bool wait_until(std::mutex& m, std::condition_variable& cv, std::chrono::milliseconds timeout, Pred pred) {
+  std::unique_lock l(m);
+  return cv.wait_for(l, timeout, pred);
+}
+
+/// Runs a command, returns its stdout and exit status.
+inline std::pair<std::string, int> run_command(const std::string& cmd) {
+  std::string out;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return {"", -1};
+  char buf[4096];
+  while (std::fgets(buf, sizeof buf, p)) out += buf;
+  const int status = pclose(p);
+  return {out, WIFEXITED(status) ? WEXITSTATUS(status) : -1};
+}
+
+}  // namespace dh::itest

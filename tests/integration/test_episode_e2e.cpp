@@ -1,0 +1,57 @@
+// One full episode through the dh CLI, which starts the local deployment (four processes on DDS).
+#include <nlohmann/json.hpp>
+
+#include "dh/common/evidence.hpp"
+#include "harness.hpp"
+
+using namespace dh;
+
+TEST(EpisodeEndToEnd, BowlOnPlateThroughRealProcesses) {
+  itest::IsolatedEnv env;
+  const auto dh = paths::bin_dir() / "dh";
+  const auto [out, status] = itest::run_command(dh.string() + " run --suite goal --task 8 --seed 2 --json");
+  ASSERT_EQ(status, 0) << out;
+  const auto j = nlohmann::json::parse(out);
+  EXPECT_TRUE(j["success"].get<bool>()) << out;
+  EXPECT_GT(j["steps"].get<int>(), 100);
+  EXPECT_LE(j["steps"].get<int>(), 300);
+  const auto records = read_evidence(j["evidence"].get<std::string>());
+  std::map<std::string, int> kinds;
+  for (const auto& r : records) ++kinds[r["kind"]];
+  for (const char* k : {"episode_start", "plan_request", "advice", "grounding", "dispatch", "command_status",
+                        "decision", "verdict_event", "episode_end"})
+    EXPECT_GT(kinds[k], 0) << "evidence has no '" << k << "' record";
+  EXPECT_GE(kinds["decision"], 10) << "a decision every 10 steps";
+  const auto& last = records.back();
+  EXPECT_EQ(last["kind"], "episode_end");
+  EXPECT_TRUE(last["latched"].get<bool>());
+  EXPECT_EQ(last["outcome"], "success");
+}
+
+TEST(EpisodeEndToEnd, BadInputGetsAClearErrorAndNonZeroExit) {
+  itest::IsolatedEnv env;
+  const auto dh = paths::bin_dir() / "dh";
+  auto [out, status] = itest::run_command(dh.string() + " run --suite nope --task 8 --seed 1 2>&1");
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(out.find("unknown suite 'nope'"), std::string::npos) << out;
+  std::tie(out, status) = itest::run_command(dh.string() + " run --suite goal --task 3 --seed 1 2>&1");
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(out.find("has no task 3"), std::string::npos) << out;
+  std::tie(out, status) = itest::run_command(dh.string() + " run --suite goal --task 8 --seed -4 2>&1");
+  EXPECT_NE(status, 0);
+  std::tie(out, status) = itest::run_command("DH_CONFIG_DIR=/nonexistent " + dh.string() + " tasks 2>&1");
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(out.find("/nonexistent/suites"), std::string::npos) << out;
+}
+
+TEST(EpisodeEndToEnd, TasksListsTheSuiteAsJson) {
+  itest::IsolatedEnv env;
+  const auto [out, status] = itest::run_command((paths::bin_dir() / "dh").string() + " tasks --json");
+  ASSERT_EQ(status, 0);
+  const auto j = nlohmann::json::parse(out);
+  ASSERT_TRUE(j.is_array());
+  bool found = false;
+  for (const auto& t : j)
+    found |= t["suite"] == "goal" && t["task"] == 8 && t["instruction"] == "put the bowl on the plate" && t["budget"] == 300;
+  EXPECT_TRUE(found) << out;
+}
