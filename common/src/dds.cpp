@@ -73,6 +73,12 @@ QosPair qos_for(Qos kind) {
   }
   w.history().depth = depth;
   r.history().depth = depth;
+  // Fast DDS 2.x defaults to 10 instances per writer/reader; a key per channel needs many more.
+  for (auto* rl : {&w.resource_limits(), &r.resource_limits()}) {
+    rl->max_instances = 1024;
+    rl->max_samples_per_instance = 400;
+    rl->max_samples = 1024 * 400;
+  }
   return q;
 }
 

@@ -55,3 +55,22 @@ TEST(EpisodeEndToEnd, TasksListsTheSuiteAsJson) {
     found |= t["suite"] == "goal" && t["task"] == 8 && t["instruction"] == "put the bowl on the plate" && t["budget"] == 300;
   EXPECT_TRUE(found) << out;
 }
+
+// One deployment serves many episodes: more than Fast DDS's default of 10 instances per topic, on
+// both channels, with idle channels' lease deadlines lapsing between episodes.
+TEST(EpisodeEndToEnd, TwentySeedsOnOneDeploymentAllSucceed) {
+  itest::IsolatedEnv env;
+  cli::Deployment d(cli::load_launch_file(paths::home() / "deploy" / "local.yaml"), paths::bin_dir(), env.runs / "logs");
+  const auto dh = paths::bin_dir() / "dh";
+  int ok = 0;
+  for (int seed = 1; seed <= 20; ++seed) {
+    const auto [out, status] = itest::run_command(dh.string() + " run --suite goal --task 8 --seed " +
+                                                  std::to_string(seed) + " --json --ready-timeout-ms 20000 --timeout 60");
+    ASSERT_EQ(status, 0) << out;
+    const auto j = nlohmann::json::parse(out);
+    ok += j["success"].get<bool>();
+    EXPECT_TRUE(j["success"].get<bool>()) << "seed " << seed << ": " << j["outcome"] << " " << j["reason"];
+  }
+  EXPECT_GE(ok, 18);
+  EXPECT_TRUE(d.exited().empty()) << "a service crashed";
+}

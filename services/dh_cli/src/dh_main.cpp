@@ -126,7 +126,7 @@ std::string episode_id(const std::string& suite, unsigned task, unsigned seed) {
 }
 
 int cmd_run(const std::string& suite, unsigned task, unsigned seed, std::optional<std::uint32_t> channel,
-            bool json, unsigned timeout_s, const std::string& launch_file) {
+            bool json, unsigned timeout_s, const std::string& launch_file, unsigned ready_ms) {
   const auto suites = load_suites(paths::config_dir());
   const TaskDef& t = find_task(suites, suite, task);
   dds::Participant participant("dh_cli");
@@ -134,7 +134,7 @@ int cmd_run(const std::string& suite, unsigned task, unsigned seed, std::optiona
   // The capability the embedded planner will need first; the deployment is ready when it is announced.
   const std::string needed = "pick_place";
   std::unique_ptr<cli::Deployment> local;
-  auto ch = client.wait_ready(needed, channel, std::chrono::milliseconds(2500));
+  auto ch = client.wait_ready(needed, channel, std::chrono::milliseconds(ready_ms));
   if (!ch) {
     const auto file = launch_file.empty() ? paths::home() / "deploy" / "local.yaml" : std::filesystem::path(launch_file);
     if (!json) std::cerr << "no deployment answered; starting " << file.string() << "\n";
@@ -204,7 +204,7 @@ int main(int argc, char** argv) {
   auto* tasks = app.add_subcommand("tasks", "list suites and tasks");
   tasks->add_flag("--json", json, "one JSON list on stdout");
   std::string suite, launch_file;
-  unsigned task = 0, seed = 0, timeout_s = 180;
+  unsigned task = 0, seed = 0, timeout_s = 180, ready_ms = 2500;
   std::optional<std::uint32_t> channel;
   auto* run = app.add_subcommand("run", "run one episode");
   run->add_option("--suite", suite, "suite name (see dh tasks)")->required();
@@ -212,6 +212,7 @@ int main(int argc, char** argv) {
   run->add_option("--seed", seed, "seed fixing the initial state (non-negative integer)")->required();
   run->add_option("--channel", channel, "simulator channel to use (default: any idle one)");
   run->add_option("--timeout", timeout_s, "seconds to wait for the episode's result");
+  run->add_option("--ready-timeout-ms", ready_ms, "how long to look for a live deployment before starting one");
   run->add_option("--launch", launch_file, "launch file to start when no deployment answers");
   run->add_flag("--json", json, "one JSON object on stdout");
   std::string deploy;
@@ -220,7 +221,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     if (*tasks) return dh::cmd_tasks(json);
-    if (*run) return dh::cmd_run(suite, task, seed, channel, json, timeout_s, launch_file);
+    if (*run) return dh::cmd_run(suite, task, seed, channel, json, timeout_s, launch_file, ready_ms);
     if (*launch) return dh::cmd_launch(deploy);
   } catch (const dh::ConfigError& e) {
     std::cerr << "error: " << e.what() << "\n";

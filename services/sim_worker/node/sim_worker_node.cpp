@@ -112,10 +112,13 @@ class Channel {
     lease_.budget_until_step = l.budget_until_step();
     lease_.revoked = l.revoked();
     lease_.writer_silent = false;
+    lease_at_ = Clock::now();
   }
 
+  // The deadline event names no channel we can use, so each channel checks its own lease's age.
   void handle(LeaseSilent&) {
-    if (lease_.known && !lease_.revoked) {
+    const auto silent_for = std::chrono::duration<double>(Clock::now() - lease_at_).count();
+    if (lease_.known && !lease_.revoked && silent_for >= dds::kLeaseDeadlineSec) {
       lease_.writer_silent = true;
       log_->warn("channel={} lease writer missed its {} s deadline", id_, dds::kLeaseDeadlineSec);
     }
@@ -209,6 +212,7 @@ class Channel {
   sim::LeaseState lease_;
   std::optional<msg::Action> pending_;
   Clock::time_point pending_since_;
+  Clock::time_point lease_at_;
   bool predicate_ = false;
 };
 
