@@ -96,11 +96,8 @@ class Client {
   std::optional<msg::EpisodeResult> wait_result(const std::string& episode, std::chrono::milliseconds timeout) {
     std::unique_lock l(m_);
     const auto deadline = Clock::now() + timeout;
-    while (!results_seen_.count(episode)) {
-      if (shutdown_requested() || cv_.wait_until(l, std::min(deadline, Clock::now() + std::chrono::milliseconds(200))) ==
-                                          std::cv_status::timeout && Clock::now() >= deadline)
-        break;
-    }
+    while (!results_seen_.count(episode) && !shutdown_requested() && Clock::now() < deadline)
+      cv_.wait_until(l, std::min(deadline, Clock::now() + std::chrono::milliseconds(200)));
     if (!results_seen_.count(episode)) return std::nullopt;
     return results_seen_.at(episode);
   }
