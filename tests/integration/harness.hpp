@@ -2,7 +2,9 @@
 // their own and a temporary runs folder. Every profile stays on loopback (deploy/dds/loopback.xml).
 #pragma once
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/file.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -19,14 +21,24 @@
 
 namespace dh::itest {
 
-/// Picks a DDS domain from the test's name and a fresh runs folder; both are inherited by children.
+/// Takes a DDS domain no other running test holds (an flock per domain, released when the test's
+/// process ends) and a fresh runs folder; both are inherited by the services the test starts.
 struct IsolatedEnv {
   std::filesystem::path runs;
+  int lock_fd = -1;
   IsolatedEnv() {
     const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    const std::string name = std::string(info->test_suite_name()) + "." + info->name();
-    const int domain = 100 + static_cast<int>(std::hash<std::string>{}(name) % 100);
-    setenv("DH_DOMAIN_ID", std::to_string(domain).c_str(), 1);
+    for (int domain = 100; domain < 200 && lock_fd < 0; ++domain) {
+      const auto lock = std::filesystem::temp_directory_path() / ("dh_domain_" + std::to_string(domain) + ".lock");
+      const int fd = open(lock.c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644);
+      if (fd >= 0 && flock(fd, LOCK_EX | LOCK_NB) == 0) {
+        lock_fd = fd;
+        setenv("DH_DOMAIN_ID", std::to_string(domain).c_str(), 1);
+      } else if (fd >= 0) {
+        close(fd);
+      }
+    }
+    if (lock_fd < 0) ADD_FAILURE() << "no free DDS domain in 100..199";
     runs = std::filesystem::temp_directory_path() / ("dh_itest_" + std::to_string(getpid()) + "_" + info->name());
     std::filesystem::remove_all(runs);
     std::filesystem::create_directories(runs);
@@ -34,6 +46,7 @@ struct IsolatedEnv {
   }
   ~IsolatedEnv() {
     if (!::testing::Test::HasFailure()) std::filesystem::remove_all(runs);
+    if (lock_fd >= 0) close(lock_fd);
   }
 };
 

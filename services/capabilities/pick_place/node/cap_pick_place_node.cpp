@@ -40,9 +40,8 @@ struct Running {
 
 class Node {
  public:
-  Node(dds::Participant& p, std::string instance, std::map<std::string, double> theta,
-       std::shared_ptr<spdlog::logger> log)
-      : instance_(std::move(instance)), theta_(std::move(theta)), log_(std::move(log)),
+  Node(dds::Participant& p, std::string instance, std::shared_ptr<spdlog::logger> log)
+      : instance_(std::move(instance)), log_(std::move(log)),
         action_(p, topics::kAction, dds::Qos::Action),
         status_(p, topics::kCommandStatus, dds::Qos::Status) {}
 
@@ -129,7 +128,6 @@ class Node {
   }
 
   std::string instance_;
-  std::map<std::string, double> theta_;
   std::shared_ptr<spdlog::logger> log_;
   dds::Writer<msg::ActionPubSubType> action_;
   dds::Writer<msg::CommandStatusPubSubType> status_;
@@ -177,7 +175,7 @@ int run(int argc, char** argv) {
     const msg::CapabilityAnnounce descriptor = load_descriptor(library, instance);
     dds::Participant participant("dh_cap_pick_place");
     EventQueue<Event> queue;
-    Node node(participant, instance, convert::from_msg(descriptor.parameters()), log);
+    Node node(participant, instance, log);  // θ arrives with each command
     dds::Reader<msg::CommandPubSubType> cmd(participant, topics::kCommand, dds::Qos::Command,
         {[&](const msg::Command& m, const auto&) { queue.push(m); }, {}, {}});
     dds::Reader<msg::ObservationPubSubType> obs(participant, topics::kObservation, dds::Qos::Observation,
