@@ -8,6 +8,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "dh/common/geometry.hpp"
+
 namespace dh::sim {
 
 namespace {
@@ -18,6 +20,8 @@ constexpr double kIkDamping = 0.05;
 constexpr double kNullGain = 0.1;
 // The controller's own speed limit sits below the seam's envelope, so the check only trips on faults.
 constexpr double kRefSpeedFraction = 0.9;
+// On(a, b) for an object b, as LIBERO checks it: horizontal distance of the two origins.
+constexpr double kOnXyTolerance = 0.03;
 }  // namespace
 
 struct Workcell::Ids {
@@ -52,6 +56,8 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
   if (!m_) throw std::runtime_error(scene_.file.string() + ": MuJoCo rejected the workcell model: " + err);
   d_ = mj_makeData(m_);
   ik_ = mj_makeData(m_);
+  jacp_.resize(3 * m_->nv);
+  jacr_.resize(3 * m_->nv);
 
   ids_ = std::make_unique<Ids>();
   auto need = [&](mjtObj type, const std::string& name) {
@@ -88,15 +94,19 @@ Workcell::~Workcell() {
 }
 
 void Workcell::reset(std::uint64_t seed, const std::vector<PredicateSpec>& goal) {
+  std::vector<std::array<int, 2>> goal_on;
   for (const auto& p : goal) {
     if (p.name != "On")
       throw std::invalid_argument("predicate '" + p.name + "' is not evaluated by this workcell (On)");
     if (p.args.size() != 2) throw std::invalid_argument(p.text() + ": On takes two entities");
-    for (const auto& a : p.args)
-      if (mj_name2id(m_, mjOBJ_BODY, a.c_str()) < 0)
-        throw std::invalid_argument(p.text() + ": no entity '" + a + "' in scene " + scene_.name);
+    std::array<int, 2> bodies{};
+    for (int k = 0; k < 2; ++k) {
+      bodies[k] = mj_name2id(m_, mjOBJ_BODY, p.args[k].c_str());
+      if (bodies[k] < 0) throw std::invalid_argument(p.text() + ": no entity '" + p.args[k] + "' in scene " + scene_.name);
+    }
+    goal_on.push_back(bodies);
   }
-  goal_ = goal;
+  goal_on_ = std::move(goal_on);
   const auto placements = sample_placements(scene_, seed);
   mj_resetData(m_, d_);
   for (int i = 0; i < 7; ++i) d_->qpos[ids_->arm_qpos[i]] = scene_.ready_q[i];
@@ -116,49 +126,43 @@ void Workcell::reset(std::uint64_t seed, const std::vector<PredicateSpec>& goal)
   for (int s = 0; s < 6; ++s) step({0, 0, 0, 0, 0, 0, -1});
 }
 
-void Workcell::solve_ik(const std::array<double, 3>& p_goal, const double r_goal[9], double q_goal[7]) {
+std::array<double, 4> Workcell::tcp_quat(const mjData_* d) const {
+  std::array<double, 4> q{};
+  mju_mat2Quat(q.data(), d->site_xmat + 9 * ids_->tcp_site);
+  return q;
+}
+
+void Workcell::solve_ik(const std::array<double, 3>& p_goal, const std::array<double, 4>& q_goal, double joints[7]) {
   std::memcpy(ik_->qpos, d_->qpos, sizeof(mjtNum) * m_->nq);
-  Eigen::Matrix<double, 3, Eigen::Dynamic> jacp(3, m_->nv), jacr(3, m_->nv);
+  const Eigen::Quaterniond goal_rot = geo::quat(q_goal);
+  Eigen::Matrix<double, 7, 1> q_ready;
+  for (int i = 0; i < 7; ++i) q_ready[i] = scene_.ready_q[i];
   Eigen::Matrix<double, 6, 7> J;
   for (int iter = 0; iter < 4; ++iter) {
     mj_kinematics(m_, ik_);
     mj_comPos(m_, ik_);
-    const double* p = ik_->site_xpos + 3 * ids_->tcp_site;
-    const double* r = ik_->site_xmat + 9 * ids_->tcp_site;
     Eigen::Matrix<double, 6, 1> err;
-    for (int k = 0; k < 3; ++k) err[k] = p_goal[k] - p[k];
-    // Orientation error: rotation vector of R_goal * R^T.
-    double qg[4], qc[4], dq[4], qc_neg[4];
-    mju_mat2Quat(qg, r_goal);
-    mju_mat2Quat(qc, r);
-    mju_negQuat(qc_neg, qc);
-    mju_mulQuat(dq, qg, qc_neg);
-    double rv[3];
-    mju_quat2Vel(rv, dq, 1.0);
-    for (int k = 0; k < 3; ++k) err[3 + k] = rv[k];
-    // jac functions write row-major 3 x nv.
-    std::vector<mjtNum> jp(3 * m_->nv), jr(3 * m_->nv);
-    mj_jacSite(m_, ik_, jp.data(), jr.data(), ids_->tcp_site);
+    err.head<3>() = geo::vec(p_goal) - Eigen::Map<const Eigen::Vector3d>(ik_->site_xpos + 3 * ids_->tcp_site);
+    err.tail<3>() = geo::rotvec_between(geo::quat(tcp_quat(ik_)), goal_rot);
+    // mj_jacSite writes row-major 3 x nv.
+    mj_jacSite(m_, ik_, jacp_.data(), jacr_.data(), ids_->tcp_site);
     for (int i = 0; i < 7; ++i)
       for (int k = 0; k < 3; ++k) {
-        J(k, i) = jp[k * m_->nv + ids_->arm_dof[i]];
-        J(3 + k, i) = jr[k * m_->nv + ids_->arm_dof[i]];
+        J(k, i) = jacp_[k * m_->nv + ids_->arm_dof[i]];
+        J(3 + k, i) = jacr_[k * m_->nv + ids_->arm_dof[i]];
       }
     const Eigen::Matrix<double, 6, 6> JJt =
         J * J.transpose() + kIkDamping * kIkDamping * Eigen::Matrix<double, 6, 6>::Identity();
     const Eigen::Matrix<double, 7, 6> Jpinv = J.transpose() * JJt.inverse();
-    Eigen::Matrix<double, 7, 1> q, q_ready;
-    for (int i = 0; i < 7; ++i) {
-      q[i] = ik_->qpos[ids_->arm_qpos[i]];
-      q_ready[i] = scene_.ready_q[i];
-    }
+    Eigen::Matrix<double, 7, 1> q;
+    for (int i = 0; i < 7; ++i) q[i] = ik_->qpos[ids_->arm_qpos[i]];
     const Eigen::Matrix<double, 7, 7> N = Eigen::Matrix<double, 7, 7>::Identity() - Jpinv * J;
     const Eigen::Matrix<double, 7, 1> step = Jpinv * err + N * (kNullGain * (q_ready - q));
     for (int i = 0; i < 7; ++i)
       ik_->qpos[ids_->arm_qpos[i]] =
           std::clamp(q[i] + step[i], ids_->q_lower[i] + 0.01, ids_->q_upper[i] - 0.01);
   }
-  for (int i = 0; i < 7; ++i) q_goal[i] = ik_->qpos[ids_->arm_qpos[i]];
+  for (int i = 0; i < 7; ++i) joints[i] = ik_->qpos[ids_->arm_qpos[i]];
 }
 
 std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
@@ -167,27 +171,18 @@ std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
   for (int i = 0; i < 7; ++i) a[i] = std::clamp(std::isfinite(action_in[i]) ? action_in[i] : 0.0, -1.0, 1.0);
 
   const double* p = d_->site_xpos + 3 * ids_->tcp_site;
-  const double* r = d_->site_xmat + 9 * ids_->tcp_site;
   std::array<double, 3> p_goal{p[0] + kMaxDeltaPos * a[0], p[1] + kMaxDeltaPos * a[1],
                                p[2] + kMaxDeltaPos * a[2]};
   if (clamp_to_workspace(p_goal, limits_))
     events.push_back({StepEvent::WorkspaceClamp, "position target clamped into the workspace box"});
-  // Rotation target: world-frame delta applied to the current orientation.
-  double rv[3] = {kMaxDeltaRot * a[3], kMaxDeltaRot * a[4], kMaxDeltaRot * a[5]};
-  double qd[4], qc[4], qg[4], r_goal[9];
-  const double angle = std::sqrt(rv[0] * rv[0] + rv[1] * rv[1] + rv[2] * rv[2]);
-  if (angle > 1e-12) {
-    double axis[3] = {rv[0] / angle, rv[1] / angle, rv[2] / angle};
-    mju_axisAngle2Quat(qd, axis, angle);
-  } else {
-    qd[0] = 1, qd[1] = qd[2] = qd[3] = 0;
-  }
-  mju_mat2Quat(qc, r);
-  mju_mulQuat(qg, qd, qc);
-  mju_quat2Mat(r_goal, qg);
+  // Rotation target: world-frame delta (axis-angle) applied to the current orientation.
+  const Eigen::Vector3d rv(kMaxDeltaRot * a[3], kMaxDeltaRot * a[4], kMaxDeltaRot * a[5]);
+  Eigen::Quaterniond delta = Eigen::Quaterniond::Identity();
+  if (rv.norm() > 1e-12) delta = Eigen::AngleAxisd(rv.norm(), rv.normalized());
+  const auto q_goal_rot = geo::wxyz(delta * geo::quat(tcp_quat(d_)));
 
   double q_goal[7];
-  solve_ik(p_goal, r_goal, q_goal);
+  solve_ik(p_goal, q_goal_rot, q_goal);
   std::array<double, 7> q0{}, v_ref{};
   constexpr double period = kSubsteps * 0.002;
   for (int i = 0; i < 7; ++i) {
@@ -237,26 +232,24 @@ bool Workcell::in_contact(int body_a, int body_b) const {
   return false;
 }
 
-bool Workcell::holds(const PredicateSpec& p) const {
-  // On(a, b), as LIBERO checks it for an object b: a rests on b (contact), a is not below b, and
-  // their origins are within a small horizontal distance.
-  const int a = mj_name2id(m_, mjOBJ_BODY, p.args[0].c_str());
-  const int b = mj_name2id(m_, mjOBJ_BODY, p.args[1].c_str());
+bool Workcell::on(int a, int b) const {
+  // As LIBERO checks On(a, b) for an object b: a rests on b (contact), a is not below b, and their
+  // origins are within a small horizontal distance.
   const double* pa = d_->xpos + 3 * a;
   const double* pb = d_->xpos + 3 * b;
-  return pb[2] <= pa[2] && in_contact(a, b) && std::hypot(pa[0] - pb[0], pa[1] - pb[1]) < on_xy_tolerance_;
+  return pb[2] <= pa[2] && in_contact(a, b) && std::hypot(pa[0] - pb[0], pa[1] - pb[1]) < kOnXyTolerance;
 }
 
 bool Workcell::goal_holds() const {
-  if (goal_.empty()) return false;
-  return std::all_of(goal_.begin(), goal_.end(), [&](const PredicateSpec& p) { return holds(p); });
+  if (goal_on_.empty()) return false;
+  return std::all_of(goal_on_.begin(), goal_on_.end(), [&](const auto& ab) { return on(ab[0], ab[1]); });
 }
 
 Observation Workcell::observe() const {
   Observation o;
   const double* p = d_->site_xpos + 3 * ids_->tcp_site;
   std::copy(p, p + 3, o.ee_p.begin());
-  mju_mat2Quat(o.ee_q.data(), d_->site_xmat + 9 * ids_->tcp_site);
+  o.ee_q = tcp_quat(d_);
   for (int a : ids_->finger_qpos) o.gripper_opening += d_->qpos[a];
   for (int i = 0; i < 7; ++i) {
     o.q[i] = d_->qpos[ids_->arm_qpos[i]];

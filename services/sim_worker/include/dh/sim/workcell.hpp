@@ -54,8 +54,10 @@ class Workcell {
 
  private:
   struct Ids;
-  void solve_ik(const std::array<double, 3>& p_goal, const double r_goal[9], double q_goal[7]);
-  bool holds(const PredicateSpec& p) const;
+  /// Joint targets reaching the tool pose (position, quaternion w x y z) from the current state.
+  void solve_ik(const std::array<double, 3>& p_goal, const std::array<double, 4>& q_goal, double joints[7]);
+  std::array<double, 4> tcp_quat(const mjData_* d) const;
+  bool on(int body_a, int body_b) const;
   bool in_contact(int body_a, int body_b) const;
 
   SceneSpec scene_;
@@ -64,8 +66,8 @@ class Workcell {
   mjData_* d_ = nullptr;
   mjData_* ik_ = nullptr;
   std::unique_ptr<Ids> ids_;
-  std::vector<PredicateSpec> goal_;
-  double on_xy_tolerance_ = 0.03;
+  std::vector<std::array<int, 2>> goal_on_;  ///< On(a, b) goal terms as body ids, resolved at reset
+  std::vector<double> jacp_, jacr_;          ///< 3 x nv Jacobian buffers of the IK
 };
 
 }  // namespace dh::sim
