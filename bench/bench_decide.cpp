@@ -61,7 +61,7 @@ static void BM_Ground(benchmark::State& state) {
   info.capability = "pick_place";
   info.instance = "pick_place@a";
   info.arguments = {"object", "target"};
-  info.preconditions = {"distinct_entities", "gripper_empty", "object_not_on_target"};
+  info.preconditions = {"distinct_entities", "gripper_empty", "task_goal_unmet"};
   info.parameters = {{"corridor_height", 0.16}, {"approach_height", 0.08}};
   info.cost_steps = 221;
   registry.announce(info);

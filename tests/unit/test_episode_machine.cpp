@@ -94,6 +94,8 @@ TEST_F(Machine, ALostCapabilityEndsTheCommandWithoutAHang) {
   registry.set_alive("pick_place@a", false);
   fx = m->on_capability_lost("pick_place@a", t0);
   EXPECT_EQ(fx.cancel_command, "ep/c0");
+  ASSERT_TRUE(fx.lease);
+  EXPECT_TRUE(fx.lease->revoked) << "the lost command's lease is revoked at the seam";
   ASSERT_TRUE(fx.plan_request) << "no other instance: the planner is asked again";
   EXPECT_TRUE(fx.plan_request->capabilities.empty());
 }

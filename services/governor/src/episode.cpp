@@ -243,40 +243,32 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
                                       std::to_string(latch_.event_step()) + ")");
     case DecisionKind::GiveUp:
       return end(false, s.step >= s.budget_steps ? "budget_exhausted" : "gave_up", d.reason);
-    case DecisionKind::Retry:
-      fx = stop_command({});
-      if (last_advice_) {
-        Effects g = ground_and_dispatch(*last_advice_, now);
-        g.cancel_command = fx.cancel_command;
-        return g;
-      }
-      return request_plan(d.reason, now);
+    case DecisionKind::Retry: {
+      const Effects stop = stop_command();
+      return then(stop, last_advice_ ? ground_and_dispatch(*last_advice_, now) : request_plan(d.reason, now));
+    }
     case DecisionKind::InsertRecovery:
     case DecisionKind::HandToVla:
     case DecisionKind::Substitute: {
-      fx = stop_command({});
+      const Effects stop = stop_command();
       Advice a = last_advice_.value_or(Advice{});
       a.refused = false;
       if (d.kind == DecisionKind::InsertRecovery) a.capability = "recovery";
       if (d.kind == DecisionKind::HandToVla) a.capability = "vla_act";
       a.rationale = "fast brain: " + d.reason;
-      Effects g = ground_and_dispatch(a, now);
-      g.cancel_command = fx.cancel_command;
-      return g;
+      return then(stop, ground_and_dispatch(a, now));
     }
     case DecisionKind::RequestReplan: {
       ++replans_;
-      fx = stop_command({});
-      Effects p = request_plan(d.reason, now);
-      p.cancel_command = fx.cancel_command;
-      p.lease = fx.lease;
-      return p;
+      const Effects stop = stop_command();
+      return then(stop, request_plan(d.reason, now));
     }
   }
   return fx;
 }
 
-Effects EpisodeMachine::stop_command(Effects fx) {
+Effects EpisodeMachine::stop_command() {
+  Effects fx;
   if (running_) {
     fx.cancel_command = running_->command_id;
     fx.lease = Lease{running_->command_id, last_obs_.step, last_obs_.step, true};
@@ -285,8 +277,15 @@ Effects EpisodeMachine::stop_command(Effects fx) {
   return fx;
 }
 
+Effects EpisodeMachine::then(const Effects& stop, Effects next) {
+  if (!next.cancel_command) next.cancel_command = stop.cancel_command;
+  // A new command's lease supersedes the revocation on the channel's lease key.
+  if (!next.lease) next.lease = stop.lease;
+  return next;
+}
+
 Effects EpisodeMachine::end(bool success, const std::string& outcome, const std::string& reason) {
-  Effects fx = stop_command({});
+  Effects fx = stop_command();
   phase_ = Phase::Ended;
   EpisodeEnd e{success, last_obs_.step, outcome, reason, decisions_, refusals_total_};
   evidence_.append("governor", "episode_end",

@@ -87,7 +87,9 @@ class EpisodeMachine {
   Effects refuse(Refusal r, const std::string& reason, Clock::time_point now);
   Effects decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now);
   Effects end(bool success, const std::string& outcome, const std::string& reason);
-  Effects stop_command(Effects fx);
+  Effects stop_command();  ///< cancel + revoking lease for the running command, if any
+  /// `next` after stopping: the stop's cancel and revocation ride along unless `next` sets its own.
+  static Effects then(const Effects& stop, Effects next);
   Effects finish_command(const CommandStatus& st, Clock::time_point now);
   nlohmann::json obs_summary(const Observation& o) const;
 
