@@ -21,7 +21,7 @@
 #include "dh/common/event_queue.hpp"
 #include "dh/common/log.hpp"
 #include "dh/common/paths.hpp"
-#include "dh/common/shutdown.hpp"
+#include "dh/common/service.hpp"
 #include "dh/common/topics.hpp"
 #include "dh/gov/episode.hpp"
 #include "dh/msg/capabilityPubSubTypes.h"
@@ -253,8 +253,7 @@ int run(int argc, char** argv) {
   app.add_option("--runs-dir", runs, "where evidence goes (default: DH_RUNS_DIR or ./runs)");
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("dh_governor");
-  install_shutdown_handlers();
-  try {
+  return run_service(*log, [&] {
     if (config.empty()) config = (paths::config_dir() / "governor.yaml").string();
     const std::filesystem::path runs_dir = runs.empty() ? paths::runs_dir() : std::filesystem::path(runs);
     dds::Participant participant("dh_governor");
@@ -289,12 +288,7 @@ int run(int argc, char** argv) {
         next_tick = gov::Clock::now() + std::chrono::milliseconds(50);
       }
     }
-    log->info("shutting down");
-  } catch (const std::exception& e) {
-    log->error("{}", e.what());
-    return 1;
-  }
-  return 0;
+  });
 }
 
 }  // namespace

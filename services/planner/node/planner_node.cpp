@@ -10,7 +10,7 @@
 #include "dh/common/dds.hpp"
 #include "dh/common/event_queue.hpp"
 #include "dh/common/log.hpp"
-#include "dh/common/shutdown.hpp"
+#include "dh/common/service.hpp"
 #include "dh/common/topics.hpp"
 #include "dh/msg/plannerPubSubTypes.h"
 #include "dh/planner/rules.hpp"
@@ -24,8 +24,7 @@ int run(int argc, char** argv) {
   app.add_option("--backend", backend, "planner backend")->check(CLI::IsMember({"rules"}));
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("dh_planner");
-  install_shutdown_handlers();
-  try {
+  return run_service(*log, [&] {
     dds::Participant participant("dh_planner");
     EventQueue<msg::PlanRequest> q;
     dds::Writer<msg::AdvicePubSubType> advice(participant, topics::kAdvice, dds::Qos::Planner);
@@ -51,12 +50,7 @@ int run(int argc, char** argv) {
       log->info("channel={} request={} -> {}", r->channel(), r->request_id(),
                 a.refused ? "refused: " + a.reason : a.capability);
     }
-    log->info("shutting down");
-  } catch (const std::exception& e) {
-    log->error("{}", e.what());
-    return 1;
-  }
-  return 0;
+  });
 }
 
 }  // namespace

@@ -23,7 +23,7 @@
 #include "dh/common/event_queue.hpp"
 #include "dh/common/log.hpp"
 #include "dh/common/paths.hpp"
-#include "dh/common/shutdown.hpp"
+#include "dh/common/service.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/common/topics.hpp"
 #include "dh/msg/command.h"
@@ -226,8 +226,7 @@ int run(int argc, char** argv) {
   app.add_option("--name", name, "worker name in channel announcements");
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("dh_sim_worker");
-  install_shutdown_handlers();
-  try {
+  return run_service(*log, [&] {
     const auto suites = load_suites(paths::config_dir());
     dds::Participant participant("dh_sim_worker");
     Writers writers(participant);
@@ -250,12 +249,7 @@ int run(int argc, char** argv) {
     std::vector<std::thread> threads;
     for (auto& c : chans) threads.emplace_back([&c] { c->run(); });
     for (auto& t : threads) t.join();
-    log->info("shutting down");
-  } catch (const std::exception& e) {
-    log->error("{}", e.what());
-    return 1;
-  }
-  return 0;
+  });
 }
 
 }  // namespace

@@ -20,7 +20,7 @@
 #include "dh/common/event_queue.hpp"
 #include "dh/common/log.hpp"
 #include "dh/common/paths.hpp"
-#include "dh/common/shutdown.hpp"
+#include "dh/common/service.hpp"
 #include "dh/common/topics.hpp"
 #include "dh/msg/capabilityPubSubTypes.h"
 #include "dh/msg/commandPubSubTypes.h"
@@ -164,8 +164,7 @@ int run(int argc, char** argv) {
   app.add_option("--instance", instance, "instance name (default: pick_place@<host>:<pid>)");
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("dh_cap_pick_place");
-  install_shutdown_handlers();
-  try {
+  return run_service(*log, [&] {
     if (library.empty()) library = (paths::config_dir() / "library" / "pick_place.yaml").string();
     if (instance.empty()) {
       char host[256] = "";
@@ -185,12 +184,7 @@ int run(int argc, char** argv) {
     log->info("instance={} cost_steps={} announced", instance, descriptor.cost_steps());
     while (!shutdown_requested())
       if (auto e = queue.pop(std::chrono::milliseconds(50))) std::visit([&](auto& ev) { node.handle(ev); }, *e);
-    log->info("shutting down");
-  } catch (const std::exception& e) {
-    log->error("{}", e.what());
-    return 1;
-  }
-  return 0;
+  });
 }
 
 }  // namespace
