@@ -101,6 +101,7 @@ RobotSpec load_robot(const std::filesystem::path& urdf_path) {
   if (!model) throw ConfigError(urdf_path.string() + ": not a valid URDF (urdfdom could not parse it)");
   RobotSpec spec;
   spec.urdf = urdf_path;
+  spec.urdf_xml = buf.str();
   spec.name = model->getName();
   // Walk the chain from the root so joints come base to tip.
   std::vector<urdf::LinkConstSharedPtr> stack{model->getRoot()};
@@ -127,10 +128,7 @@ RobotSpec load_robot(const std::filesystem::path& urdf_path) {
 }
 
 MjcfFragments robot_mjcf(const RobotSpec& spec, const double base_pos[3], double finger_friction) {
-  std::ifstream in(spec.urdf);
-  std::stringstream buf;
-  buf << in.rdbuf();
-  urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(buf.str());
+  urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(spec.urdf_xml);
   if (!model) throw ConfigError(spec.urdf.string() + ": not a valid URDF");
   MjcfFragments f;
   f.body = "<body name=\"" + model->getRoot()->name + "\" pos=\"" + num(base_pos[0]) + " " +

@@ -17,6 +17,7 @@ struct JointLimits {
 
 struct RobotSpec {
   std::filesystem::path urdf;
+  std::string urdf_xml;              ///< the file's text, read once
   std::string name;
   std::vector<JointLimits> arm;      ///< the 7 revolute joints, base to tip
   std::vector<JointLimits> fingers;  ///< prismatic finger joints (the first drives, the rest mimic)
