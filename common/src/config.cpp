@@ -1,6 +1,5 @@
 #include "dh/common/config.hpp"
 
-#include <array>
 #include <cstdint>
 
 namespace dh {
@@ -13,7 +12,6 @@ template <> const char* config_type_name<std::uint64_t>() { return "a non-negati
 template <> const char* config_type_name<bool>() { return "true or false"; }
 template <> const char* config_type_name<std::vector<double>>() { return "a list of numbers"; }
 template <> const char* config_type_name<std::vector<std::string>>() { return "a list of strings"; }
-template <> const char* config_type_name<std::array<double, 3>>() { return "a list of 3 numbers"; }
 
 ConfigNode ConfigNode::load_file(const std::filesystem::path& path) {
   if (!std::filesystem::exists(path))

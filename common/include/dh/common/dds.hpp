@@ -90,9 +90,6 @@ class Writer {
   Writer& operator=(const Writer&) = delete;
 
   bool write(const T& sample) { return writer_->write(const_cast<T*>(&sample)); }
-  /// Asserts liveliness by hand (AUTOMATIC liveliness needs no call; kept for MANUAL kinds).
-  fdds::DataWriter* raw() const { return writer_; }
-  fdds::InstanceHandle_t handle() const { return writer_->get_instance_handle(); }
   /// Number of matched readers.
   std::size_t matched() const {
     fdds::PublicationMatchedStatus s;

@@ -50,7 +50,8 @@ class Node {
     if (c.kind() == msg::COMMAND_CANCEL) {
       auto it = running_.find(c.channel());
       if (it != running_.end() && it->second.command.command_id() == c.command_id()) {
-        status(it->second, msg::STATE_CANCELLED, "cancelled by the governor", it->second.steps_used);
+        status(it->second, msg::STATE_CANCELLED, "cancelled by the governor", c.start_step() + it->second.steps_used,
+               it->second.steps_used);
         running_.erase(it);
       }
       return;
@@ -70,27 +71,35 @@ class Node {
       if (m.step() != r.command.start_step()) return;
       std::string object, target;
       for (const auto& b : r.command.args()) (b.role() == "object" ? object : target) = b.entity();
-      cap::PickPlaceSkill skill(cap::PickPlaceParams::from_map(convert::from_msg(r.command.theta())));
-      if (auto why = skill.check(object, target, obs, static_cast<int>(r.command.budget_steps()))) {
-        status(r, msg::STATE_REFUSED, *why, 0);
+      std::optional<std::string> why;
+      cap::PickPlaceParams params;
+      try {
+        params = cap::PickPlaceParams::from_map(convert::from_msg(r.command.theta()));
+      } catch (const std::invalid_argument& e) {
+        why = std::string("malformed command: ") + e.what();
+      }
+      cap::PickPlaceSkill skill(params);
+      if (!why) why = skill.check(object, target, obs, static_cast<int>(r.command.budget_steps()));
+      if (why) {
+        status(r, msg::STATE_REFUSED, *why, m.step(), 0);
         log_->info("channel={} command={} refused: {}", m.channel(), r.command.command_id(), *why);
         running_.erase(it);
         return;
       }
       skill.start(object, target, obs);
       r.skill = std::move(skill);
-      status(r, msg::STATE_ACCEPTED, "", 0);
+      status(r, msg::STATE_ACCEPTED, "", m.step(), 0);
     }
     if (r.steps_used >= r.command.budget_steps()) {
       status(r, msg::STATE_EXPIRED, "command budget of " + std::to_string(r.command.budget_steps()) + " steps spent",
-             r.steps_used);
+             m.step(), r.steps_used);
       running_.erase(it);
       return;
     }
     const cap::SkillStep s = r.skill->next(obs);
     if (s.status != cap::SkillStatus::Running) {
       const bool ok = s.status == cap::SkillStatus::Completed;
-      status(r, ok ? msg::STATE_COMPLETED : msg::STATE_FAILED, s.reason, r.steps_used, s.stage, m.step(), s.progress);
+      status(r, ok ? msg::STATE_COMPLETED : msg::STATE_FAILED, s.reason, m.step(), r.steps_used, s.stage, s.progress);
       log_->info("channel={} command={} {} at step {} {}", m.channel(), r.command.command_id(),
                  ok ? "completed" : "failed", m.step(), s.reason);
       running_.erase(it);
@@ -106,13 +115,13 @@ class Node {
     ++r.steps_used;
     if (s.stage != r.stage || m.step() % 10 == 0) {
       r.stage = s.stage;
-      status(r, msg::STATE_RUNNING, "", r.steps_used, s.stage, m.step(), s.progress);
+      status(r, msg::STATE_RUNNING, "", m.step(), r.steps_used, s.stage, s.progress);
     }
   }
 
  private:
-  void status(const Running& r, msg::CommandState st, const std::string& reason, std::uint32_t used,
-              const std::string& stage = "", std::uint32_t step = 0, double progress = 0) {
+  void status(const Running& r, msg::CommandState st, const std::string& reason, std::uint32_t step,
+              std::uint32_t used, const std::string& stage = "", double progress = 0) {
     msg::CommandStatus s;
     s.channel(r.command.channel());
     s.episode_id(r.command.episode_id());
@@ -120,7 +129,7 @@ class Node {
     s.instance(instance_);
     s.state(st);
     s.reason(reason);
-    s.step(step ? step : r.command.start_step());
+    s.step(step);
     s.steps_used(used);
     s.progress(progress);
     s.stage(stage);

@@ -94,7 +94,6 @@ void PickPlaceSkill::start(const std::string& object, const std::string& target,
   }
   // The jaw is symmetric: of yaw and yaw+π take the one closer to the tool's current yaw.
   if (std::abs(geo::wrap(yaw - ee_yaw)) > std::numbers::pi / 2) yaw += std::numbers::pi;
-  // Keep away from the wrist's joint limit by staying near the ready yaw.
   grasp_q_ = geo::top_down(geo::wrap(yaw));
   enter(Stage::Approach, obs);
 }
