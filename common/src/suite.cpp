@@ -1,6 +1,7 @@
 #include "dh/common/suite.hpp"
 
 #include <algorithm>
+#include <sstream>
 
 #include "dh/common/config.hpp"
 
@@ -12,33 +13,96 @@ std::string PredicateSpec::text() const {
   return s + ")";
 }
 
+std::string SwapSpec::text() const {
+  std::string s;
+  for (const auto& [a, b] : exchange) s += (s.empty() ? "" : ";") + a + "<->" + b;
+  for (const auto& [e, xy] : moves) {
+    std::ostringstream m;
+    m << e << "->(" << xy[0] << "," << xy[1] << ")";
+    s += (s.empty() ? "" : ";") + m.str();
+  }
+  return s;
+}
+
 namespace {
-SuiteDef load_suite(const std::filesystem::path& file) {
+
+std::vector<PredicateSpec> load_goal(const ConfigNode& n) {
+  std::vector<PredicateSpec> goal;
+  for (const ConfigNode& g : n.items("goal"))
+    goal.push_back({g.get<std::string>("predicate"), g.get<std::vector<std::string>>("args")});
+  if (goal.empty()) n.fail("goal", "a task needs at least one goal predicate");
+  return goal;
+}
+
+SwapSpec load_swap(const ConfigNode& n) {
+  SwapSpec swap;
+  if (n.has("exchange"))
+    for (const ConfigNode& pair : n.items("exchange")) {
+      const auto names = pair.as<std::vector<std::string>>();
+      if (names.size() != 2 || names[0] == names[1])
+        n.fail("exchange", "each exchange is a pair of two different entity names");
+      swap.exchange.push_back({names[0], names[1]});
+    }
+  if (n.has("move")) {
+    const ConfigNode moves = n.child("move");
+    for (const auto& name : moves.keys()) {
+      const auto xy = moves.get<std::vector<double>>(name);
+      if (xy.size() != 2) moves.fail(name, "expected the new nominal [x, y] (m)");
+      swap.moves[name] = {xy[0], xy[1]};
+    }
+  }
+  if (swap.empty()) n.fail("", "a swap perturbation needs an exchange or a move");
+  return swap;
+}
+
+// The three cells of one suite file.
+std::vector<SuiteDef> load_suite(const std::filesystem::path& file) {
   const ConfigNode root = ConfigNode::load_file(file);
-  SuiteDef suite;
-  suite.name = root.get<std::string>("suite");
-  suite.modelled_on = root.get_or<std::string>("modelled_on", "");
-  suite.budget_steps = root.get<unsigned>("budget_steps");
-  const std::filesystem::path scene = root.dir() / ".." / "scenes" / root.get<std::string>("scene");
-  if (!std::filesystem::exists(scene))
-    root.fail("scene", "scene file " + scene.string() + " does not exist");
+  const std::string name = root.get<std::string>("suite");
+  const std::string modelled_on = root.get_or<std::string>("modelled_on", "");
+  const unsigned budget = root.get<unsigned>("budget_steps");
+  const auto scenes = root.dir() / ".." / "scenes";
+  auto scene_of = [&](const ConfigNode& n, const std::string& key) {
+    const auto f = scenes / n.get<std::string>(key);
+    if (!std::filesystem::exists(f)) n.fail(key, "scene file " + f.string() + " does not exist");
+    return std::filesystem::weakly_canonical(f);
+  };
+  const auto default_scene = scene_of(root, "scene");
+  std::vector<SuiteDef> cells(3);
+  const char* kinds[3] = {"", "task", "swap"};
+  for (int c = 0; c < 3; ++c) {
+    cells[c].name = c == 0 ? name : name + "-" + kinds[c];
+    cells[c].base_suite = name;
+    cells[c].perturbation = kinds[c];
+    cells[c].modelled_on = c == 0 ? modelled_on : modelled_on + " with LIBERO-Pro " + kinds[c] + " perturbation";
+    cells[c].budget_steps = budget;
+  }
   for (const ConfigNode& t : root.items("tasks")) {
     TaskDef task;
-    task.suite = suite.name;
+    task.base_suite = name;
     task.id = t.get<unsigned>("id");
     task.instruction = t.get<std::string>("instruction");
-    task.budget_steps = t.get_or<unsigned>("budget_steps", suite.budget_steps);
-    task.scene_file = std::filesystem::weakly_canonical(scene);
-    for (const ConfigNode& g : t.items("goal")) {
-      PredicateSpec p{g.get<std::string>("predicate"), g.get<std::vector<std::string>>("args")};
-      task.goal.push_back(std::move(p));
+    task.budget_steps = t.get_or<unsigned>("budget_steps", budget);
+    task.scene_file = t.has("scene") ? scene_of(t, "scene") : default_scene;
+    task.goal = load_goal(t);
+    TaskDef redirected = task;
+    const ConfigNode tp = t.child("task");
+    redirected.instruction = tp.get<std::string>("instruction");
+    redirected.goal = load_goal(tp);
+    if (redirected.instruction == task.instruction) tp.fail("instruction", "a task perturbation must redirect the instruction");
+    TaskDef swapped = task;
+    swapped.swap = load_swap(t.child("swap"));
+    TaskDef* variants[3] = {&task, &redirected, &swapped};
+    for (int c = 0; c < 3; ++c) {
+      variants[c]->suite = cells[c].name;
+      variants[c]->perturbation = kinds[c];
+      if (!cells[c].tasks.emplace(task.id, *variants[c]).second)
+        t.fail("id", "task " + std::to_string(task.id) + " is defined twice");
     }
-    if (task.goal.empty()) t.fail("goal", "a task needs at least one goal predicate");
-    if (!suite.tasks.emplace(task.id, task).second)
-      t.fail("id", "task " + std::to_string(task.id) + " is defined twice");
   }
-  return suite;
+  return cells;
 }
+
 }  // namespace
 
 std::map<std::string, SuiteDef> load_suites(const std::filesystem::path& config_dir) {
@@ -50,11 +114,12 @@ std::map<std::string, SuiteDef> load_suites(const std::filesystem::path& config_
     if (e.path().extension() == ".yaml") files.push_back(e.path());
   std::sort(files.begin(), files.end());
   std::map<std::string, SuiteDef> suites;
-  for (const auto& f : files) {
-    SuiteDef s = load_suite(f);
-    std::string name = s.name;
-    suites.emplace(name, std::move(s));
-  }
+  for (const auto& f : files)
+    for (SuiteDef& cell : load_suite(f)) {
+      const std::string name = cell.name;
+      if (!suites.emplace(name, std::move(cell)).second)
+        throw ConfigError(f.string() + ": cell '" + name + "' is also defined by another suite file");
+    }
   return suites;
 }
 

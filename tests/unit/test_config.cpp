@@ -76,18 +76,26 @@ TEST(Suites, ASuiteWithoutAGoalIsRejected) {
   EXPECT_NE(e.find("x.yaml: key 'tasks[0].goal'"), std::string::npos) << e;
 }
 
-TEST(Scene, UnknownObjectKindAndBadUrdfAreNamed) {
+TEST(Scene, UnknownAssetBadGeomAndBadUrdfAreNamed) {
   TempDir t;
   const std::string head = "scene: s\ntable: {size: [1, 1, 0.05]}\nworkspace: {min: [0,0,0], max: [1,1,1]}\n";
   t.write("robots/bad.urdf", "<robot name='x'><link name='a'/></robot>");
-  auto f = t.write("s1.yaml", head + "robot: {urdf: robots/bad.urdf, base: [0,0,0], ready_q: [0,0,0,0,0,0,0]}\nobjects: []\n");
+  auto f = t.write("scenes/s1.yaml", head + "robot: {urdf: ../robots/bad.urdf, base: [0,0,0], ready_q: [0,0,0,0,0,0,0]}\nentities: []\n");
   auto e = error_of([&] { sim::load_scene(f); });
   EXPECT_NE(e.find("bad.urdf: expected 7 revolute arm joints"), std::string::npos) << e;
   const fs::path urdf = paths::config_dir() / "robots" / "panda.urdf";
-  f = t.write("s2.yaml", head + "robot: {urdf: " + urdf.string() +
-                             ", base: [0,0,0], ready_q: [0,0,0,0,0,0,0]}\nobjects:\n  - {name: t, kind: teapot, mass: 1}\n");
+  const std::string robot = "robot: {urdf: " + urdf.string() + ", base: [0,0,0], ready_q: [0,0,0,0,0,0,0]}\n";
+  f = t.write("scenes/s2.yaml", head + robot + "entities:\n  - {name: t, asset: teapot, xy: [0, 0]}\n");
   e = error_of([&] { sim::load_scene(f); });
-  EXPECT_NE(e.find("key 'objects[0].kind': unknown object kind 'teapot'"), std::string::npos) << e;
+  EXPECT_NE(e.find("key 'entities[0].asset': no asset 'teapot'"), std::string::npos) << e;
+  t.write("assets/blob.yaml", "asset: blob\nkind: blob\nmass: 1\nrgba: [1,1,1,1]\ngeoms:\n  - {type: sphere, size: [1,1,1], pos: [0,0,0]}\n");
+  f = t.write("scenes/s3.yaml", head + robot + "entities:\n  - {name: b, asset: blob, xy: [0, 0]}\n");
+  e = error_of([&] { sim::load_scene(f); });
+  EXPECT_NE(e.find("blob.yaml: key 'geoms[0].type': unknown geom type 'sphere'"), std::string::npos) << e;
+  t.write("assets/shelf.yaml", "asset: shelf\nkind: shelf\nfixture: true\nrgba: [1,1,1,1]\ngeoms:\n  - {type: box, size: [0.1,0.1,0.1], pos: [0,0,0.1]}\n");
+  f = t.write("scenes/s4.yaml", head + robot + "entities:\n  - {name: s, asset: shelf, xy: [0, 0], jitter: 0.1}\n");
+  e = error_of([&] { sim::load_scene(f); });
+  EXPECT_NE(e.find("key 'entities[0].jitter': fixtures stand where the scene puts them"), std::string::npos) << e;
 }
 
 TEST(Evidence, AppendsFlushedRecordsAndSkipsATornLine) {

@@ -84,8 +84,8 @@ class Channel {
     if (r.episode_id() == episode_) return;  // transient-local redelivery
     try {
       const TaskDef& task = find_task(suites_, r.suite(), r.task());
-      auto& cell = cells_[task.scene_file.string()];
-      if (!cell) cell = std::make_unique<sim::Workcell>(sim::load_scene(task.scene_file));
+      auto& cell = cells_[sim::task_scene_key(task)];
+      if (!cell) cell = std::make_unique<sim::Workcell>(sim::load_task_scene(task));
       cell->reset(r.seed(), task.goal);
       cell_ = cell.get();
       goal_text_ = task.goal.front().text();
@@ -205,7 +205,7 @@ class Channel {
   std::chrono::milliseconds grace_;
   std::shared_ptr<spdlog::logger> log_;
   EventQueue<Event> queue_;
-  std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  // one model per scene
+  std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  // one model per scene (and swap)
   sim::Workcell* cell_ = nullptr;
   std::string episode_, goal_text_;
   std::uint32_t budget_ = 0, step_ = 0;

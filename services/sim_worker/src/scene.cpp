@@ -1,5 +1,6 @@
 #include "dh/sim/scene.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <random>
@@ -7,6 +8,7 @@
 #include <stdexcept>
 
 #include "dh/common/config.hpp"
+#include "dh/sim/config_arrays.hpp"
 
 namespace dh::sim {
 
@@ -19,103 +21,137 @@ std::string num(double v) {
   return s.str();
 }
 
-template <std::size_t N>
-std::array<double, N> get_array(const ConfigNode& n, const std::string& key) {
-  auto v = n.get<std::vector<double>>(key);
-  if (v.size() != N) n.fail(key, "expected a list of " + std::to_string(N) + " numbers");
-  std::array<double, N> a{};
-  std::copy(v.begin(), v.end(), a.begin());
-  return a;
+std::string vec(const double* v, int n) {
+  std::string s;
+  for (int i = 0; i < n; ++i) s += (i ? " " : "") + num(v[i]);
+  return s;
 }
 
-ObjectSpec load_object(const ConfigNode& n) {
-  ObjectSpec o;
-  o.name = n.get<std::string>("name");
-  o.kind_name = n.get<std::string>("kind");
-  if (o.kind_name == "bowl") {
-    o.kind = ObjectKind::Bowl;
-    o.radius = n.get<double>("radius");
-    o.height = n.get<double>("height");
-    o.wall = n.get<double>("wall");
-  } else if (o.kind_name == "plate") {
-    o.kind = ObjectKind::Plate;
-    o.radius = n.get<double>("radius");
-    o.height = n.get<double>("height");
-  } else if (o.kind_name == "box") {
-    o.kind = ObjectKind::Box;
-    o.size = get_array<3>(n, "size");
-    o.height = o.size[2];
-  } else if (o.kind_name == "cylinder") {
-    o.kind = ObjectKind::Cylinder;
-    o.radius = n.get<double>("radius");
-    o.height = n.get<double>("height");
-  } else {
-    n.fail("kind", "unknown object kind '" + o.kind_name + "' (bowl, plate, box, cylinder)");
-  }
-  o.mass = n.get<double>("mass");
-  if (o.mass <= 0) n.fail("mass", "must be positive (kg)");
-  o.friction = n.get_or<double>("friction", 1.0);
-  o.rgba = get_array<4>(n, "rgba");
-  const ConfigNode place = n.child("place");
-  o.nominal_xy = get_array<2>(place, "xy");
-  o.jitter = place.get_or<double>("jitter", 0.0);
-  o.yaw_jitter = place.get_or<double>("yaw_jitter", 0.0);
-  return o;
-}
+std::string yaw_quat(double yaw) { return num(std::cos(yaw / 2)) + " 0 0 " + num(std::sin(yaw / 2)); }
 
-std::string geom(const std::string& type, const std::string& size, const std::string& pos,
-                 const std::string& quat, const ObjectSpec& o, const std::string& name) {
-  return "<geom name=\"" + name + "\" type=\"" + type + "\" size=\"" + size + "\" pos=\"" + pos +
-         "\" quat=\"" + quat + "\" condim=\"4\" friction=\"" + num(o.friction) +
-         " 0.02 0.001\" rgba=\"" + num(o.rgba[0]) + " " + num(o.rgba[1]) + " " + num(o.rgba[2]) +
-         " " + num(o.rgba[3]) + "\"/>\n";
-}
-
-std::string object_geoms(const ObjectSpec& o) {
-  std::string g;
-  const std::string idq = "1 0 0 0";
-  switch (o.kind) {
-    case ObjectKind::Bowl: {
-      // A flat base and a ring of wall segments: a hollow shape whose rim a parallel jaw can pinch.
-      const double base_h = o.wall;
-      g += geom("cylinder", num(o.radius - o.wall / 2) + " " + num(base_h / 2),
-                "0 0 " + num(base_h / 2), idq, o, o.name + "_base");
-      const int n = 16;
-      const double chord = 2 * o.radius * std::sin(std::numbers::pi / n) + o.wall / 2;
-      const double wall_h = o.height - base_h;
-      for (int i = 0; i < n; ++i) {
-        const double a = 2 * std::numbers::pi * i / n;
-        const double r = o.radius - o.wall / 2;
-        g += geom("box", num(o.wall / 2) + " " + num(chord / 2) + " " + num(wall_h / 2),
-                  num(r * std::cos(a)) + " " + num(r * std::sin(a)) + " " + num(base_h + wall_h / 2),
-                  num(std::cos(a / 2)) + " 0 0 " + num(std::sin(a / 2)), o,
-                  o.name + "_wall" + std::to_string(i));
-      }
-      break;
+EntitySpec load_entity(const ConfigNode& n, const std::filesystem::path& assets_dir) {
+  EntitySpec e;
+  e.name = n.get<std::string>("name");
+  const auto asset = n.get<std::string>("asset");
+  const auto file = assets_dir / (asset + ".yaml");
+  if (!std::filesystem::exists(file)) n.fail("asset", "no asset '" + asset + "' (" + file.string() + " does not exist)");
+  e.asset = load_asset(file);
+  e.rgba = n.has("rgba") ? get_array<4>(n, "rgba") : e.asset.rgba;
+  e.nominal_xy = get_array<2>(n, "xy");
+  e.yaw = n.get_or<double>("yaw", 0.0);
+  e.jitter = n.get_or<double>("jitter", 0.0);
+  e.yaw_jitter = n.get_or<double>("yaw_jitter", 0.0);
+  if (e.fixture() && (e.jitter != 0 || e.yaw_jitter != 0))
+    n.fail("jitter", "fixtures stand where the scene puts them; remove jitter from '" + e.name + "'");
+  if (n.has("init")) {
+    const ConfigNode init = n.child("init");
+    for (const auto& part : init.keys()) {
+      const bool known = std::any_of(e.asset.parts.begin(), e.asset.parts.end(),
+                                     [&](const PartSpec& p) { return p.name == part; });
+      if (!known) init.fail(part, "asset '" + asset + "' has no articulated part '" + part + "'");
+      e.init_joints[part] = init.get<double>(part);
     }
-    case ObjectKind::Plate:
-    case ObjectKind::Cylinder:
-      g += geom("cylinder", num(o.radius) + " " + num(o.height / 2), "0 0 " + num(o.height / 2), idq,
-                o, o.name + "_geom");
-      break;
-    case ObjectKind::Box:
-      g += geom("box", num(o.size[0] / 2) + " " + num(o.size[1] / 2) + " " + num(o.size[2] / 2),
-                "0 0 " + num(o.size[2] / 2), idq, o, o.name + "_geom");
-      break;
   }
-  return g;
+  return e;
+}
+
+// A portable uniform draw in [-1, 1): std::uniform_real_distribution's output is implementation-defined.
+double uniform(std::uint64_t bits) { return 2.0 * static_cast<double>(bits >> 11) * 0x1.0p-53 - 1.0; }
+
+std::string geom_xml(const GeomSpec& g, const std::string& name, const std::array<double, 4>& colour,
+                     double friction, double density, int condim) {
+  const auto& c = g.rgba ? *g.rgba : colour;
+  const std::string common = " friction=\"" + num(friction) + " 0.02 0.001\" condim=\"" + std::to_string(condim) +
+                             "\" density=\"" + num(density) + "\" rgba=\"" + vec(c.data(), 4) + "\"/>\n";
+  switch (g.type) {
+    case GeomSpec::Type::Box:
+      return "<geom name=\"" + name + "\" type=\"box\" size=\"" + vec(g.size.data(), 3) + "\" pos=\"" +
+             vec(g.pos.data(), 3) + "\" quat=\"" + yaw_quat(g.yaw) + "\"" + common;
+    case GeomSpec::Type::Cylinder:
+      return "<geom name=\"" + name + "\" type=\"cylinder\" size=\"" + vec(g.size.data(), 2) + "\" pos=\"" +
+             vec(g.pos.data(), 3) + "\"" + common;
+    case GeomSpec::Type::Disc: {
+      // Boxes whose corners lie on the rim, turned by pi/segments each: a regular 4·segments-gon.
+      const double half_angle = std::numbers::pi / (2 * g.segments);
+      const double half[3] = {g.size[0] * std::cos(half_angle), g.size[0] * std::sin(half_angle), g.size[1]};
+      std::string x;
+      for (int i = 0; i < g.segments; ++i)
+        x += "<geom name=\"" + name + "_" + std::to_string(i) + "\" type=\"box\" size=\"" + vec(half, 3) +
+             "\" pos=\"" + vec(g.pos.data(), 3) + "\" quat=\"" + yaw_quat(g.yaw + std::numbers::pi * i / g.segments) +
+             "\"" + common;
+      return x;
+    }
+    case GeomSpec::Type::Ring: {
+      // A ring of wall boxes: a hollow shape (bowl, mug, pot wall) whose rim a parallel jaw can pinch.
+      const double r = g.size[0] - g.size[1] / 2;
+      const double chord = 2 * g.size[0] * std::sin(std::numbers::pi / g.segments) + g.size[1] / 2;
+      std::string x;
+      for (int i = 0; i < g.segments; ++i) {
+        const double a = g.yaw + 2 * std::numbers::pi * i / g.segments;
+        const double p[3] = {g.pos[0] + r * std::cos(a), g.pos[1] + r * std::sin(a), g.pos[2]};
+        const double half[3] = {g.size[1] / 2, chord / 2, g.size[2]};
+        x += "<geom name=\"" + name + "_" + std::to_string(i) + "\" type=\"box\" size=\"" + vec(half, 3) +
+             "\" pos=\"" + vec(p, 3) + "\" quat=\"" + yaw_quat(a) + "\"" + common;
+      }
+      return x;
+    }
+  }
+  return "";
+}
+
+double total_volume(const std::vector<GeomSpec>& geoms) {
+  double v = 0;
+  for (const auto& g : geoms) v += g.volume();
+  return v;
+}
+
+std::string sites_xml(const std::vector<SiteSpec>& sites, const std::string& entity) {
+  std::string x;
+  for (const auto& s : sites)
+    x += "<site name=\"" + entity + "_" + s.name + "\" type=\"box\" size=\"" + vec(s.half.data(), 3) + "\" pos=\"" +
+         vec(s.pos.data(), 3) + "\" rgba=\"0.2 0.8 0.2 0\" group=\"3\"/>\n";
+  return x;
+}
+
+std::string entity_xml(const EntitySpec& e, const Placement& p) {
+  const AssetSpec& a = e.asset;
+  const double lift = e.fixture() ? 0.0 : 0.001;  // free objects settle onto the table from 1 mm
+  std::string x = "<body name=\"" + e.name + "\" pos=\"" + num(p.x) + " " + num(p.y) + " " + num(lift) +
+                  "\" quat=\"" + yaw_quat(p.yaw) + "\">\n";
+  if (!e.fixture()) x += "<freejoint name=\"" + e.name + "_free\"/>\n";
+  // Free objects: the asset's mass spread over its geoms by volume, inertia from the geoms.
+  const double density = e.fixture() ? 1000.0 : a.mass / total_volume(a.geoms);
+  const int condim = e.fixture() ? 3 : 4;
+  for (std::size_t i = 0; i < a.geoms.size(); ++i)
+    x += geom_xml(a.geoms[i], e.name + "_g" + std::to_string(i), e.rgba, a.friction, density, condim);
+  x += sites_xml(a.sites, e.name);
+  for (const auto& part : a.parts) {
+    const auto& j = part.joint;
+    x += "<body name=\"" + part_body(e.name, part.name) + "\" pos=\"" + vec(part.pos.data(), 3) + "\">\n";
+    x += "<joint name=\"" + part_joint(e.name, part.name) + "\" type=\"" +
+         (j.type == JointSpec::Type::Slide ? "slide" : "hinge") + "\" axis=\"" + vec(j.axis.data(), 3) +
+         "\" limited=\"true\" range=\"" + vec(j.range.data(), 2) + "\" damping=\"" + num(j.damping) +
+         "\" frictionloss=\"" + num(j.frictionloss) + "\" stiffness=\"" + num(j.stiffness) + "\"/>\n";
+    const double part_density = part.mass / total_volume(part.geoms);
+    for (std::size_t i = 0; i < part.geoms.size(); ++i)
+      x += geom_xml(part.geoms[i], part_body(e.name, part.name) + "_g" + std::to_string(i), e.rgba, a.friction,
+                    part_density, 4);
+    x += sites_xml(part.sites, e.name);
+    x += "</body>\n";
+  }
+  x += "</body>\n";
+  return x;
 }
 
 }  // namespace
 
-double ObjectSpec::footprint_radius() const {
-  if (kind == ObjectKind::Box) return 0.5 * std::hypot(size[0], size[1]);
-  return radius;
-}
+std::string part_body(const std::string& entity, const std::string& part) { return entity + "_" + part; }
+std::string part_joint(const std::string& entity, const std::string& part) { return entity + "_" + part + "_joint"; }
 
-std::array<double, 3> ObjectSpec::half_extents() const {
-  if (kind == ObjectKind::Box) return {size[0] / 2, size[1] / 2, size[2] / 2};
-  return {radius, radius, height / 2};
+const EntitySpec* SceneSpec::entity(const std::string& n) const {
+  for (const auto& e : entities)
+    if (e.name == n) return &e;
+  return nullptr;
 }
 
 SceneSpec load_scene(const std::filesystem::path& file) {
@@ -123,9 +159,11 @@ SceneSpec load_scene(const std::filesystem::path& file) {
   SceneSpec s;
   s.file = file;
   s.name = root.get<std::string>("scene");
+  s.layout = root.get_or<std::string>("layout", "kitchen");
   const ConfigNode table = root.child("table");
   s.table_size = get_array<3>(table, "size");
   s.table_friction = table.get_or<double>("friction", 1.0);
+  if (table.has("rgba")) s.table_rgba = get_array<4>(table, "rgba");
   const ConfigNode robot = root.child("robot");
   s.robot = load_robot(root.dir() / robot.get<std::string>("urdf"));
   s.robot_base = get_array<3>(robot, "base");
@@ -134,36 +172,68 @@ SceneSpec load_scene(const std::filesystem::path& file) {
   const ConfigNode ws = root.child("workspace");
   s.workspace_min = get_array<3>(ws, "min");
   s.workspace_max = get_array<3>(ws, "max");
-  for (const ConfigNode& o : root.items("objects")) {
-    ObjectSpec spec = load_object(o);
-    for (const auto& other : s.objects)
-      if (other.name == spec.name) o.fail("name", "object '" + spec.name + "' is defined twice");
-    s.objects.push_back(std::move(spec));
+  const auto assets_dir = root.dir() / ".." / "assets";
+  for (const ConfigNode& n : root.items("entities")) {
+    EntitySpec e = load_entity(n, assets_dir);
+    if (s.entity(e.name)) n.fail("name", "entity '" + e.name + "' is defined twice");
+    s.entities.push_back(std::move(e));
   }
+  if (root.has("regions"))
+    for (const ConfigNode& n : root.items("regions"))
+      s.regions.push_back({n.get<std::string>("name"), get_array<2>(n, "xy"), get_array<2>(n, "half")});
   return s;
 }
 
+SceneSpec apply_swap(SceneSpec scene, const SwapSpec& swap) {
+  auto find = [&](const std::string& n) {
+    for (auto& e : scene.entities)
+      if (e.name == n) return &e;
+    throw std::invalid_argument("swap names '" + n + "', which is not an entity of scene " + scene.name);
+  };
+  for (const auto& [a, b] : swap.exchange) std::swap(find(a)->nominal_xy, find(b)->nominal_xy);
+  for (const auto& [e, xy] : swap.moves) find(e)->nominal_xy = xy;
+  return scene;
+}
+
+SceneSpec load_task_scene(const TaskDef& task) {
+  return apply_swap(load_scene(task.scene_file), task.swap);
+}
+
+std::string task_scene_key(const TaskDef& task) { return task.scene_file.string() + "|" + task.swap.text(); }
+
 std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t seed) {
   std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ULL + 1);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  constexpr double kClearance = 0.02;
-  std::vector<Placement> out;
-  for (const auto& o : scene.objects) {
-    bool placed = false;
-    for (int attempt = 0; attempt < 200 && !placed; ++attempt) {
-      Placement p{o.name, o.nominal_xy[0] + o.jitter * u(rng), o.nominal_xy[1] + o.jitter * u(rng),
-                  o.yaw_jitter * u(rng)};
-      placed = true;
-      for (std::size_t i = 0; i < out.size(); ++i) {
-        const double d = std::hypot(p.x - out[i].x, p.y - out[i].y);
-        if (d < o.footprint_radius() + scene.objects[i].footprint_radius() + kClearance) placed = false;
+  constexpr double kClearance = 0.015;
+  const std::size_t n = scene.entities.size();
+  std::vector<Placement> out(n);
+  std::vector<std::array<double, 2>> half(n);
+  std::vector<bool> placed(n, false);
+  auto overlaps = [&](std::size_t i) {
+    for (std::size_t k = 0; k < n; ++k)
+      if (k != i && placed[k] && std::abs(out[i].x - out[k].x) < half[i][0] + half[k][0] + kClearance &&
+          std::abs(out[i].y - out[k].y) < half[i][1] + half[k][1] + kClearance)
+        return true;
+    return false;
+  };
+  // Fixtures first (they do not move), then free objects in scene order.
+  for (const bool fixtures : {true, false})
+    for (std::size_t i = 0; i < n; ++i) {
+      const EntitySpec& e = scene.entities[i];
+      if (e.fixture() != fixtures) continue;
+      const auto fp = e.asset.footprint();
+      for (int attempt = 0; attempt < 200 && !placed[i]; ++attempt) {
+        const double dx = e.jitter * uniform(rng()), dy = e.jitter * uniform(rng());
+        const double yaw = e.yaw + e.yaw_jitter * uniform(rng());
+        out[i] = {e.name, e.nominal_xy[0] + dx, e.nominal_xy[1] + dy, yaw};
+        const double c = std::abs(std::cos(yaw)), s = std::abs(std::sin(yaw));
+        half[i] = {c * fp[0] + s * fp[1], s * fp[0] + c * fp[1]};
+        placed[i] = !overlaps(i);
+        if (e.fixture() && !placed[i]) break;
       }
-      if (placed) out.push_back(p);
+      if (!placed[i])
+        throw std::runtime_error(scene.file.string() + ": cannot place '" + e.name + "' without overlap for seed " +
+                                 std::to_string(seed) + "; widen its jitter or move its xy");
     }
-    if (!placed)
-      throw std::runtime_error(scene.file.string() + ": cannot place '" + o.name + "' without overlap for seed " +
-                               std::to_string(seed) + "; widen its jitter or move its nominal xy");
-  }
   return out;
 }
 
@@ -173,33 +243,23 @@ std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& pla
   x += "<mujoco model=\"dh_" + scene.name + "\">\n";
   x += "<compiler angle=\"radian\"/>\n";
   // Elliptic cones with a high impratio keep a pinched object from creeping out of the jaw.
-  x += "<option timestep=\"0.002\" integrator=\"Euler\" cone=\"elliptic\" impratio=\"10\"/>\n";
-  x += "<size njmax=\"3000\" nconmax=\"800\"/>\n";
+  x += "<option timestep=\"0.002\" integrator=\"Euler\" cone=\"elliptic\" impratio=\"10\" jacobian=\"sparse\"/>\n";
+  x += "<size njmax=\"1000\" nconmax=\"250\"/>\n";
   x += "<visual><global offwidth=\"640\" offheight=\"480\"/></visual>\n";
   x += "<worldbody>\n";
   x += "<light pos=\"0 0 2\" dir=\"0 0 -1\" directional=\"true\"/>\n";
-  x += "<geom name=\"floor\" type=\"plane\" size=\"3 3 0.1\" pos=\"0 0 " + num(-0.75) +
-       "\" rgba=\"0.3 0.3 0.3 1\"/>\n";
-  x += "<geom name=\"table\" type=\"box\" size=\"" + num(scene.table_size[0] / 2) + " " +
-       num(scene.table_size[1] / 2) + " " + num(scene.table_size[2] / 2) + "\" pos=\"0 0 " +
-       num(-scene.table_size[2] / 2) + "\" friction=\"" + num(scene.table_friction) +
-       " 0.02 0.001\" condim=\"4\" rgba=\"0.6 0.45 0.3 1\"/>\n";
-  x += "<geom name=\"pedestal\" type=\"cylinder\" size=\"0.1 0.375\" pos=\"" + num(scene.robot_base[0]) +
-       " " + num(scene.robot_base[1]) + " " + num(scene.robot_base[2] - 0.375) +
-       "\" rgba=\"0.2 0.2 0.2 1\"/>\n";
+  x += "<geom name=\"floor\" type=\"plane\" size=\"3 3 0.1\" pos=\"0 0 -0.75\" rgba=\"0.3 0.3 0.3 1\"/>\n";
+  const double table_half[3] = {scene.table_size[0] / 2, scene.table_size[1] / 2, scene.table_size[2] / 2};
+  x += "<geom name=\"table\" type=\"box\" size=\"" + vec(table_half, 3) + "\" pos=\"0 0 " + num(-table_half[2]) +
+       "\" friction=\"" + num(scene.table_friction) + " 0.02 0.001\" condim=\"4\" rgba=\"" +
+       vec(scene.table_rgba.data(), 4) + "\"/>\n";
+  for (const auto& r : scene.regions)
+    x += "<site name=\"" + r.name + "\" type=\"box\" size=\"" + num(r.half[0]) + " " + num(r.half[1]) +
+         " 0.005\" pos=\"" + num(r.xy[0]) + " " + num(r.xy[1]) + " -0.005\" rgba=\"0.2 0.8 0.2 0\" group=\"3\"/>\n";
+  x += "<geom name=\"pedestal\" type=\"cylinder\" size=\"0.1 0.375\" pos=\"" + num(scene.robot_base[0]) + " " +
+       num(scene.robot_base[1]) + " " + num(scene.robot_base[2] - 0.375) + "\" rgba=\"0.2 0.2 0.2 1\"/>\n";
   x += robot.body;
-  for (std::size_t i = 0; i < scene.objects.size(); ++i) {
-    const auto& o = scene.objects[i];
-    const auto& p = placements.at(i);
-    const double lift = 0.001;  // settle onto the table from 1 mm
-    x += "<body name=\"" + o.name + "\" pos=\"" + num(p.x) + " " + num(p.y) + " " + num(lift) +
-         "\" quat=\"" + num(std::cos(p.yaw / 2)) + " 0 0 " + num(std::sin(p.yaw / 2)) + "\">\n";
-    x += "<freejoint name=\"" + o.name + "_free\"/>\n";
-    x += "<inertial pos=\"0 0 " + num(o.height / 3) + "\" mass=\"" + num(o.mass) + "\" diaginertia=\"" +
-         num(o.mass * 0.002) + " " + num(o.mass * 0.002) + " " + num(o.mass * 0.003) + "\"/>\n";
-    x += object_geoms(o);
-    x += "</body>\n";
-  }
+  for (std::size_t i = 0; i < scene.entities.size(); ++i) x += entity_xml(scene.entities[i], placements.at(i));
   x += "</worldbody>\n";
   x += "<actuator>\n" + robot.actuators + "</actuator>\n";
   if (!robot.equalities.empty()) x += "<equality>\n" + robot.equalities + "</equality>\n";

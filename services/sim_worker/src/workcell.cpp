@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "dh/common/geometry.hpp"
+#include "dh/sim/model.hpp"
 
 namespace dh::sim {
 
@@ -20,8 +21,6 @@ constexpr double kIkDamping = 0.05;
 constexpr double kNullGain = 0.1;
 // The controller's own speed limit sits below the seam's envelope, so the check only trips on faults.
 constexpr double kRefSpeedFraction = 0.9;
-// On(a, b) for an object b, as LIBERO checks it: horizontal distance of the two origins.
-constexpr double kOnXyTolerance = 0.03;
 }  // namespace
 
 struct Workcell::Ids {
@@ -30,7 +29,11 @@ struct Workcell::Ids {
   int gripper_act = -1;
   int tcp_site = -1;
   int finger_left_body = -1, finger_right_body = -1;
-  std::vector<int> object_body, object_qpos;
+  std::vector<int> object_body, object_qpos;  ///< free objects, in scene order
+  std::vector<std::size_t> object_entity;     ///< index into scene.entities
+  std::vector<int> fixture_body;
+  std::vector<std::size_t> fixture_entity;
+  std::vector<int> region_site;               ///< every site: table regions and asset regions
   std::vector<double> q_lower, q_upper;
   std::vector<double> effort;
 };
@@ -42,18 +45,8 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
   for (const auto& j : scene_.robot.arm) limits_.joint_speed = std::min(limits_.joint_speed, j.velocity);
 
   std::vector<Placement> nominal;
-  for (const auto& o : scene_.objects) nominal.push_back({o.name, o.nominal_xy[0], o.nominal_xy[1], 0});
-  const std::string xml = scene_mjcf(scene_, nominal);
-  auto vfs = std::make_unique<mjVFS>();
-  mj_defaultVFS(vfs.get());
-  const char* fname = "workcell.xml";
-  if (mj_makeEmptyFileVFS(vfs.get(), fname, static_cast<int>(xml.size())) != 0)
-    throw std::runtime_error("MuJoCo VFS: cannot hold the workcell model");
-  std::memcpy(vfs->filedata[mj_findFileVFS(vfs.get(), fname)], xml.data(), xml.size());
-  char err[1024] = "";
-  m_ = mj_loadXML(fname, vfs.get(), err, sizeof err);
-  mj_deleteVFS(vfs.get());
-  if (!m_) throw std::runtime_error(scene_.file.string() + ": MuJoCo rejected the workcell model: " + err);
+  for (const auto& e : scene_.entities) nominal.push_back({e.name, e.nominal_xy[0], e.nominal_xy[1], e.yaw});
+  m_ = compile_model(scene_mjcf(scene_, nominal), scene_.file.string()).release();
   d_ = mj_makeData(m_);
   ik_ = mj_makeData(m_);
   jacp_.resize(3 * m_->nv);
@@ -81,10 +74,19 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
   ids_->tcp_site = need(mjOBJ_SITE, "tcp");
   ids_->finger_left_body = m_->jnt_bodyid[need(mjOBJ_JOINT, scene_.robot.fingers.front().name)];
   ids_->finger_right_body = m_->jnt_bodyid[need(mjOBJ_JOINT, scene_.robot.fingers.back().name)];
-  for (const auto& o : scene_.objects) {
-    ids_->object_body.push_back(need(mjOBJ_BODY, o.name));
-    ids_->object_qpos.push_back(m_->jnt_qposadr[need(mjOBJ_JOINT, o.name + "_free")]);
+  for (std::size_t k = 0; k < scene_.entities.size(); ++k) {
+    const auto& e = scene_.entities[k];
+    if (e.fixture()) {
+      ids_->fixture_body.push_back(need(mjOBJ_BODY, e.name));
+      ids_->fixture_entity.push_back(k);
+      continue;
+    }
+    ids_->object_body.push_back(need(mjOBJ_BODY, e.name));
+    ids_->object_qpos.push_back(m_->jnt_qposadr[need(mjOBJ_JOINT, e.name + "_free")]);
+    ids_->object_entity.push_back(k);
   }
+  for (int s = 0; s < m_->nsite; ++s)
+    if (s != ids_->tcp_site) ids_->region_site.push_back(s);
 }
 
 Workcell::~Workcell() {
@@ -94,36 +96,29 @@ Workcell::~Workcell() {
 }
 
 void Workcell::reset(std::uint64_t seed, const std::vector<PredicateSpec>& goal) {
-  std::vector<std::array<int, 2>> goal_on;
-  for (const auto& p : goal) {
-    if (p.name != "On")
-      throw std::invalid_argument("predicate '" + p.name + "' is not evaluated by this workcell (On)");
-    if (p.args.size() != 2) throw std::invalid_argument(p.text() + ": On takes two entities");
-    std::array<int, 2> bodies{};
-    for (int k = 0; k < 2; ++k) {
-      bodies[k] = mj_name2id(m_, mjOBJ_BODY, p.args[k].c_str());
-      if (bodies[k] < 0) throw std::invalid_argument(p.text() + ": no entity '" + p.args[k] + "' in scene " + scene_.name);
-    }
-    goal_on.push_back(bodies);
-  }
-  goal_on_ = std::move(goal_on);
+  auto evaluator = std::make_unique<GoalEvaluator>(m_, scene_, goal);
   const auto placements = sample_placements(scene_, seed);
+  goal_ = std::move(evaluator);
   mj_resetData(m_, d_);
   for (int i = 0; i < 7; ++i) d_->qpos[ids_->arm_qpos[i]] = scene_.ready_q[i];
   for (int a : ids_->finger_qpos) d_->qpos[a] = 0.04;
-  for (std::size_t i = 0; i < placements.size(); ++i) {
+  for (std::size_t i = 0; i < ids_->object_body.size(); ++i) {
+    const Placement& p = placements[ids_->object_entity[i]];
     double* q = d_->qpos + ids_->object_qpos[i];
-    q[0] = placements[i].x;
-    q[1] = placements[i].y;
+    q[0] = p.x;
+    q[1] = p.y;
     q[2] = 0.001;
-    q[3] = std::cos(placements[i].yaw / 2);
+    q[3] = std::cos(p.yaw / 2);
     q[4] = 0;
     q[5] = 0;
-    q[6] = std::sin(placements[i].yaw / 2);
+    q[6] = std::sin(p.yaw / 2);
   }
+  for (const auto& e : scene_.entities)
+    for (const auto& [part, q] : e.init_joints)
+      d_->qpos[m_->jnt_qposadr[mj_name2id(m_, mjOBJ_JOINT, part_joint(e.name, part).c_str())]] = q;
   mj_forward(m_, d_);
-  // Settle: hold the ready pose with the gripper open for 0.3 s.
-  for (int s = 0; s < 6; ++s) step({0, 0, 0, 0, 0, 0, -1});
+  // Settle: hold the ready pose with the gripper open for 0.4 s.
+  for (int s = 0; s < 8; ++s) step({0, 0, 0, 0, 0, 0, -1});
 }
 
 std::array<double, 4> Workcell::tcp_quat(const mjData_* d) const {
@@ -232,17 +227,34 @@ bool Workcell::in_contact(int body_a, int body_b) const {
   return false;
 }
 
-bool Workcell::on(int a, int b) const {
-  // As LIBERO checks On(a, b) for an object b: a rests on b (contact), a is not below b, and their
-  // origins are within a small horizontal distance.
-  const double* pa = d_->xpos + 3 * a;
-  const double* pb = d_->xpos + 3 * b;
-  return pb[2] <= pa[2] && in_contact(a, b) && std::hypot(pa[0] - pb[0], pa[1] - pb[1]) < kOnXyTolerance;
+bool Workcell::goal_holds() const { return goal_ && goal_->holds(d_); }
+
+bool Workcell::holds(const std::vector<PredicateSpec>& goal) const { return GoalEvaluator(m_, scene_, goal).holds(d_); }
+
+std::vector<bool> Workcell::goal_terms() const { return goal_ ? goal_->terms(d_) : std::vector<bool>{}; }
+
+double Workcell::max_penetration() const {
+  double deepest = 0;
+  for (int i = 0; i < d_->ncon; ++i) {
+    const int b1 = m_->body_rootid[m_->geom_bodyid[d_->contact[i].geom1]];
+    const int b2 = m_->body_rootid[m_->geom_bodyid[d_->contact[i].geom2]];
+    auto scene_entity = [&](int root) {
+      return std::find(ids_->object_body.begin(), ids_->object_body.end(), root) != ids_->object_body.end() ||
+             std::find(ids_->fixture_body.begin(), ids_->fixture_body.end(), root) != ids_->fixture_body.end();
+    };
+    if (scene_entity(b1) || scene_entity(b2)) deepest = std::max(deepest, -d_->contact[i].dist);
+  }
+  return deepest;
 }
 
-bool Workcell::goal_holds() const {
-  if (goal_on_.empty()) return false;
-  return std::all_of(goal_on_.begin(), goal_on_.end(), [&](const auto& ab) { return on(ab[0], ab[1]); });
+double Workcell::max_object_speed() const {
+  double fastest = 0;
+  for (int b : ids_->object_body) {
+    double v[6];
+    mj_objectVelocity(m_, d_, mjOBJ_BODY, b, v, 0);
+    fastest = std::max(fastest, std::hypot(v[3], v[4], v[5]));
+  }
+  return fastest;
 }
 
 Observation Workcell::observe() const {
@@ -255,16 +267,30 @@ Observation Workcell::observe() const {
     o.q[i] = d_->qpos[ids_->arm_qpos[i]];
     o.dq[i] = d_->qvel[ids_->arm_dof[i]];
   }
-  for (std::size_t k = 0; k < ids_->object_body.size(); ++k) {
-    o.contact_left |= in_contact(ids_->finger_left_body, ids_->object_body[k]);
-    o.contact_right |= in_contact(ids_->finger_right_body, ids_->object_body[k]);
+  auto entity = [&](int body, const EntitySpec& spec) {
     EntityState e;
-    e.name = scene_.objects[k].name;
-    e.kind = scene_.objects[k].kind_name;
+    e.name = spec.name;
+    e.kind = spec.asset.kind;
+    std::copy(d_->xpos + 3 * body, d_->xpos + 3 * body + 3, e.p.begin());
+    std::copy(d_->xquat + 4 * body, d_->xquat + 4 * body + 4, e.q.begin());
+    e.half_extents = spec.asset.half_extents();
+    return e;
+  };
+  for (std::size_t k = 0; k < ids_->object_body.size(); ++k) {
     const int b = ids_->object_body[k];
-    std::copy(d_->xpos + 3 * b, d_->xpos + 3 * b + 3, e.p.begin());
-    std::copy(d_->xquat + 4 * b, d_->xquat + 4 * b + 4, e.q.begin());
-    e.half_extents = scene_.objects[k].half_extents();
+    o.contact_left |= in_contact(ids_->finger_left_body, b);
+    o.contact_right |= in_contact(ids_->finger_right_body, b);
+    o.entities.push_back(entity(b, scene_.entities[ids_->object_entity[k]]));
+  }
+  for (std::size_t k = 0; k < ids_->fixture_body.size(); ++k)
+    o.entities.push_back(entity(ids_->fixture_body[k], scene_.entities[ids_->fixture_entity[k]]));
+  for (int s : ids_->region_site) {
+    EntityState e;
+    e.name = mj_id2name(m_, mjOBJ_SITE, s);
+    e.kind = "region";
+    std::copy(d_->site_xpos + 3 * s, d_->site_xpos + 3 * s + 3, e.p.begin());
+    mju_mat2Quat(e.q.data(), d_->site_xmat + 9 * s);
+    std::copy(m_->site_size + 3 * s, m_->site_size + 3 * s + 3, e.half_extents.begin());
     o.entities.push_back(std::move(e));
   }
   o.goal_holds = goal_holds();

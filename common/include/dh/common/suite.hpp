@@ -1,7 +1,11 @@
-// Benchmark suites and tasks, from configs/suites/*.yaml.
+// Benchmark suites, cells and tasks, from configs/suites/*.yaml. Each suite file gives three cells: the
+// unperturbed suite ("goal") and its LIBERO-Pro-style perturbations "<suite>-task" (the instruction and
+// goal redirected to another object or target in the same scene) and "<suite>-swap" (task-relevant
+// entities trade placements or move; instruction and goal unchanged).
 #pragma once
 
 #include <filesystem>
+#include <array>
 #include <map>
 #include <string>
 #include <vector>
@@ -15,23 +19,38 @@ struct PredicateSpec {
   std::string text() const;
 };
 
+/// A swap perturbation: pairs of entities exchange their placement regions (nominal xy); `moves` send an
+/// entity's region to a new nominal xy.
+struct SwapSpec {
+  std::vector<std::array<std::string, 2>> exchange;
+  std::map<std::string, std::array<double, 2>> moves;
+  bool empty() const { return exchange.empty() && moves.empty(); }
+  std::string text() const;  ///< stable description, e.g. "bowl<->plate;bowl->(0.1,0.2)"
+};
+
 struct TaskDef {
-  std::string suite;
+  std::string suite;          ///< the cell: "goal", "goal-task", "goal-swap", ...
+  std::string base_suite;     ///< "goal" or "long"
+  std::string perturbation;   ///< "", "task" or "swap"
   unsigned id = 0;
   std::string instruction;
   unsigned budget_steps = 0;
   std::filesystem::path scene_file;  ///< absolute, resolved relative to the suite file
   std::vector<PredicateSpec> goal;   ///< conjunction
+  SwapSpec swap;                     ///< applied to the scene (swap cells only)
 };
 
 struct SuiteDef {
-  std::string name;
+  std::string name;         ///< the cell name
+  std::string base_suite;
+  std::string perturbation;
   std::string modelled_on;
   unsigned budget_steps = 0;
   std::map<unsigned, TaskDef> tasks;
 };
 
-/// Loads every configs/suites/*.yaml under `config_dir`; throws ConfigError naming file and key.
+/// Loads every configs/suites/*.yaml under `config_dir` (three cells per file, keyed by cell name);
+/// throws ConfigError naming file and key.
 std::map<std::string, SuiteDef> load_suites(const std::filesystem::path& config_dir);
 
 /// The task, or ConfigError saying which suites/tasks exist.

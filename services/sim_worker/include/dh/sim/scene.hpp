@@ -1,64 +1,86 @@
-// A tabletop scene from YAML (configs/scenes/): a table, the robot, objects built from primitives.
-// A seed fixes every object's initial pose exactly.
+// A tabletop scene from YAML (configs/scenes/): a table with named regions, the robot, and entities —
+// instances of assets (configs/assets/), free objects or fixtures. A seed fixes every free object's
+// initial pose exactly; fixtures stand where the scene (or a swap perturbation) puts them.
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
+#include "dh/common/suite.hpp"
+#include "dh/sim/asset.hpp"
 #include "dh/sim/robot_model.hpp"
 
 namespace dh::sim {
 
-/// Object kinds built from primitives. Every object's body origin is its bottom centre.
-enum class ObjectKind { Bowl, Plate, Box, Cylinder };
-
-struct ObjectSpec {
-  std::string name;
-  ObjectKind kind = ObjectKind::Box;
-  std::string kind_name;
-  double radius = 0;              ///< bowl, plate, cylinder (m)
-  double height = 0;              ///< all kinds (m)
-  double wall = 0;                ///< bowl wall thickness (m)
-  std::array<double, 3> size{};   ///< box full extents (m)
-  double mass = 0.1;              ///< kg
-  double friction = 1.0;
-  std::array<double, 4> rgba{0.5, 0.5, 0.5, 1};
+struct EntitySpec {
+  std::string name;  ///< body name in the model and in observations, e.g. "bowl", "cabinet"
+  AssetSpec asset;
+  std::array<double, 4> rgba{};        ///< the asset's colour unless the scene paints it
   std::array<double, 2> nominal_xy{};  ///< m, world frame
-  double jitter = 0;              ///< uniform ± on x and y (m)
-  double yaw_jitter = 0;          ///< uniform ± (rad)
-  double footprint_radius() const;
-  std::array<double, 3> half_extents() const;
+  double yaw = 0;                      ///< nominal rotation about z (rad)
+  double jitter = 0;                   ///< uniform ± on x and y per seed (m); fixtures: 0
+  double yaw_jitter = 0;               ///< uniform ± per seed (rad)
+  std::map<std::string, double> init_joints;  ///< part name → initial joint position
+  bool fixture() const { return asset.fixture; }
+};
+
+/// A named box on the table top (e.g. "stove_front_region"); its top face is the table surface.
+struct TableRegion {
+  std::string name;
+  std::array<double, 2> xy{};
+  std::array<double, 2> half{};
 };
 
 struct SceneSpec {
   std::filesystem::path file;
   std::string name;
+  std::string layout;  ///< kitchen, living_room, study
   std::array<double, 3> table_size{};  ///< full extents; the top is at z = 0
   double table_friction = 1.0;
+  std::array<double, 4> table_rgba{0.6, 0.45, 0.3, 1};
   RobotSpec robot;
   std::array<double, 3> robot_base{};
   std::array<double, 7> ready_q{};
   std::array<double, 3> workspace_min{}, workspace_max{};
   double finger_friction = 1.5;
-  std::vector<ObjectSpec> objects;
+  std::vector<EntitySpec> entities;
+  std::vector<TableRegion> regions;
+
+  const EntitySpec* entity(const std::string& name) const;
 };
 
-/// An object's initial pose for one seed.
+/// An entity's initial pose for one seed.
 struct Placement {
   std::string name;
   double x = 0, y = 0, yaw = 0;
 };
 
-/// Loads a scene; throws ConfigError naming file and key on any problem.
+/// Loads a scene and its assets (<scene dir>/../assets/<asset>.yaml); throws ConfigError naming file and key.
 SceneSpec load_scene(const std::filesystem::path& file);
 
-/// Samples non-overlapping placements for `seed` (deterministic); throws std::runtime_error when no
-/// placement without overlap is found.
+/// The scene with `swap` applied (entities trade nominal xy; each keeps its orientation and jitter);
+/// throws std::invalid_argument naming an entity the scene lacks.
+SceneSpec apply_swap(SceneSpec scene, const SwapSpec& swap);
+
+/// The scene a task runs in: its scene file with the task's swap applied.
+SceneSpec load_task_scene(const TaskDef& task);
+/// Tasks with equal keys share one compiled model.
+std::string task_scene_key(const TaskDef& task);
+
+/// Samples placements for `seed` (deterministic, every entity, fixtures at their nominal pose) with
+/// footprints apart; throws std::runtime_error when no placement without overlap is found.
 std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t seed);
 
-/// The complete MJCF document of the workcell with objects at `placements`.
+/// The complete MJCF document of the workcell with entities at `placements`.
 std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& placements);
+
+/// MJCF names: a part body is "<entity>_<part>", its joint "<entity>_<part>_joint", an asset site
+/// "<entity>_<site>" (also for sites on parts), a table region keeps its own name.
+std::string part_body(const std::string& entity, const std::string& part);
+std::string part_joint(const std::string& entity, const std::string& part);
 
 }  // namespace dh::sim

@@ -13,6 +13,7 @@
 
 #include "dh/common/observation.hpp"
 #include "dh/common/suite.hpp"
+#include "dh/sim/predicates.hpp"
 #include "dh/sim/safety.hpp"
 #include "dh/sim/scene.hpp"
 
@@ -39,14 +40,22 @@ class Workcell {
   Workcell(const Workcell&) = delete;
   Workcell& operator=(const Workcell&) = delete;
 
-  /// Puts the arm at its ready pose and the objects where `seed` places them, lets them settle.
-  /// Throws std::invalid_argument when a goal predicate names an unknown entity or predicate.
+  /// Puts the arm at its ready pose, fixtures' parts at their initial positions and the objects where
+  /// `seed` places them, lets them settle. Throws std::invalid_argument when a goal predicate names an
+  /// unknown entity, region, state or predicate.
   void reset(std::uint64_t seed, const std::vector<PredicateSpec>& goal);
   /// Applies one 7-d action for one control step (50 ms); returns what the seam corrected.
   std::vector<StepEvent> step(const std::array<double, 7>& action);
   /// The observation after the last step (step and budget fields are the caller's to fill).
   Observation observe() const;
   bool goal_holds() const;
+  std::vector<bool> goal_terms() const;
+  /// Whether another goal holds in the current state (throws like reset() for a goal the scene lacks).
+  bool holds(const std::vector<PredicateSpec>& goal) const;
+  /// Deepest interpenetration among contacts that involve a scene entity (m, positive = overlap).
+  double max_penetration() const;
+  /// Fastest linear speed of any free object (m/s).
+  double max_object_speed() const;
   const SceneSpec& scene() const { return scene_; }
   const SafetyLimits& limits() const { return limits_; }
   /// Full physics state (qpos, qvel, act, time) for evidence and probes.
@@ -57,7 +66,6 @@ class Workcell {
   /// Joint targets reaching the tool pose (position, quaternion w x y z) from the current state.
   void solve_ik(const std::array<double, 3>& p_goal, const std::array<double, 4>& q_goal, double joints[7]);
   std::array<double, 4> tcp_quat(const mjData_* d) const;
-  bool on(int body_a, int body_b) const;
   bool in_contact(int body_a, int body_b) const;
 
   SceneSpec scene_;
@@ -66,7 +74,7 @@ class Workcell {
   mjData_* d_ = nullptr;
   mjData_* ik_ = nullptr;
   std::unique_ptr<Ids> ids_;
-  std::vector<std::array<int, 2>> goal_on_;  ///< On(a, b) goal terms as body ids, resolved at reset
+  std::unique_ptr<GoalEvaluator> goal_;      ///< resolved at reset
   std::vector<double> jacp_, jacr_;          ///< 3 x nv Jacobian buffers of the IK
 };
 

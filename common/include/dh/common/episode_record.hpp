@@ -1,0 +1,31 @@
+// One finished episode of a campaign: the row a campaign database holds and a report reads.
+#pragma once
+
+#include <string>
+
+namespace dh {
+
+struct EpisodeRecord {
+  // The paired key: two arms are compared on the same (cell, task, seed).
+  std::string arm;   ///< executor configuration, e.g. "full", "static", "seq"
+  std::string cell;  ///< "goal", "goal-task", "goal-swap", "long", "long-task", "long-swap"
+  unsigned task = 0;
+  unsigned seed = 0;
+
+  bool success = false;
+  unsigned steps = 0;       ///< control steps applied
+  unsigned budget = 0;      ///< the task's step budget
+  double wall_s = 0;        ///< request sent → result received (s)
+  double physics_s = 0;     ///< time the simulator spent in MuJoCo for this episode (s); 0 = unknown
+  std::string outcome;      ///< "success", "budget_exhausted", "gave_up", "infrastructure"
+  std::string reason;
+  bool infrastructure = false;  ///< lost to infrastructure (no result, dead process); counted as a failure
+  bool tick_limit = false;      ///< ended because the step budget ran out
+  std::string evidence_path;    ///< the episode's JSON-lines evidence file ("" when none was written)
+  std::string episode_id;
+  std::string worker;           ///< sim_worker name that ran it
+  unsigned channel = 0;
+  std::string finished_at;      ///< UTC ISO-8601
+};
+
+}  // namespace dh

@@ -1,0 +1,79 @@
+// The campaign database: one SQLite file (WAL) holding every finished episode of a campaign and its declared
+// plan. Several processes may write the same file; each waits for the others' writes (busy_timeout).
+#pragma once
+
+#include <cstddef>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "dh/campaign/plan.hpp"
+#include "dh/common/episode_record.hpp"
+
+struct sqlite3;
+struct sqlite3_stmt;
+
+namespace dh::campaign {
+
+/// The file cannot be used as a campaign database; the message names the file and what to do.
+struct CampaignError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+using Key = EpisodeKey;
+Key key_of(const EpisodeRecord& r);
+
+/// One connection to a campaign database. Movable, not copyable; not to be shared between threads
+/// (open one per thread or process: they coordinate through SQLite's locks).
+class CampaignDb {
+ public:
+  static constexpr int kSchemaVersion = 1;
+  static constexpr int kBusyTimeoutMs = 30'000;
+
+  /// Opens `path` for reading and writing, creating its folders, the file and the schema when new.
+  /// CampaignError if it is not a SQLite database, has another schema or version, or cannot be opened.
+  static CampaignDb open(const std::filesystem::path& path);
+  /// Every row of an existing campaign database, opened read-only (for reports); CampaignError naming
+  /// the path when it is missing or not a campaign database.
+  static std::vector<EpisodeRecord> read_rows(const std::filesystem::path& path);
+
+  /// Stores one finished episode, durable when this returns. A key already present keeps its first row:
+  /// returns false and changes nothing (a resumed or duplicated run never counts an episode twice).
+  bool record(const EpisodeRecord& r);
+  bool has(const std::string& arm, const std::string& cell, unsigned task, unsigned seed) const;
+  std::set<Key> finished() const;
+  std::vector<EpisodeRecord> rows() const;  ///< ordered by arm, cell, task, seed
+  std::size_t count() const;
+
+  void set_meta(const std::string& key, const std::string& value);
+  std::optional<std::string> meta(const std::string& key) const;
+
+  /// Stores `requested` (meta key "plan") when the database has none and returns {}; otherwise returns
+  /// plan_differences(stored, requested): empty = the same campaign, else one line per changed field.
+  std::vector<std::string> declare_plan(const Plan& requested);
+  std::optional<Plan> plan() const;
+
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  struct Close {
+    void operator()(sqlite3* db) const;
+    void operator()(sqlite3_stmt* s) const;
+  };
+  using Stmt = std::unique_ptr<sqlite3_stmt, Close>;
+
+  CampaignDb(std::filesystem::path path, bool read_only);
+  void check_or_create_schema(bool read_only);
+  Stmt prepare(const char* sql) const;
+  [[noreturn]] void fail(const std::string& what) const;
+
+  std::filesystem::path path_;
+  std::unique_ptr<sqlite3, Close> db_;  // declared before the statements: they are finalized first
+  Stmt insert_, has_, get_meta_, set_meta_;
+};
+
+}  // namespace dh::campaign

@@ -1,0 +1,71 @@
+// The campaign report (DESIGN.md §9): success with Wilson 95 % intervals per arm and cell, paired
+// comparisons of every two arms (exact sign test, paired Wald and cell-bootstrap intervals), per-task
+// tables, episode wall clock, decision and planner latencies from the evidence files, and plots.
+//
+// Rules: an episode lost to infrastructure is a failure in every denominator and is counted, never
+// dropped. A missing or unreadable evidence file is counted (evidence.missing), never fatal; torn lines
+// inside one are skipped by dh::read_evidence. A missing gnuplot skips the plots, never the report.
+#pragma once
+
+#include "dh/common/episode_record.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace dh::report {
+
+inline constexpr const char* kBenchmarkNote =
+    "This is DynaHarness's own MuJoCo workcell benchmark, modelled on LIBERO-Goal / LIBERO-10 and "
+    "LIBERO-Pro perturbations. It is NOT LIBERO or LIBERO-Pro, and its results are not comparable with "
+    "published LIBERO numbers.";
+
+/// The rows of one campaign database; `label` names it in the report (e.g. its file name). Rows of all
+/// sources are pooled: an (arm, cell, task, seed) key seen twice in one arm is counted as a duplicate
+/// and only its first row (in source, then row order) enters the paired comparison.
+struct Source {
+  std::string label;
+  std::vector<EpisodeRecord> rows;
+};
+
+struct ReportOptions {
+  std::filesystem::path out_dir;  ///< render() only; created when missing
+  std::string title = "DynaHarness campaign report";
+  unsigned bootstrap_resamples = 20000;
+  std::uint64_t bootstrap_seed = 20260926;
+  bool plots = true;
+};
+
+struct ReportFiles {
+  std::filesystem::path markdown, html, json;
+  std::vector<std::filesystem::path> plots;  ///< PNGs written; empty when plots were skipped
+  bool plots_skipped = false;
+  std::string plots_note;  ///< why they were skipped
+};
+
+/// The report as one JSON object (what `dh report --json` prints). Arms and cells keep the order in which
+/// they first appear; pairs of arms (a, b) follow that order with a first. Keys:
+///   title, benchmark_note, sources [{label, rows}], rows, arms, cells, infrastructure, duplicates,
+///   summary    [{arm, cell, successes, episodes, rate, wilson_lo, wilson_hi, infrastructure, tick_limit}]
+///   arm_totals [{arm, the same fields without cell}]
+///   paired     [{a, b, overall: P, cells: [{cell, P...}]}], P = {n, wins, losses, ties, diff_pp,
+///               wald_lo_pp, wald_hi_pp, bootstrap_lo_pp, bootstrap_hi_pp, clusters, p}; wins = a
+///               succeeded and b failed; bootstrap clusters are cell/task
+///   bootstrap  {resamples, seed}
+///   tasks      [{arm, cell, task, successes, episodes}]
+///   wall_clock [{arm, cell, episodes, mean_s, p50_s, p90_s, total_s}]
+///   latency    {decision: L, planner: L, unanswered_plan_requests, by_arm: [{arm, decision, planner}]},
+///               L = {count, p50_ms, p90_ms, p99_ms}
+///   evidence   {read, missing, not_recorded}, and evidence_missing (= evidence.missing)
+/// A value without data (no episodes, no latencies) is null.
+nlohmann::json summarize(const std::vector<Source>& sources, const ReportOptions& options);
+
+/// Writes report.md, report.html and report.json (the summarize() object) into options.out_dir, plus the
+/// plots (success.png, wall_clock.png, with their .dat files, plots.gp and plots.log) when gnuplot runs.
+/// Throws std::runtime_error naming the file when out_dir or a report file cannot be written.
+ReportFiles render(const std::vector<Source>& sources, const ReportOptions& options);
+
+}  // namespace dh::report

@@ -1,0 +1,183 @@
+#include "document.hpp"
+
+#include <spdlog/fmt/fmt.h>
+
+#include <algorithm>
+
+namespace dh::report {
+
+namespace {
+
+using nlohmann::json;
+
+constexpr const char* kNone = "–";
+
+std::string fixed(const json& x, int decimals) {
+  return x.is_number() ? fmt::format("{:.{}f}", x.get<double>(), decimals) : kNone;
+}
+std::string signed_pp(const json& x) {
+  return x.is_number() ? fmt::format("{:+.1f}", x.get<double>()) : kNone;
+}
+std::string percent(const json& fraction) {
+  return fraction.is_number() ? fmt::format("{:.1f} %", 100 * fraction.get<double>()) : kNone;
+}
+std::string range(const std::string& lo, const std::string& hi) {
+  return lo == kNone || hi == kNone ? kNone : "[" + lo + ", " + hi + "]";
+}
+std::string count(const json& x) { return std::to_string(x.get<unsigned>()); }
+
+// Exact p: three significant digits, scientific below 0.001 (e.g. 2.00e-18).
+std::string p_value(double p) { return p < 1e-3 ? fmt::format("{:.2e}", p) : fmt::format("{:.3g}", p); }
+
+bool drawn(const PlotResult& plots, const std::string& file) {
+  return std::find(plots.files.begin(), plots.files.end(), file) != plots.files.end();
+}
+
+std::vector<std::string> success_row(const json& s, const std::string& cell) {
+  const double lo = 100 * s["wilson_lo"].get<double>(), hi = 100 * s["wilson_hi"].get<double>();
+  return {s["arm"],
+          cell,
+          count(s["successes"]),
+          count(s["episodes"]),
+          percent(s["rate"]),
+          range(fixed(lo, 1), fixed(hi, 1)),
+          count(s["infrastructure"]),
+          count(s["tick_limit"])};
+}
+
+std::vector<std::string> paired_row(const std::string& scope, const json& p) {
+  return {scope,
+          count(p["n"]),
+          count(p["wins"]),
+          count(p["losses"]),
+          count(p["ties"]),
+          signed_pp(p["diff_pp"]),
+          range(fixed(p["wald_lo_pp"], 1), fixed(p["wald_hi_pp"], 1)),
+          range(fixed(p["bootstrap_lo_pp"], 1), fixed(p["bootstrap_hi_pp"], 1)),
+          p_value(p["p"].get<double>())};
+}
+
+std::vector<std::string> latency_row(const std::string& arm, const std::string& kind, const json& l) {
+  return {arm, kind, count(l["count"]), fixed(l["p50_ms"], 1), fixed(l["p90_ms"], 1), fixed(l["p99_ms"], 1)};
+}
+
+void overview(const json& s, Document& doc) {
+  std::string sources;
+  for (const json& src : s["sources"])
+    sources +=
+        (sources.empty() ? "" : ", ") + src["label"].get<std::string>() + " (" + count(src["rows"]) + ")";
+  doc.push_back(Paragraph{count(s["rows"]) + " episodes from " + std::to_string(s["sources"].size()) +
+                          " database(s): " + (sources.empty() ? kNone : sources) + "."});
+  doc.push_back(Paragraph{"Episodes lost to infrastructure: " + count(s["infrastructure"]) +
+                          " (each counted as a failure in every denominator)."});
+  if (s["duplicates"].get<unsigned>() > 0)
+    doc.push_back(
+        Paragraph{"Warning: " + count(s["duplicates"]) +
+                  " episode(s) repeat an (arm, cell, task, seed) key already seen; they count in the "
+                  "success tables, only the first enters the paired comparisons."});
+  const json& e = s["evidence"];
+  doc.push_back(Paragraph{"Evidence files read: " + count(e["read"]) + "; missing or unreadable: " +
+                          count(e["missing"]) + "; not recorded: " + count(e["not_recorded"]) + "."});
+}
+
+void success(const json& s, const PlotResult& plots, Document& doc) {
+  doc.push_back(Heading{2, "Success per arm and cell"});
+  Table t{{"Arm", "Cell", "Successes", "Episodes", "Rate", "Wilson 95 % (%)", "Infrastructure", "Tick limit"},
+          {}};
+  for (const json& total : s["arm_totals"]) {
+    for (const json& row : s["summary"])
+      if (row["arm"] == total["arm"]) t.rows.push_back(success_row(row, row["cell"]));
+    t.rows.push_back(success_row(total, "all"));
+  }
+  doc.push_back(std::move(t));
+  if (drawn(plots, "success.png")) doc.push_back(Image{"success.png", "Success rate per arm and cell"});
+}
+
+void comparisons(const json& s, Document& doc) {
+  doc.push_back(Heading{2, "Paired comparisons"});
+  doc.push_back(Paragraph{fmt::format(
+      "Pairs are the (cell, task, seed) keys both arms ran. W: A succeeded and B failed; L: the reverse. "
+      "Δ: success of A minus B in percentage points. Paired Wald: Δ ± 1.96·sd(d)/√n over the per-episode "
+      "differences d. Cell bootstrap: 95 % percentile interval over {} resamples of whole cell/task "
+      "clusters (seed {}). p: exact two-sided sign test over W + L.",
+      count(s["bootstrap"]["resamples"]), s["bootstrap"]["seed"].get<std::uint64_t>())});
+  if (s["paired"].empty()) doc.push_back(Paragraph{"Fewer than two arms: nothing to compare."});
+  for (const json& pair : s["paired"]) {
+    doc.push_back(
+        Heading{3, "A = " + pair["a"].get<std::string>() + " vs B = " + pair["b"].get<std::string>()});
+    Table t{{"Cell", "n", "W", "L", "Ties", "Δ pp", "Paired Wald 95 % (pp)", "Cell bootstrap 95 % (pp)", "p"},
+            {paired_row("all", pair["overall"])}};
+    for (const json& c : pair["cells"]) t.rows.push_back(paired_row(c["cell"], c));
+    doc.push_back(std::move(t));
+  }
+}
+
+void per_task(const json& s, Document& doc) {
+  doc.push_back(Heading{2, "Per-task success"});
+  for (const json& cell : s["cells"]) {
+    doc.push_back(Heading{3, cell.get<std::string>()});
+    std::vector<unsigned> tasks;
+    for (const json& t : s["tasks"])
+      if (t["cell"] == cell) tasks.push_back(t["task"]);
+    std::sort(tasks.begin(), tasks.end());
+    tasks.erase(std::unique(tasks.begin(), tasks.end()), tasks.end());
+    Table table{{"Task"}, {}};
+    for (const json& arm : s["arms"]) table.header.push_back(arm);
+    for (unsigned task : tasks) {
+      std::vector<std::string> row{std::to_string(task)};
+      for (const json& arm : s["arms"]) {
+        std::string cell_text = kNone;
+        for (const json& t : s["tasks"])
+          if (t["arm"] == arm && t["cell"] == cell && t["task"] == task)
+            cell_text = count(t["successes"]) + "/" + count(t["episodes"]);
+        row.push_back(cell_text);
+      }
+      table.rows.push_back(std::move(row));
+    }
+    doc.push_back(std::move(table));
+  }
+}
+
+void wall_clock(const json& s, const PlotResult& plots, Document& doc) {
+  doc.push_back(Heading{2, "Episode wall clock"});
+  Table t{{"Arm", "Cell", "Episodes", "Mean (s)", "p50 (s)", "p90 (s)", "Total (s)"}, {}};
+  for (const json& w : s["wall_clock"])
+    t.rows.push_back({w["arm"], w["cell"], count(w["episodes"]), fixed(w["mean_s"], 2), fixed(w["p50_s"], 2),
+                      fixed(w["p90_s"], 2), fixed(w["total_s"], 1)});
+  doc.push_back(std::move(t));
+  if (drawn(plots, "wall_clock.png"))
+    doc.push_back(Image{"wall_clock.png", "Episode wall clock per arm and cell"});
+}
+
+void latency(const json& s, Document& doc) {
+  const json& l = s["latency"];
+  doc.push_back(Heading{2, "Latency"});
+  doc.push_back(
+      Paragraph{"Decision: the governor's time from observation or event to decision (latency_ns of "
+                "decision records). Planner: plan_request to the advice with the same request_id. "
+                "Plan requests never answered: " +
+                count(l["unanswered_plan_requests"]) + "."});
+  Table t{{"Arm", "Kind", "Count", "p50 (ms)", "p90 (ms)", "p99 (ms)"},
+          {latency_row("all", "decision", l["decision"]), latency_row("all", "planner", l["planner"])}};
+  for (const json& a : l["by_arm"]) {
+    t.rows.push_back(latency_row(a["arm"], "decision", a["decision"]));
+    t.rows.push_back(latency_row(a["arm"], "planner", a["planner"]));
+  }
+  doc.push_back(std::move(t));
+}
+
+}  // namespace
+
+Document build_document(const json& summary, const PlotResult& plots) {
+  Document doc{Heading{1, summary["title"]}, Note{summary["benchmark_note"]}};
+  overview(summary, doc);
+  if (plots.skipped) doc.push_back(Paragraph{"Plots skipped: " + plots.note});
+  success(summary, plots, doc);
+  comparisons(summary, doc);
+  per_task(summary, doc);
+  wall_clock(summary, plots, doc);
+  latency(summary, doc);
+  return doc;
+}
+
+}  // namespace dh::report

@@ -1,0 +1,61 @@
+#include "latency.hpp"
+
+#include "dh/common/evidence.hpp"
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <stdexcept>
+
+namespace dh::report {
+
+namespace {
+
+constexpr double kNsPerMs = 1e6;
+
+bool has_number(const nlohmann::json& record, const char* key) {
+  const auto it = record.find(key);
+  return it != record.end() && it->is_number();
+}
+
+}  // namespace
+
+void Latencies::merge(const Latencies& other) {
+  decision_ms.insert(decision_ms.end(), other.decision_ms.begin(), other.decision_ms.end());
+  planner_ms.insert(planner_ms.end(), other.planner_ms.begin(), other.planner_ms.end());
+  unanswered += other.unanswered;
+}
+
+EvidenceStatus collect_latencies(const std::string& path, Latencies& into) {
+  if (path.empty()) return EvidenceStatus::NotRecorded;
+  std::vector<nlohmann::json> records;
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(path, ec)) return EvidenceStatus::Missing;
+  try {
+    records = read_evidence(path);
+  } catch (const std::runtime_error&) {
+    return EvidenceStatus::Missing;
+  }
+  std::map<std::string, std::int64_t> open_requests;  // request_id (dumped) → t_wall_ns of the request
+  for (const nlohmann::json& r : records) {
+    if (!r.is_object()) continue;
+    const std::string kind = r.contains("kind") && r["kind"].is_string() ? r["kind"].get<std::string>() : "";
+    if (kind == "decision" && has_number(r, "latency_ns")) {
+      into.decision_ms.push_back(r["latency_ns"].get<double>() / kNsPerMs);
+    } else if ((kind == "plan_request" || kind == "advice") && r.contains("request_id") &&
+               has_number(r, "t_wall_ns")) {
+      const std::string id = r["request_id"].dump();
+      const auto t = r["t_wall_ns"].get<std::int64_t>();
+      if (kind == "plan_request") {
+        open_requests[id] = t;
+      } else if (const auto it = open_requests.find(id); it != open_requests.end()) {
+        into.planner_ms.push_back(static_cast<double>(t - it->second) / kNsPerMs);
+        open_requests.erase(it);
+      }
+    }
+  }
+  into.unanswered += open_requests.size();
+  return EvidenceStatus::Read;
+}
+
+}  // namespace dh::report

@@ -1,0 +1,197 @@
+#include "plots.hpp"
+
+#include <fcntl.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+extern char** environ;
+
+namespace dh::report {
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+const std::vector<std::string> kPlotFiles{"success.png", "wall_clock.png"};
+
+fs::path find_on_path(const std::string& program) {
+  const char* path = std::getenv("PATH");
+  std::stringstream dirs(path ? path : "");
+  for (std::string dir; std::getline(dirs, dir, ':');) {
+    const fs::path candidate = fs::path(dir.empty() ? "." : dir) / program;
+    std::error_code ec;
+    if (fs::is_regular_file(candidate, ec) && ::access(candidate.c_str(), X_OK) == 0) return candidate;
+  }
+  return {};
+}
+
+// A gnuplot single-quoted string: no escapes inside, a quote is doubled.
+std::string gp_quote(const std::string& s) {
+  std::string out = "'";
+  for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
+  return out + "'";
+}
+
+// A string column of a gnuplot data file: double-quoted, so it may hold spaces but no double quote.
+std::string data_label(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s)
+    if (c != '"') out += c;
+  return out + "\"";
+}
+
+std::string success_data(const json& summary) {
+  std::ostringstream out;
+  out << "# cell, then per arm: rate, wilson_lo, wilson_hi (%)\n";
+  for (const json& cell : summary["cells"]) {
+    out << data_label(cell);
+    for (const json& arm : summary["arms"]) {
+      const json* row = nullptr;
+      for (const json& s : summary["summary"])
+        if (s["arm"] == arm && s["cell"] == cell) row = &s;
+      if (row)
+        out << ' ' << 100 * (*row)["rate"].get<double>() << ' ' << 100 * (*row)["wilson_lo"].get<double>()
+            << ' ' << 100 * (*row)["wilson_hi"].get<double>();
+      else
+        out << " NaN NaN NaN";
+    }
+    out << '\n';
+  }
+  return out.str();
+}
+
+// One line per episode, grouped in the summary's arm × cell order so the boxes come out in that order.
+std::string wall_clock_data(const json& summary, const std::vector<Source>& sources) {
+  std::map<std::pair<std::string, std::string>, std::vector<double>> wall_s;
+  for (const Source& source : sources)
+    for (const EpisodeRecord& r : source.rows) wall_s[{r.arm, r.cell}].push_back(r.wall_s);
+  std::ostringstream out;
+  out << "# arm/cell, episode wall clock (s)\n";
+  for (const json& s : summary["summary"]) {
+    const std::string arm = s["arm"], cell = s["cell"];
+    for (double w : wall_s[{arm, cell}]) out << data_label(arm + "/" + cell) << ' ' << w << '\n';
+  }
+  return out.str();
+}
+
+std::string script(const json& summary, const fs::path& dir) {
+  const auto file = [&](const char* name) { return gp_quote((dir / name).string()); };
+  std::ostringstream gp;
+  gp << R"(if (strstrt(GPVAL_TERMINALS, 'pngcairo') > 0) {
+  set terminal pngcairo size 960,540 noenhanced
+} else {
+  set terminal png size 960,540 noenhanced
+}
+set datafile missing 'NaN'
+set output )" << file("success.png") << R"(
+set title 'Success rate per arm and cell (Wilson 95 % intervals)'
+set ylabel 'success (%)'
+set yrange [0:105]
+set grid ytics
+set key outside right top
+set style data histograms
+set style histogram errorbars gap 2 lw 1
+set style fill solid 0.6 border -1
+plot )";
+  const json& arms = summary["arms"];
+  for (std::size_t i = 0; i < arms.size(); ++i) {
+    const std::size_t col = 2 + 3 * i;
+    gp << (i ? ", '' " : file("success.dat") + " ") << "using " << col << ':' << col + 1 << ':' << col + 2
+       << (i ? "" : ":xtic(1)") << " title " << gp_quote(arms[i]);
+  }
+  gp << R"(
+reset
+set output )" << file("wall_clock.png") << R"(
+set title 'Episode wall clock per arm and cell'
+set ylabel 'wall clock (s)'
+set grid ytics
+unset key
+set xtics rotate by -30
+set style data boxplot
+set style fill solid 0.3 border -1
+set boxwidth 0.5
+set pointsize 0.5
+plot )" << file("wall_clock.dat") << R"( using (1):2:(0.5):1
+set output
+)";
+  return gp.str();
+}
+
+bool write_file(const fs::path& path, const std::string& text) {
+  std::ofstream out(path, std::ios::trunc);
+  out << text;
+  return static_cast<bool>(out);
+}
+
+// Runs `program script` with stdout and stderr in `log`; returns the exit status, or −1 if it did not run.
+int run(const fs::path& program, const fs::path& script_path, const fs::path& log) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
+  std::string arg0 = program.string(), arg1 = script_path.string();
+  char* argv[] = {arg0.data(), arg1.data(), nullptr};
+  pid_t pid = 0;
+  const int spawned = posix_spawn(&pid, program.c_str(), &actions, nullptr, argv, environ);
+  posix_spawn_file_actions_destroy(&actions);
+  if (spawned != 0) return -1;
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0)
+    if (errno != EINTR) return -1;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace
+
+PlotResult draw_plots(const json& summary, const std::vector<Source>& sources, const fs::path& dir) {
+  PlotResult result;
+  result.skipped = true;
+  for (const std::string& name : kPlotFiles) {  // an image of an earlier report must not pass for this one's
+    std::error_code ec;
+    fs::remove(dir / name, ec);
+  }
+  if (summary["summary"].empty()) {
+    result.note = "no episodes to plot.";
+    return result;
+  }
+  const fs::path gnuplot = find_on_path("gnuplot");
+  if (gnuplot.empty()) {
+    result.note = "gnuplot was not found on PATH (install gnuplot-nox to get the PNG plots).";
+    return result;
+  }
+  const fs::path script_path = dir / "plots.gp";
+  if (!write_file(dir / "success.dat", success_data(summary)) ||
+      !write_file(dir / "wall_clock.dat", wall_clock_data(summary, sources)) ||
+      !write_file(script_path, script(summary, dir))) {
+    result.note = "could not write the plot data into " + dir.string() + ".";
+    return result;
+  }
+  const int status = run(gnuplot, script_path, dir / "plots.log");
+  if (status != 0) {
+    result.note = (status < 0 ? std::string("gnuplot did not run")
+                              : "gnuplot exited with status " + std::to_string(status)) +
+                  "; see plots.log.";
+    return result;
+  }
+  for (const std::string& name : kPlotFiles) {
+    std::error_code ec;
+    if (fs::file_size(dir / name, ec) > 0 && !ec)
+      result.files.push_back(name);
+    else
+      result.note += (result.note.empty() ? "gnuplot did not write " : ", ") + name;
+  }
+  result.skipped = result.files.size() != kPlotFiles.size();
+  if (result.skipped) result.note += "; see plots.log.";
+  return result;
+}
+
+}  // namespace dh::report

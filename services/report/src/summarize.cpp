@@ -1,0 +1,201 @@
+#include "dh/report/report.hpp"
+
+#include "dh/common/stats.hpp"
+#include "latency.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <tuple>
+
+namespace dh::report {
+
+namespace {
+
+using nlohmann::json;
+
+json number_or_null(double x) { return std::isnan(x) ? json(nullptr) : json(x); }
+
+// Names in the order they first appear.
+struct FirstSeen {
+  std::vector<std::string> names;
+  void see(const std::string& name) {
+    if (std::find(names.begin(), names.end(), name) == names.end()) names.push_back(name);
+  }
+};
+
+struct Tally {
+  unsigned successes = 0, episodes = 0, infrastructure = 0, tick_limit = 0;
+  void add(const EpisodeRecord& r) {
+    ++episodes;
+    // An infrastructure loss is a failure even if a stale success flag came with it.
+    successes += r.success && !r.infrastructure;
+    infrastructure += r.infrastructure;
+    tick_limit += r.tick_limit;
+  }
+  json to_json() const {
+    const stats::Interval w = stats::wilson(successes, episodes);
+    return {{"successes", successes},  {"episodes", episodes}, {"rate", number_or_null(w.point)},
+            {"wilson_lo", w.lo},       {"wilson_hi", w.hi},    {"infrastructure", infrastructure},
+            {"tick_limit", tick_limit}};
+  }
+};
+
+using PairKey = std::tuple<std::string, unsigned, unsigned>;  // cell, task, seed
+
+json paired_json(const std::vector<stats::PairedOutcome>& outcomes, const ReportOptions& options) {
+  const stats::PairedSummary s = stats::paired(outcomes, options.bootstrap_resamples, options.bootstrap_seed);
+  const auto pp = [](double x) { return number_or_null(100 * x); };
+  return {{"n", s.n},
+          {"wins", s.wins_a},
+          {"losses", s.wins_b},
+          {"ties", s.ties},
+          {"diff_pp", pp(s.diff)},
+          {"wald_lo_pp", pp(s.wald.lo)},
+          {"wald_hi_pp", pp(s.wald.hi)},
+          {"bootstrap_lo_pp", pp(s.bootstrap.lo)},
+          {"bootstrap_hi_pp", pp(s.bootstrap.hi)},
+          {"clusters", s.clusters},
+          {"p", s.p}};
+}
+
+json paired_comparisons(const std::vector<std::string>& arms, const std::vector<std::string>& cells,
+                        const std::map<std::string, std::map<PairKey, bool>>& success_by_key,
+                        const ReportOptions& options) {
+  json out = json::array();
+  for (std::size_t i = 0; i < arms.size(); ++i) {
+    for (std::size_t j = i + 1; j < arms.size(); ++j) {
+      const auto& a = success_by_key.at(arms[i]);
+      const auto& b = success_by_key.at(arms[j]);
+      std::vector<stats::PairedOutcome> all;
+      std::map<std::string, std::vector<stats::PairedOutcome>> by_cell;
+      for (const auto& [key, success_a] : a) {
+        const auto it = b.find(key);
+        if (it == b.end()) continue;
+        const auto& [cell, task, seed] = key;
+        stats::PairedOutcome o{cell + "/" + std::to_string(task), success_a, it->second};
+        all.push_back(o);
+        by_cell[cell].push_back(std::move(o));
+      }
+      json per_cell = json::array();
+      for (const std::string& cell : cells) {
+        if (!by_cell.contains(cell)) continue;
+        json p = paired_json(by_cell[cell], options);
+        p["cell"] = cell;
+        per_cell.push_back(std::move(p));
+      }
+      out.push_back(
+          {{"a", arms[i]}, {"b", arms[j]}, {"overall", paired_json(all, options)}, {"cells", per_cell}});
+    }
+  }
+  return out;
+}
+
+json percentiles_json(const std::vector<double>& ms) {
+  const auto q = [&](double at) { return ms.empty() ? json(nullptr) : json(stats::percentile(ms, at)); };
+  return {{"count", ms.size()}, {"p50_ms", q(0.5)}, {"p90_ms", q(0.9)}, {"p99_ms", q(0.99)}};
+}
+
+json wall_clock_json(const std::vector<double>& wall_s) {
+  const double total = std::accumulate(wall_s.begin(), wall_s.end(), 0.0);
+  return {{"episodes", wall_s.size()},
+          {"mean_s", total / static_cast<double>(wall_s.size())},
+          {"p50_s", stats::percentile(wall_s, 0.5)},
+          {"p90_s", stats::percentile(wall_s, 0.9)},
+          {"total_s", total}};
+}
+
+}  // namespace
+
+json summarize(const std::vector<Source>& sources, const ReportOptions& options) {
+  FirstSeen arms, cells;
+  std::map<std::pair<std::string, std::string>, Tally> by_arm_cell;
+  std::map<std::string, Tally> by_arm;
+  std::map<std::tuple<std::string, std::string, unsigned>, Tally> by_task;
+  std::map<std::pair<std::string, std::string>, std::vector<double>> wall_s;
+  std::map<std::string, std::map<PairKey, bool>> success_by_key;
+  std::map<std::string, Latencies> latency_by_arm;
+  unsigned rows = 0, duplicates = 0, infrastructure = 0;
+  std::map<EvidenceStatus, unsigned> evidence;
+  json source_list = json::array();
+
+  for (const Source& source : sources) {
+    source_list.push_back({{"label", source.label}, {"rows", source.rows.size()}});
+    for (const EpisodeRecord& r : source.rows) {
+      ++rows;
+      arms.see(r.arm);
+      cells.see(r.cell);
+      by_arm_cell[{r.arm, r.cell}].add(r);
+      by_arm[r.arm].add(r);
+      by_task[{r.arm, r.cell, r.task}].add(r);
+      wall_s[{r.arm, r.cell}].push_back(r.wall_s);
+      infrastructure += r.infrastructure;
+      const bool first = success_by_key[r.arm]
+                             .emplace(PairKey{r.cell, r.task, r.seed}, r.success && !r.infrastructure)
+                             .second;
+      duplicates += !first;
+      ++evidence[collect_latencies(r.evidence_path, latency_by_arm[r.arm])];
+    }
+  }
+
+  json summary = json::array(), totals = json::array(), tasks = json::array(), wall = json::array();
+  json latency_by = json::array();
+  Latencies all_latencies;
+  for (const std::string& arm : arms.names) {
+    for (const std::string& cell : cells.names) {
+      const auto it = by_arm_cell.find({arm, cell});
+      if (it == by_arm_cell.end()) continue;
+      json s = it->second.to_json();
+      s["arm"] = arm;
+      s["cell"] = cell;
+      summary.push_back(std::move(s));
+      json w = wall_clock_json(wall_s.at({arm, cell}));
+      w["arm"] = arm;
+      w["cell"] = cell;
+      wall.push_back(std::move(w));
+      for (auto t = by_task.lower_bound({arm, cell, 0});
+           t != by_task.end() && std::get<0>(t->first) == arm && std::get<1>(t->first) == cell; ++t)
+        tasks.push_back({{"arm", arm},
+                         {"cell", cell},
+                         {"task", std::get<2>(t->first)},
+                         {"successes", t->second.successes},
+                         {"episodes", t->second.episodes}});
+    }
+    json total = by_arm.at(arm).to_json();
+    total["arm"] = arm;
+    totals.push_back(std::move(total));
+    const Latencies& l = latency_by_arm.at(arm);
+    latency_by.push_back({{"arm", arm},
+                          {"decision", percentiles_json(l.decision_ms)},
+                          {"planner", percentiles_json(l.planner_ms)}});
+    all_latencies.merge(l);
+  }
+
+  return {{"title", options.title},
+          {"benchmark_note", kBenchmarkNote},
+          {"sources", source_list},
+          {"rows", rows},
+          {"arms", arms.names},
+          {"cells", cells.names},
+          {"infrastructure", infrastructure},
+          {"duplicates", duplicates},
+          {"summary", summary},
+          {"arm_totals", totals},
+          {"paired", paired_comparisons(arms.names, cells.names, success_by_key, options)},
+          {"bootstrap", {{"resamples", options.bootstrap_resamples}, {"seed", options.bootstrap_seed}}},
+          {"tasks", tasks},
+          {"wall_clock", wall},
+          {"latency",
+           {{"decision", percentiles_json(all_latencies.decision_ms)},
+            {"planner", percentiles_json(all_latencies.planner_ms)},
+            {"unanswered_plan_requests", all_latencies.unanswered},
+            {"by_arm", latency_by}}},
+          {"evidence",
+           {{"read", evidence[EvidenceStatus::Read]},
+            {"missing", evidence[EvidenceStatus::Missing]},
+            {"not_recorded", evidence[EvidenceStatus::NotRecorded]}}},
+          {"evidence_missing", evidence[EvidenceStatus::Missing]}};
+}
+
+}  // namespace dh::report

@@ -1,0 +1,87 @@
+// The benchmark's cells: six cells of ten tasks each, every cell x task instantiating for seeds 1-60
+// with objects at rest, nothing interpenetrating, the goal not already met, and the same state for the
+// same seed.
+#include <gtest/gtest.h>
+
+#include <map>
+#include <memory>
+
+#include "dh/common/paths.hpp"
+#include "dh/common/suite.hpp"
+#include "dh/sim/workcell.hpp"
+
+namespace dh {
+namespace {
+
+constexpr unsigned kSeeds = 60;
+// After the 0.4 s settle of reset(): objects slower than this are at rest (m/s).
+constexpr double kAtRest = 0.005;
+// Deepest overlap accepted between touching bodies (MuJoCo's soft contacts rest ~0.1 mm deep).
+constexpr double kMaxPenetration = 0.002;
+// Seeds reset a second time to check the state is reproduced bit for bit.
+constexpr unsigned kRepeatSeeds = 10;
+
+const std::map<std::string, SuiteDef>& suites() {
+  static const auto s = load_suites(paths::config_dir());
+  return s;
+}
+
+TEST(BenchmarkCells, SixCellsOfTenTasksWithTheirPerturbations) {
+  for (const char* name : {"goal", "goal-task", "goal-swap", "long", "long-task", "long-swap"}) {
+    ASSERT_TRUE(suites().count(name)) << name;
+    EXPECT_EQ(suites().at(name).tasks.size(), 10u) << name;
+  }
+  for (const char* base : {"goal", "long"})
+    for (const auto& [id, t] : suites().at(base).tasks) {
+      const TaskDef& redirected = suites().at(std::string(base) + "-task").tasks.at(id);
+      const TaskDef& swapped = suites().at(std::string(base) + "-swap").tasks.at(id);
+      EXPECT_NE(redirected.instruction, t.instruction) << base << "/" << id;
+      EXPECT_NE(redirected.goal.front().text() + redirected.goal.back().text(),
+                t.goal.front().text() + t.goal.back().text()) << base << "/" << id;
+      EXPECT_EQ(redirected.scene_file, t.scene_file);
+      EXPECT_TRUE(redirected.swap.empty());
+      EXPECT_EQ(swapped.instruction, t.instruction);
+      EXPECT_FALSE(swapped.swap.empty()) << base << "/" << id;
+      EXPECT_EQ(t.budget_steps, std::string(base) == "goal" ? 300u : 520u);
+    }
+  for (const auto& [id, t] : suites().at("long").tasks) EXPECT_GE(t.goal.size(), id == 5 ? 1u : 2u) << id;
+}
+
+// One model per scene key, as the simulator worker caches them.
+TEST(BenchmarkCells, EveryCellAndTaskInstantiatesForSeeds1To60) {
+  std::map<std::string, std::vector<const TaskDef*>> by_scene;
+  for (const auto& [cell, suite] : suites())
+    for (const auto& [id, task] : suite.tasks) by_scene[sim::task_scene_key(task)].push_back(&task);
+  double worst_speed = 0, worst_overlap = 0;
+  for (const auto& [key, tasks] : by_scene) {
+    sim::Workcell cell(sim::load_task_scene(*tasks.front()));
+    const std::string& cell_name = tasks.front()->suite;
+    std::vector<std::vector<double>> state(kSeeds + 1);
+    for (unsigned seed = 1; seed <= kSeeds; ++seed) {
+      const std::string what = cell_name + "/" + std::to_string(tasks.front()->id) + " seed " + std::to_string(seed);
+      ASSERT_NO_THROW(cell.reset(seed, tasks.front()->goal)) << what;
+      const double speed = cell.max_object_speed(), overlap = cell.max_penetration();
+      worst_speed = std::max(worst_speed, speed);
+      worst_overlap = std::max(worst_overlap, overlap);
+      EXPECT_LT(speed, kAtRest) << what;
+      EXPECT_LT(overlap, kMaxPenetration) << what;
+      for (const TaskDef* t : tasks)
+        EXPECT_FALSE(cell.holds(t->goal)) << t->suite << "/" << t->id << " seed " << seed
+                                          << ": the goal already holds in the initial state";
+      state[seed] = cell.state();
+    }
+    // The goal does not change the initial state, so one task per scene key stands for all of them.
+    for (unsigned seed = 1; seed <= kRepeatSeeds; ++seed) {
+      cell.reset(seed, tasks.back()->goal);
+      EXPECT_EQ(cell.state(), state[seed]) << key << ": seed " << seed << " again";
+      EXPECT_NE(state[seed], state[seed + 1]) << key << ": seeds " << seed << " and " << seed + 1 << " give one state";
+    }
+  }
+  RecordProperty("worst_object_speed_mps", std::to_string(worst_speed));
+  RecordProperty("worst_penetration_m", std::to_string(worst_overlap));
+  std::cout << "worst object speed " << worst_speed << " m/s, deepest overlap " << worst_overlap << " m over "
+            << by_scene.size() << " scene models\n";
+}
+
+}  // namespace
+}  // namespace dh

@@ -1,0 +1,327 @@
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include "dh/common/stats.hpp"
+#include "dh/report/report.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+
+namespace fs = std::filesystem;
+using dh::EpisodeRecord;
+using nlohmann::json;
+using namespace dh::report;
+
+namespace {
+
+// A folder of its own per test, removed at the end.
+class TempDir {
+ public:
+  TempDir() {
+    const auto* test = ::testing::UnitTest::GetInstance()->current_test_info();
+    path_ = fs::temp_directory_path() /
+            ("dh_report_" + std::to_string(::getpid()) + "_" + test->test_suite_name() + "_" + test->name());
+    fs::remove_all(path_);
+    fs::create_directories(path_);
+  }
+  ~TempDir() { fs::remove_all(path_); }
+  const fs::path& path() const { return path_; }
+
+ private:
+  fs::path path_;
+};
+
+EpisodeRecord row(const std::string& arm, const std::string& cell, unsigned task, unsigned seed, bool success,
+                  double wall_s) {
+  EpisodeRecord r;
+  r.arm = arm;
+  r.cell = cell;
+  r.task = task;
+  r.seed = seed;
+  r.success = success;
+  r.tick_limit = !success;
+  r.outcome = success ? "success" : "budget_exhausted";
+  r.wall_s = wall_s;
+  return r;
+}
+
+// Decisions of 2, 4 and 6 ms (one without latency_ns), plans answered after 150 and 250 ms, one plan never
+// answered, an advice for an unknown request, and a torn last line.
+void write_evidence(const fs::path& path) {
+  std::ofstream out(path);
+  const long long t0 = 1'700'000'000'000'000'000;
+  out << json{{"kind", "episode_start"}, {"t_wall_ns", t0}, {"seq", 0}, {"component", "governor"}}.dump()
+      << "\n";
+  int seq = 1;
+  for (long long ns : {2'000'000LL, 4'000'000LL, 6'000'000LL})
+    out << json{{"kind", "decision"}, {"latency_ns", ns}, {"t_wall_ns", t0 + seq}, {"seq", seq++}}.dump()
+        << "\n";
+  out << json{{"kind", "decision"}, {"t_wall_ns", t0 + 9}, {"seq", seq++}}.dump() << "\n";
+  const auto plan = [&](const std::string& kind, const std::string& id, long long t) {
+    out << json{{"kind", kind}, {"request_id", id}, {"t_wall_ns", t}, {"seq", seq++}}.dump() << "\n";
+  };
+  plan("plan_request", "e/p0", t0 + 1'000'000'000);
+  plan("advice", "e/p0", t0 + 1'150'000'000);
+  plan("advice", "e/unknown", t0 + 1'160'000'000);
+  plan("plan_request", "e/p1", t0 + 2'000'000'000);
+  plan("advice", "e/p1", t0 + 2'250'000'000);
+  plan("plan_request", "e/p2", t0 + 3'000'000'000);
+  out << R"({"kind":"decision","latency_ns":9)";  // torn: the writer died mid-record
+}
+
+// Two databases: "full" and "static" over cells goal (tasks 1, 2) and long (task 3), seeds 0 and 1.
+// full: goal 3/4, long 1/2 (its seed-1 episode lost to infrastructure); static: goal 1/4, long 0/2.
+// Paired: W = 3 (goal/1/0, goal/2/0, long/3/0), L = 0, ties = 3.
+std::vector<Source> campaign(const fs::path& dir) {
+  Source full{"full.db",
+              {row("full", "goal", 1, 0, true, 10), row("full", "goal", 1, 1, true, 12),
+               row("full", "goal", 2, 0, true, 11), row("full", "goal", 2, 1, false, 20),
+               row("full", "long", 3, 0, true, 30), row("full", "long", 3, 1, false, 60)}};
+  EpisodeRecord& lost = full.rows.back();
+  lost.infrastructure = true;
+  lost.tick_limit = false;
+  lost.outcome = "infrastructure";
+  full.rows[0].evidence_path = (dir / "full_goal_1_0.jsonl").string();
+  write_evidence(full.rows[0].evidence_path);
+
+  Source fixed{"static.db",
+               {row("static", "goal", 1, 0, false, 15), row("static", "goal", 1, 1, true, 13),
+                row("static", "goal", 2, 0, false, 16), row("static", "goal", 2, 1, false, 17),
+                row("static", "long", 3, 0, false, 40), row("static", "long", 3, 1, false, 41)}};
+  fixed.rows[0].evidence_path = (dir / "never_written.jsonl").string();
+  return {full, fixed};
+}
+
+ReportOptions options(const fs::path& dir) {
+  ReportOptions o;
+  o.out_dir = dir / "report";
+  o.title = "Test campaign";
+  o.bootstrap_resamples = 2000;
+  return o;
+}
+
+const json& find(const json& list, const std::string& arm, const std::string& cell) {
+  for (const json& j : list)
+    if (j["arm"] == arm && j["cell"] == cell) return j;
+  throw std::runtime_error("no entry for " + arm + "/" + cell);
+}
+
+std::string read(const fs::path& p) {
+  std::ifstream in(p);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+bool gnuplot_on_path() {
+  std::stringstream dirs(std::getenv("PATH") ? std::getenv("PATH") : "");
+  for (std::string d; std::getline(dirs, d, ':');)
+    if (::access((fs::path(d) / "gnuplot").c_str(), X_OK) == 0) return true;
+  return false;
+}
+
+}  // namespace
+
+TEST(Summarize, SuccessPerArmAndCellCountsTheInfrastructureLossAsAFailure) {
+  TempDir dir;
+  const json s = summarize(campaign(dir.path()), options(dir.path()));
+  EXPECT_EQ(s["rows"], 12);
+  EXPECT_EQ(s["sources"].size(), 2u);
+  EXPECT_EQ(s["sources"][1]["label"], "static.db");
+  EXPECT_EQ(s["arms"], json({"full", "static"}));
+  EXPECT_EQ(s["cells"], json({"goal", "long"}));
+  EXPECT_EQ(s["infrastructure"], 1);
+  EXPECT_EQ(s["duplicates"], 0);
+  EXPECT_EQ(s["summary"].size(), 4u);
+
+  const json& full_goal = find(s["summary"], "full", "goal");
+  EXPECT_EQ(full_goal["successes"], 3);
+  EXPECT_EQ(full_goal["episodes"], 4);
+  EXPECT_DOUBLE_EQ(full_goal["rate"].get<double>(), 0.75);
+  const dh::stats::Interval w = dh::stats::wilson(3, 4);
+  EXPECT_DOUBLE_EQ(full_goal["wilson_lo"].get<double>(), w.lo);
+  EXPECT_DOUBLE_EQ(full_goal["wilson_hi"].get<double>(), w.hi);
+  EXPECT_EQ(full_goal["tick_limit"], 1);
+
+  const json& full_long = find(s["summary"], "full", "long");
+  EXPECT_EQ(full_long["successes"], 1);
+  EXPECT_EQ(full_long["episodes"], 2) << "the infrastructure loss stays in the denominator";
+  EXPECT_DOUBLE_EQ(full_long["rate"].get<double>(), 0.5);
+  EXPECT_EQ(full_long["infrastructure"], 1);
+
+  EXPECT_EQ(find(s["summary"], "static", "goal")["successes"], 1);
+  EXPECT_EQ(find(s["summary"], "static", "long")["successes"], 0);
+  EXPECT_EQ(find(s["summary"], "static", "long")["tick_limit"], 2);
+  EXPECT_EQ(s["arm_totals"][0]["arm"], "full");
+  EXPECT_EQ(s["arm_totals"][0]["successes"], 4);
+  EXPECT_EQ(s["arm_totals"][0]["episodes"], 6);
+}
+
+TEST(Summarize, PairedComparisonOverallAndPerCell) {
+  TempDir dir;
+  const json s = summarize(campaign(dir.path()), options(dir.path()));
+  ASSERT_EQ(s["paired"].size(), 1u);
+  const json& pair = s["paired"][0];
+  EXPECT_EQ(pair["a"], "full");
+  EXPECT_EQ(pair["b"], "static");
+  const json& all = pair["overall"];
+  EXPECT_EQ(all["n"], 6);
+  EXPECT_EQ(all["wins"], 3);
+  EXPECT_EQ(all["losses"], 0);
+  EXPECT_EQ(all["ties"], 3);
+  EXPECT_DOUBLE_EQ(all["diff_pp"].get<double>(), 50);
+  EXPECT_DOUBLE_EQ(all["p"].get<double>(), 0.25);  // 2 · (1/2)³
+  EXPECT_EQ(all["clusters"], 3);
+  // d = (1, 0, 1, 0, 1, 0): variance 3/6 − 0.5² = 0.25.
+  const double half = 100 * dh::stats::kZ95 * std::sqrt(0.25 / 6);
+  EXPECT_NEAR(all["wald_lo_pp"].get<double>(), 50 - half, 1e-9);
+  EXPECT_NEAR(all["wald_hi_pp"].get<double>(), 50 + half, 1e-9);
+  EXPECT_LE(all["bootstrap_lo_pp"].get<double>(), 50);
+  EXPECT_GE(all["bootstrap_hi_pp"].get<double>(), 50);
+  EXPECT_EQ(s["bootstrap"]["resamples"], 2000);
+  EXPECT_EQ(s["bootstrap"]["seed"], 20260926u);
+
+  ASSERT_EQ(pair["cells"].size(), 2u);
+  const json& goal = pair["cells"][0];
+  EXPECT_EQ(goal["cell"], "goal");
+  EXPECT_EQ(goal["n"], 4);
+  EXPECT_EQ(goal["wins"], 2);
+  EXPECT_EQ(goal["ties"], 2);
+  EXPECT_DOUBLE_EQ(goal["p"].get<double>(), 0.5);
+  const json& lng = pair["cells"][1];
+  EXPECT_EQ(lng["cell"], "long");
+  EXPECT_EQ(lng["wins"], 1);
+  EXPECT_EQ(lng["ties"], 1) << "the infrastructure loss pairs as a failure";
+  EXPECT_DOUBLE_EQ(lng["p"].get<double>(), 1.0);
+  EXPECT_DOUBLE_EQ(lng["bootstrap_lo_pp"].get<double>(), 50) << "one cluster: every resample is the same";
+}
+
+TEST(Summarize, TasksAndWallClock) {
+  TempDir dir;
+  const json s = summarize(campaign(dir.path()), options(dir.path()));
+  ASSERT_EQ(s["tasks"].size(), 6u);
+  EXPECT_EQ(s["tasks"][0],
+            json({{"arm", "full"}, {"cell", "goal"}, {"task", 1}, {"successes", 2}, {"episodes", 2}}));
+  EXPECT_EQ(s["tasks"][1]["successes"], 1);
+  EXPECT_EQ(s["tasks"][4]["task"], 2);
+  EXPECT_EQ(s["tasks"][4]["successes"], 0);
+
+  const json& w = find(s["wall_clock"], "full", "goal");  // 10, 11, 12, 20
+  EXPECT_EQ(w["episodes"], 4);
+  EXPECT_DOUBLE_EQ(w["mean_s"].get<double>(), 13.25);
+  EXPECT_DOUBLE_EQ(w["p50_s"].get<double>(), 11.5);
+  EXPECT_DOUBLE_EQ(w["p90_s"].get<double>(), 17.6);
+  EXPECT_DOUBLE_EQ(w["total_s"].get<double>(), 53);
+}
+
+TEST(Summarize, LatenciesFromEvidenceAndAMissingFileIsCounted) {
+  TempDir dir;
+  const json s = summarize(campaign(dir.path()), options(dir.path()));
+  EXPECT_EQ(s["evidence"]["read"], 1);
+  EXPECT_EQ(s["evidence"]["missing"], 1);
+  EXPECT_EQ(s["evidence"]["not_recorded"], 10);
+  EXPECT_EQ(s["evidence_missing"], 1);
+
+  const json& d =
+      s["latency"]["decision"];  // 2, 4, 6 ms; the torn line and the one without latency_ns skipped
+  EXPECT_EQ(d["count"], 3);
+  EXPECT_DOUBLE_EQ(d["p50_ms"].get<double>(), 4);
+  EXPECT_DOUBLE_EQ(d["p90_ms"].get<double>(), 5.6);
+  EXPECT_DOUBLE_EQ(d["p99_ms"].get<double>(), 5.96);
+  const json& p = s["latency"]["planner"];  // 150, 250 ms
+  EXPECT_EQ(p["count"], 2);
+  EXPECT_DOUBLE_EQ(p["p50_ms"].get<double>(), 200);
+  EXPECT_DOUBLE_EQ(p["p90_ms"].get<double>(), 240);
+  EXPECT_DOUBLE_EQ(p["p99_ms"].get<double>(), 249);
+  EXPECT_EQ(s["latency"]["unanswered_plan_requests"], 1);
+
+  const json& by_arm = s["latency"]["by_arm"];
+  ASSERT_EQ(by_arm.size(), 2u);
+  EXPECT_EQ(by_arm[0]["decision"]["count"], 3);
+  EXPECT_EQ(by_arm[1]["arm"], "static");
+  EXPECT_EQ(by_arm[1]["planner"]["count"], 0);
+  EXPECT_TRUE(by_arm[1]["planner"]["p50_ms"].is_null());
+}
+
+TEST(Summarize, ARepeatedKeyIsCountedAndOnlyItsFirstRowIsPaired) {
+  TempDir dir;
+  std::vector<Source> sources = campaign(dir.path());
+  sources.push_back({"rerun.db", {row("static", "goal", 1, 0, true, 14)}});  // static's goal/1/0 again
+  const json s = summarize(sources, options(dir.path()));
+  EXPECT_EQ(s["duplicates"], 1);
+  EXPECT_EQ(find(s["summary"], "static", "goal")["episodes"], 5);
+  EXPECT_EQ(find(s["summary"], "static", "goal")["successes"], 2);
+  EXPECT_EQ(s["paired"][0]["overall"]["n"], 6);
+  EXPECT_EQ(s["paired"][0]["overall"]["wins"], 3);
+}
+
+TEST(Summarize, NoRowsIsAnEmptyReport) {
+  const json s = summarize({}, ReportOptions{});
+  EXPECT_EQ(s["rows"], 0);
+  EXPECT_TRUE(s["summary"].empty());
+  EXPECT_TRUE(s["paired"].empty());
+  EXPECT_EQ(s["latency"]["decision"]["count"], 0);
+  EXPECT_NE(s["benchmark_note"].get<std::string>().find("NOT LIBERO"), std::string::npos);
+}
+
+TEST(Render, WritesMarkdownHtmlJsonAndPlotsWhenGnuplotIsThere) {
+  TempDir dir;
+  const ReportOptions o = options(dir.path());
+  const ReportFiles files = render(campaign(dir.path()), o);
+  ASSERT_TRUE(fs::exists(files.markdown));
+  ASSERT_TRUE(fs::exists(files.html));
+  ASSERT_TRUE(fs::exists(files.json));
+  EXPECT_EQ(json::parse(read(files.json))["rows"], 12);
+
+  for (const fs::path& f : {files.markdown, files.html}) {
+    const std::string text = read(f);
+    EXPECT_NE(text.find("Test campaign"), std::string::npos) << f;
+    EXPECT_NE(text.find("NOT LIBERO or LIBERO-Pro"), std::string::npos) << f;
+    EXPECT_NE(text.find("75.0 %"), std::string::npos) << f;  // full/goal
+    EXPECT_NE(text.find("+50.0"), std::string::npos) << f;   // Δ pp
+    EXPECT_NE(text.find("0.25"), std::string::npos) << f;    // p
+    EXPECT_NE(text.find("2000 resamples"), std::string::npos) << f;
+    EXPECT_NE(text.find("lost to infrastructure: 1"), std::string::npos) << f;
+    EXPECT_NE(text.find("missing or unreadable: 1"), std::string::npos) << f;
+    EXPECT_NE(text.find("200.0"), std::string::npos) << f;  // planner p50 ms
+  }
+  EXPECT_NE(read(files.markdown).find("| full | goal | 3 | 4 | 75.0 % |"), std::string::npos);
+
+  const bool gnuplot = gnuplot_on_path();
+  EXPECT_EQ(files.plots_skipped, !gnuplot) << files.plots_note;
+  EXPECT_EQ(fs::exists(o.out_dir / "success.png"), gnuplot);
+  EXPECT_EQ(fs::exists(o.out_dir / "wall_clock.png"), gnuplot);
+  EXPECT_EQ(files.plots.size(), gnuplot ? 2u : 0u);
+  EXPECT_EQ(read(files.html).find("<img src=\"success.png\"") != std::string::npos, gnuplot);
+}
+
+TEST(Render, WithoutGnuplotTheReportStillRendersAndSaysSo) {
+  TempDir dir;
+  const std::string saved = std::getenv("PATH") ? std::getenv("PATH") : "";
+  ::setenv("PATH", dir.path().c_str(), 1);  // a PATH with no gnuplot on it
+  const ReportFiles files = render(campaign(dir.path()), options(dir.path()));
+  ::setenv("PATH", saved.c_str(), 1);
+  EXPECT_TRUE(files.plots_skipped);
+  EXPECT_TRUE(files.plots.empty());
+  EXPECT_NE(files.plots_note.find("gnuplot"), std::string::npos);
+  for (const fs::path& f : {files.markdown, files.html}) {
+    EXPECT_NE(read(f).find("Plots skipped: gnuplot was not found"), std::string::npos) << f;
+    EXPECT_EQ(read(f).find(".png"), std::string::npos) << f;
+  }
+}
+
+TEST(Render, TinyPValuesAreWrittenInScientificNotation) {
+  TempDir dir;
+  Source s{"paper.db", {}};
+  for (unsigned seed = 0; seed < 97; ++seed) {  // W = 89, L = 8 → p = 2.00e-18
+    s.rows.push_back(row("a", "goal", 1, seed, seed < 89, 1));
+    s.rows.push_back(row("b", "goal", 1, seed, seed >= 89, 1));
+  }
+  ReportOptions o = options(dir.path());
+  o.plots = false;
+  const ReportFiles files = render({s}, o);
+  EXPECT_NE(read(files.markdown).find("| 2.00e-18 |"), std::string::npos);
+  EXPECT_NE(read(files.markdown).find("Plots skipped: not requested."), std::string::npos);
+}
