@@ -15,6 +15,7 @@
 #include <map>
 #include <variant>
 
+#include "dh/common/arms.hpp"
 #include "dh/common/config.hpp"
 #include "dh/common/convert.hpp"
 #include "dh/common/dds.hpp"
@@ -49,12 +50,6 @@ gov::GovernorConfig load_config(const std::filesystem::path& file) {
   gov::GovernorConfig g;
   g.decision_period = c.get<unsigned>("decision_period_steps");
   if (g.decision_period == 0) c.fail("decision_period_steps", "must be at least 1");
-  const std::string mode = c.get<std::string>("mode");
-  if (mode == "full") g.mode = gov::ExecutorMode::Full;
-  else if (mode == "static") g.mode = gov::ExecutorMode::Static;
-  else if (mode == "seq") g.mode = gov::ExecutorMode::Seq;
-  else c.fail("mode", "expected full, static or seq, got '" + mode + "'");
-  for (const auto& m : c.get_or<std::vector<std::string>>("masked_capabilities", {})) g.masked.insert(m);
   g.limits.max_retries = c.get<int>("max_retries");
   g.limits.max_replans = c.get<int>("max_replans");
   g.limits.stagnation_decisions = c.get<unsigned>("stagnation_decisions");
@@ -66,6 +61,15 @@ gov::GovernorConfig load_config(const std::filesystem::path& file) {
   return g;
 }
 
+/// The governor configuration of one episode: the defaults with the arm's mode and masked capabilities.
+gov::GovernorConfig for_arm(gov::GovernorConfig g, const ArmSpec& arm) {
+  g.mode = arm.mode == "static" ? gov::ExecutorMode::Static
+           : arm.mode == "seq"  ? gov::ExecutorMode::Seq
+                                : gov::ExecutorMode::Full;
+  g.masked = {arm.masked.begin(), arm.masked.end()};
+  return g;
+}
+
 std::string file_safe(std::string s) {
   for (char& ch : s)
     if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '-' && ch != '_' && ch != '.') ch = '_';
@@ -74,9 +78,9 @@ std::string file_safe(std::string s) {
 
 class Governor {
  public:
-  Governor(dds::Participant& p, gov::GovernorConfig config, std::filesystem::path runs,
-           std::shared_ptr<spdlog::logger> log)
-      : config_(std::move(config)), runs_(std::move(runs)), log_(std::move(log)),
+  Governor(dds::Participant& p, gov::GovernorConfig config, std::map<std::string, ArmSpec> arms,
+           std::filesystem::path runs, std::shared_ptr<spdlog::logger> log)
+      : config_(std::move(config)), arms_(std::move(arms)), runs_(std::move(runs)), log_(std::move(log)),
         plan_(p, topics::kPlanRequest, dds::Qos::Planner),
         command_(p, topics::kCommand, dds::Qos::Command),
         lease_(p, topics::kLease, dds::Qos::Lease),
@@ -94,9 +98,24 @@ class Governor {
     ch.evidence->append("governor", "episode_request",
                         {{"suite", r.suite()}, {"task", r.task()}, {"seed", r.seed()}, {"cell", r.cell()},
                          {"arm", r.arm()}});
-    gov::EpisodeSpec spec{r.channel(), r.episode_id(), r.instruction(), r.arm(), r.budget_steps()};
-    ch.machine = std::make_unique<gov::EpisodeMachine>(spec, config_, registry_, *ch.evidence, gov::Clock::now());
-    log_->info("channel={} episode={} evidence={}", r.channel(), r.episode_id(), path.string());
+    const std::string arm = r.arm().empty() ? "full" : r.arm();
+    gov::EpisodeSpec spec{r.channel(), r.episode_id(), r.instruction(), arm, r.budget_steps()};
+    if (!arms_.count(arm)) {
+      // Answer at once so the client and the simulator channel do not wait for a deadline.
+      std::string why;
+      try {
+        find_arm(arms_, arm);
+      } catch (const ConfigError& e) {
+        why = e.what();
+      }
+      ch.evidence->append("governor", "episode_rejected", {{"reason", why}});
+      publish_result(r.channel(), r.episode_id(), {false, 0, "rejected", why, 0, 0}, ch.evidence->path());
+      log_->error("channel={} episode={} rejected: {}", r.channel(), r.episode_id(), why);
+      return;
+    }
+    ch.machine = std::make_unique<gov::EpisodeMachine>(spec, for_arm(config_, arms_.at(arm)), registry_,
+                                                       *ch.evidence, gov::Clock::now());
+    log_->info("channel={} episode={} arm={} evidence={}", r.channel(), r.episode_id(), arm, path.string());
   }
 
   void handle(const msg::Observation& m) {
@@ -214,25 +233,31 @@ class Governor {
       plan_.write(m);
     }
     if (fx.end) {
-      const auto& e = *fx.end;
-      msg::EpisodeResult r;
-      r.channel(channel);
-      r.episode_id(episode);
-      r.success(e.success);
-      r.steps(e.steps);
-      r.outcome(e.outcome);
-      r.reason(e.reason);
-      r.evidence_path(ch.evidence->path().string());
-      r.decisions(e.decisions);
-      r.refusals(e.refusals);
-      result_.write(r);
-      done_.push_back(episode);
-      if (done_.size() > 256) done_.erase(done_.begin());
-      log_->info("channel={} episode={} outcome={} steps={} reason={}", channel, episode, e.outcome, e.steps, e.reason);
+      publish_result(channel, episode, *fx.end, ch.evidence->path());
+      log_->info("channel={} episode={} outcome={} steps={} reason={}", channel, episode, fx.end->outcome,
+                 fx.end->steps, fx.end->reason);
     }
   }
 
+  void publish_result(std::uint32_t channel, const std::string& episode, const gov::EpisodeEnd& e,
+                      const std::filesystem::path& evidence) {
+    msg::EpisodeResult r;
+    r.channel(channel);
+    r.episode_id(episode);
+    r.success(e.success);
+    r.steps(e.steps);
+    r.outcome(e.outcome);
+    r.reason(e.reason);
+    r.evidence_path(evidence.string());
+    r.decisions(e.decisions);
+    r.refusals(e.refusals);
+    result_.write(r);
+    done_.push_back(episode);
+    if (done_.size() > 256) done_.erase(done_.begin());
+  }
+
   gov::GovernorConfig config_;
+  std::map<std::string, ArmSpec> arms_;
   std::filesystem::path runs_;
   std::shared_ptr<spdlog::logger> log_;
   dds::Writer<msg::PlanRequestPubSubType> plan_;
@@ -257,7 +282,7 @@ int run(int argc, char** argv) {
     if (config.empty()) config = (paths::config_dir() / "governor.yaml").string();
     const std::filesystem::path runs_dir = runs.empty() ? paths::runs_dir() : std::filesystem::path(runs);
     dds::Participant participant("dh_governor");
-    Governor gov(participant, load_config(config), std::filesystem::absolute(runs_dir), log);
+    Governor gov(participant, load_config(config), load_arms(config), std::filesystem::absolute(runs_dir), log);
     EventQueue<Event> q;
     auto push = [&q](auto m) { q.push(std::move(m)); };
     dds::Reader<msg::EpisodeRequestPubSubType> r1(participant, topics::kEpisodeRequest, dds::Qos::Episode,

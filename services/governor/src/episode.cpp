@@ -230,7 +230,9 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
                    {{"k", k}, {"step", s.step}, {"cause", cause}, {"phase", to_string(phase)},
                     {"decision", to_string(d.kind)}, {"reason", d.reason}, {"latched", s.latched},
                     {"progress", s.progress}, {"stagnant", s.stagnant_decisions},
-                    {"failures", s.failures_of_capability}, {"command_id", running_ ? running_->command_id : ""}});
+                    {"failures", s.failures_of_capability}, {"command_id", running_ ? running_->command_id : ""},
+                    // From the governor taking the triggering event to this decision.
+                    {"latency_ns", std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - now).count()}});
   Effects fx;
   switch (d.kind) {
     case DecisionKind::Continue: {

@@ -77,6 +77,9 @@ class Channel {
     st.worker(worker_);
     st.state(s);
     st.episode_id(episode_);
+    st.last_episode_id(last_episode_);
+    st.last_steps(last_steps_);
+    st.last_physics_s(last_physics_s_);
     w_.channel.write(st);
   }
 
@@ -86,9 +89,12 @@ class Channel {
       const TaskDef& task = find_task(suites_, r.suite(), r.task());
       auto& cell = cells_[sim::task_scene_key(task)];
       if (!cell) cell = std::make_unique<sim::Workcell>(sim::load_task_scene(task));
+      const auto t0 = Clock::now();
       cell->reset(r.seed(), task.goal);
+      physics_s_ = std::chrono::duration<double>(Clock::now() - t0).count();
       cell_ = cell.get();
-      goal_text_ = task.goal.front().text();
+      goal_text_.clear();
+      for (const auto& p : task.goal) goal_text_ += (goal_text_.empty() ? "" : " AND ") + p.text();
     } catch (const std::exception& e) {
       log_->error("channel={} episode={} cannot start: {}", id_, r.episode_id(), e.what());
       return;
@@ -138,7 +144,11 @@ class Channel {
 
   void handle(msg::EpisodeResult& r) {
     if (r.episode_id() != episode_) return;
-    log_->info("channel={} episode={} ended success={} steps={}", id_, episode_, r.success(), r.steps());
+    log_->info("channel={} episode={} ended success={} steps={} physics_s={:.3f}", id_, episode_, r.success(),
+               r.steps(), physics_s_);
+    last_episode_ = episode_;
+    last_steps_ = step_;
+    last_physics_s_ = physics_s_;
     cell_ = nullptr;
     pending_.reset();
     announce(msg::CHANNEL_IDLE);
@@ -163,7 +173,10 @@ class Channel {
     }
     std::array<double, 7> act{};
     std::copy_n(a.a().begin(), 7, act.begin());
-    for (const auto& e : cell_->step(act))
+    const auto t0 = Clock::now();
+    const auto events = cell_->step(act);
+    physics_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
+    for (const auto& e : events)
       seam_event(step_, a.command_id(),
                  e.kind == sim::StepEvent::SafetyHold ? msg::SEAM_SAFETY_HOLD : msg::SEAM_WORKSPACE_CLAMP, e.reason);
     ++step_;
@@ -207,7 +220,9 @@ class Channel {
   EventQueue<Event> queue_;
   std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  // one model per scene (and swap)
   sim::Workcell* cell_ = nullptr;
-  std::string episode_, goal_text_;
+  std::string episode_, goal_text_, last_episode_;
+  double physics_s_ = 0, last_physics_s_ = 0;  ///< wall time inside MuJoCo for the running / last episode
+  std::uint32_t last_steps_ = 0;
   std::uint32_t budget_ = 0, step_ = 0;
   sim::LeaseState lease_;
   std::optional<msg::Action> pending_;

@@ -48,7 +48,7 @@ struct PlanRequestOut {
 struct EpisodeEnd {
   bool success = false;
   std::uint32_t steps = 0;
-  std::string outcome;  ///< success | budget_exhausted | gave_up | infrastructure
+  std::string outcome;  ///< success | budget_exhausted | gave_up | infrastructure | rejected (unknown arm)
   std::string reason;
   std::uint32_t decisions = 0, refusals = 0;
 };

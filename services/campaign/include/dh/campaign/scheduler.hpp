@@ -1,0 +1,102 @@
+// Spreading a campaign's episodes over every live simulator channel: which episode goes to which idle
+// channel, which result closes which episode, and which episodes are lost to infrastructure (no result
+// before their deadline). Pure logic: the `dh campaign` node feeds it what it hears on DDS.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dh/campaign/plan.hpp"
+#include "dh/common/episode_record.hpp"
+
+namespace dh::campaign {
+
+using Clock = std::chrono::steady_clock;
+
+struct Dispatch {
+  EpisodeKey key;
+  std::uint32_t channel = 0;
+  std::string episode_id;
+};
+
+/// What an episode result says (the fields of msg::EpisodeResult the campaign keeps).
+struct ResultInfo {
+  std::string episode_id;
+  bool success = false;
+  unsigned steps = 0;
+  std::string outcome, reason, evidence_path;
+};
+
+struct SchedulerOptions {
+  std::string run_tag;  ///< makes episode ids unique across runs of one campaign (e.g. time + pid)
+  /// An episode without a result after start_allowance + budget × per_step_allowance is an
+  /// infrastructure loss.
+  std::chrono::milliseconds start_allowance{30000};
+  std::chrono::milliseconds per_step_allowance{200};
+  /// How long a finished episode waits for its channel's physics report before it is recorded without.
+  std::chrono::milliseconds physics_wait{2000};
+};
+
+class Scheduler {
+ public:
+  Scheduler(std::vector<EpisodeKey> todo, std::function<unsigned(const EpisodeKey&)> budget_of,
+            SchedulerOptions options);
+
+  /// A channel announced its state; `last_episode`/`last_physics_s` report its last finished episode.
+  void channel_status(std::uint32_t channel, const std::string& worker, bool idle, const std::string& last_episode,
+                      double last_physics_s);
+  /// Pairs pending episodes with free channels (lowest channel first); the caller sends the requests.
+  std::vector<Dispatch> assign(Clock::time_point now);
+  /// A result for one of this campaign's running episodes; others are ignored.
+  void result(const ResultInfo& r, Clock::time_point now);
+  /// Episodes whose deadline passed become infrastructure losses; their channels are not used again
+  /// until they announce themselves idle after that.
+  void expire(Clock::time_point now);
+  /// Finished episodes ready to be recorded (their physics report arrived or stopped being awaited).
+  std::vector<EpisodeRecord> take_finished(Clock::time_point now);
+
+  bool done() const { return pending_.empty() && running_.empty() && finishing_.empty(); }
+  std::size_t pending() const { return pending_.size(); }
+  std::size_t running() const { return running_.size(); }
+  std::size_t channels_known() const { return channels_.size(); }
+
+ private:
+  struct ChannelInfo {
+    std::string worker;
+    bool idle = false;
+    bool ours = false;  ///< we dispatched to it and it has not announced itself idle since
+    std::string last_episode;  ///< the last episode it announced as finished
+  };
+  struct Running {
+    EpisodeKey key;
+    std::uint32_t channel = 0;
+    std::string worker;
+    Clock::time_point started, deadline;
+    unsigned budget = 0;
+  };
+  struct Finishing {
+    EpisodeRecord record;
+    Clock::time_point wait_until;
+  };
+  EpisodeRecord record_of(const Running& r, Clock::time_point now) const;
+
+  std::deque<EpisodeKey> pending_;
+  std::function<unsigned(const EpisodeKey&)> budget_of_;
+  SchedulerOptions options_;
+  std::map<std::uint32_t, ChannelInfo> channels_;
+  std::map<std::string, Running> running_;     ///< by episode id
+  std::map<std::string, Finishing> finishing_; ///< by episode id
+  std::map<std::string, double> physics_;      ///< episode id → physics seconds reported by its channel
+  std::size_t dispatched_ = 0;
+};
+
+/// The UTC time as ISO-8601 ("2026-11-23T16:56:32Z").
+std::string utc_now_iso();
+
+}  // namespace dh::campaign

@@ -1,0 +1,128 @@
+#include "dh/campaign/scheduler.hpp"
+
+#include <ctime>
+
+namespace dh::campaign {
+
+std::string utc_now_iso() {
+  char stamp[32];
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  std::strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return stamp;
+}
+
+Scheduler::Scheduler(std::vector<EpisodeKey> todo, std::function<unsigned(const EpisodeKey&)> budget_of,
+                     SchedulerOptions options)
+    : pending_(todo.begin(), todo.end()), budget_of_(std::move(budget_of)), options_(std::move(options)) {}
+
+void Scheduler::channel_status(std::uint32_t channel, const std::string& worker, bool idle,
+                               const std::string& last_episode, double last_physics_s) {
+  auto& c = channels_[channel];
+  c.worker = worker;
+  c.idle = idle;
+  if (!last_episode.empty()) {
+    physics_[last_episode] = last_physics_s;
+    c.last_episode = last_episode;
+  }
+  // Our episode on it is over only once its result came: an idle announcement that crosses our request
+  // (sent before the channel saw it) must not free the channel.
+  if (idle && c.ours) {
+    bool still_running = false;
+    for (const auto& [id, r] : running_) still_running |= r.channel == channel;
+    if (!still_running) c.ours = false;
+  }
+}
+
+std::vector<Dispatch> Scheduler::assign(Clock::time_point now) {
+  std::vector<Dispatch> out;
+  for (auto& [id, c] : channels_) {
+    if (pending_.empty()) break;
+    if (!c.idle || c.ours) continue;
+    Dispatch d{pending_.front(), id, ""};
+    pending_.pop_front();
+    d.episode_id = d.key.arm + "-" + d.key.cell + "-t" + std::to_string(d.key.task) + "-s" +
+                   std::to_string(d.key.seed) + "-" + options_.run_tag + "-" + std::to_string(dispatched_++);
+    const unsigned budget = budget_of_(d.key);
+    running_[d.episode_id] = {d.key, id, c.worker, now,
+                              now + options_.start_allowance + budget * options_.per_step_allowance, budget};
+    c.ours = true;
+    c.idle = false;
+    out.push_back(std::move(d));
+  }
+  return out;
+}
+
+EpisodeRecord Scheduler::record_of(const Running& r, Clock::time_point now) const {
+  EpisodeRecord rec;
+  rec.arm = r.key.arm;
+  rec.cell = r.key.cell;
+  rec.task = r.key.task;
+  rec.seed = r.key.seed;
+  rec.budget = r.budget;
+  rec.wall_s = std::chrono::duration<double>(now - r.started).count();
+  rec.worker = r.worker;
+  rec.channel = r.channel;
+  rec.finished_at = utc_now_iso();
+  return rec;
+}
+
+void Scheduler::result(const ResultInfo& r, Clock::time_point now) {
+  const auto it = running_.find(r.episode_id);
+  if (it == running_.end()) return;
+  EpisodeRecord rec = record_of(it->second, now);
+  rec.episode_id = r.episode_id;
+  rec.success = r.success;
+  rec.steps = r.steps;
+  rec.outcome = r.outcome;
+  rec.reason = r.reason;
+  rec.evidence_path = r.evidence_path;
+  rec.infrastructure = r.outcome == "infrastructure";
+  rec.tick_limit = r.outcome == "budget_exhausted";
+  // The channel may have announced itself idle after this episode before its result reached us.
+  auto& c = channels_[it->second.channel];
+  if (c.idle && c.last_episode == r.episode_id) c.ours = false;
+  running_.erase(it);
+  finishing_[r.episode_id] = {std::move(rec), now + options_.physics_wait};
+}
+
+void Scheduler::expire(Clock::time_point now) {
+  for (auto it = running_.begin(); it != running_.end();) {
+    if (now < it->second.deadline) {
+      ++it;
+      continue;
+    }
+    EpisodeRecord rec = record_of(it->second, now);
+    rec.episode_id = it->first;
+    rec.outcome = "infrastructure";
+    rec.infrastructure = true;
+    rec.reason = "no result within " +
+                 std::to_string(std::chrono::duration_cast<std::chrono::seconds>(it->second.deadline - it->second.started).count()) +
+                 " s on channel " + std::to_string(it->second.channel) + " (worker " + it->second.worker + ")";
+    // The channel stays ours (unusable) until it announces itself idle again.
+    channels_[it->second.channel].idle = false;
+    finishing_[it->first] = {std::move(rec), now};
+    it = running_.erase(it);
+  }
+}
+
+std::vector<EpisodeRecord> Scheduler::take_finished(Clock::time_point now) {
+  std::vector<EpisodeRecord> out;
+  for (auto it = finishing_.begin(); it != finishing_.end();) {
+    const auto p = physics_.find(it->first);
+    if (p == physics_.end() && now < it->second.wait_until) {
+      ++it;
+      continue;
+    }
+    if (p != physics_.end()) {
+      it->second.record.physics_s = p->second;
+      physics_.erase(p);
+    }
+    out.push_back(std::move(it->second.record));
+    it = finishing_.erase(it);
+  }
+  return out;
+}
+
+}  // namespace dh::campaign

@@ -1,0 +1,62 @@
+// What a `dh` command sees of a deployment over DDS: simulator channels, announced capabilities,
+// episode results; and how it sends episode requests.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "dh/cli/launcher.hpp"
+#include "dh/common/dds.hpp"
+#include "dh/msg/capabilityPubSubTypes.h"
+#include "dh/msg/episodePubSubTypes.h"
+
+namespace dh::cli {
+
+class Client {
+ public:
+  explicit Client(dds::Participant& p);
+
+  /// An idle channel once a governor and a simulator listen and `capability` is announced.
+  std::optional<std::uint32_t> wait_ready(const std::string& capability, std::optional<std::uint32_t> want,
+                                          std::chrono::milliseconds timeout);
+  void request(const msg::EpisodeRequest& r) { request_.write(r); }
+  std::optional<msg::EpisodeResult> wait_result(const std::string& episode, std::chrono::milliseconds timeout);
+
+  /// Channel announcements and results received since the last call, in arrival order.
+  struct News {
+    std::vector<msg::ChannelStatus> channels;
+    std::vector<msg::EpisodeResult> results;
+  };
+  News take_news();
+
+ private:
+  std::mutex m_;
+  std::condition_variable cv_;
+  std::map<std::uint32_t, bool> idle_;
+  std::set<std::string> capabilities_;
+  std::map<std::string, msg::EpisodeResult> results_seen_;
+  News news_;
+  dds::Writer<msg::EpisodeRequestPubSubType> request_;
+  dds::Reader<msg::ChannelStatusPubSubType> channels_;
+  dds::Reader<msg::CapabilityAnnouncePubSubType> caps_;
+  dds::Reader<msg::EpisodeResultPubSubType> results_;
+};
+
+/// The first capability the embedded planner needs; a deployment is ready when it is announced.
+inline constexpr const char* kReadyCapability = "pick_place";
+
+/// Waits `ready` for a live deployment with an idle channel (`want`, or any); when none answers, starts
+/// `launch_file` (default deploy/local.yaml) and waits up to 20 s. Returns the channel or nullopt (with an
+/// error on stderr naming the logs); `local` holds a deployment this call started.
+std::optional<std::uint32_t> ensure_deployment(Client& client, std::optional<std::uint32_t> want,
+                                               const std::string& launch_file, std::chrono::milliseconds ready,
+                                               bool quiet, std::unique_ptr<Deployment>& local);
+
+}  // namespace dh::cli

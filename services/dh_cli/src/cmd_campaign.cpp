@@ -1,0 +1,184 @@
+// dh campaign: arms × cells × tasks × seeds over every live simulator channel, one database row per
+// finished episode, resumable: a rerun with the same --db runs only what is not recorded yet.
+#include <unistd.h>
+
+#include <ctime>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "client.hpp"
+#include "commands.hpp"
+#include "dh/campaign/db.hpp"
+#include "dh/campaign/progress.hpp"
+#include "dh/campaign/scheduler.hpp"
+#include "dh/common/arms.hpp"
+#include "dh/common/config.hpp"
+#include "dh/common/paths.hpp"
+#include "dh/common/shutdown.hpp"
+#include "dh/common/suite.hpp"
+#include "dh/report/report.hpp"
+
+namespace dh::cli {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+constexpr const char* kRerunRule =
+    "none: an episode lost to infrastructure is recorded as a failure, flagged, and not rerun";
+
+campaign::Plan make_plan(const CampaignArgs& a, const std::map<std::string, SuiteDef>& suites) {
+  campaign::Plan plan;
+  plan.arms = campaign::parse_list(a.arms, "--arms");
+  const auto arms = load_arms(paths::config_dir() / "governor.yaml");
+  for (const auto& arm : plan.arms) find_arm(arms, arm);
+  plan.cells = campaign::parse_list(a.cells, "--cells");
+  for (const auto& cell : plan.cells)
+    if (!suites.count(cell)) find_task(suites, cell, 0);  // throws, listing the cells that exist
+  if (!a.tasks.empty()) plan.tasks = campaign::parse_numbers(a.tasks, "--tasks");
+  if (a.fresh_seeds > 0 && !a.seeds.empty())
+    throw campaign::PlanError("give either --seeds or --fresh-seeds, not both");
+  if (a.fresh_seeds > 0) plan.seeds = campaign::fresh_seed_block(a.fresh_seeds, a.salt);
+  else if (!a.seeds.empty()) plan.seeds = campaign::parse_seeds(a.seeds);
+  else throw campaign::PlanError("--seeds: missing (e.g. --seeds 1-20, or --fresh-seeds 20 --salt 7)");
+  plan.rerun_rule = kRerunRule;
+  return plan;
+}
+
+std::string run_tag() {
+  char stamp[32];
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%S", &tm);
+  return std::string(stamp) + "-" + std::to_string(getpid());
+}
+
+void print_summary(const nlohmann::json& s) {
+  for (const auto& row : s["summary"]) {
+    std::cout << "  " << row["arm"].get<std::string>() << "  " << row["cell"].get<std::string>() << "  "
+              << row["successes"] << "/" << row["episodes"];
+    if (!row["rate"].is_null())
+      std::cout << "  " << 100.0 * row["rate"].get<double>() << "% (Wilson 95% " << 100.0 * row["wilson_lo"].get<double>()
+                << "-" << 100.0 * row["wilson_hi"].get<double>() << ")";
+    std::cout << "  infrastructure " << row["infrastructure"] << "\n";
+  }
+}
+
+}  // namespace
+
+int cmd_campaign(const CampaignArgs& a) {
+  install_shutdown_handlers();
+  const auto suites = load_suites(paths::config_dir());
+  const campaign::Plan plan = make_plan(a, suites);
+  if (a.db.empty()) throw campaign::PlanError("--db: missing (the campaign database file, e.g. runs/c1.db)");
+  auto db = campaign::CampaignDb::open(a.db);
+  const auto differences = db.declare_plan(plan);
+  if (!differences.empty()) {
+    std::string why;
+    for (const auto& d : differences) why += "\n  " + d;
+    throw ConfigError(a.db + " holds another campaign:" + why + "\nresume it with its own plan or give another --db");
+  }
+  if (a.fresh_seeds > 0) db.set_meta("fresh_seed_salt", std::to_string(a.salt));
+  db.set_meta("benchmark_note", report::kBenchmarkNote);
+
+  const auto all = campaign::expand(plan, [&](const std::string& cell) {
+    std::vector<unsigned> ids;
+    for (const auto& [id, _] : suites.at(cell).tasks) ids.push_back(id);
+    return ids;
+  });
+  const auto finished = db.finished();
+  const auto todo = campaign::remaining(all, finished);
+  std::size_t done_ok = 0, done_infra = 0;
+  for (const auto& r : db.rows()) {
+    if (std::find(all.begin(), all.end(), campaign::key_of(r)) == all.end()) continue;
+    done_ok += r.success && !r.infrastructure;
+    done_infra += r.infrastructure;
+  }
+  const std::size_t done_before = all.size() - todo.size();
+  if (!a.json)
+    std::cerr << "campaign " << a.db << ": " << all.size() << " episodes (" << plan.arms.size() << " arms x "
+              << plan.cells.size() << " cells x tasks x " << plan.seeds.size() << " seeds), " << done_before
+              << " already recorded, " << todo.size() << " to run\n";
+
+  std::size_t ran_now = 0;
+  bool interrupted = false;
+  if (!todo.empty()) {
+    dds::Participant participant("dh_campaign");
+    Client client(participant);
+    std::unique_ptr<Deployment> local;
+    if (!ensure_deployment(client, std::nullopt, a.launch_file, std::chrono::milliseconds(a.ready_ms), a.json, local))
+      return 1;
+    campaign::SchedulerOptions options;
+    options.run_tag = run_tag();
+    options.start_allowance = std::chrono::seconds(a.start_allowance_s);
+    options.per_step_allowance = std::chrono::milliseconds(a.per_step_allowance_ms);
+    campaign::Scheduler scheduler(todo, [&](const campaign::EpisodeKey& k) {
+      return find_task(suites, k.cell, k.task).budget_steps;
+    }, options);
+    campaign::Progress progress(all.size(), done_before, done_ok, done_infra, Clock::now());
+    const bool terminal = isatty(STDERR_FILENO);
+    auto last_print = Clock::now();
+    while (!scheduler.done()) {
+      if (shutdown_requested()) {
+        interrupted = true;
+        break;
+      }
+      const auto now = Clock::now();
+      auto news = client.take_news();
+      for (const auto& s : news.channels)
+        scheduler.channel_status(s.channel(), s.worker(), s.state() == msg::CHANNEL_IDLE, s.last_episode_id(),
+                                 s.last_physics_s());
+      for (const auto& r : news.results)
+        scheduler.result({r.episode_id(), r.success(), r.steps(), r.outcome(), r.reason(), r.evidence_path()}, now);
+      scheduler.expire(now);
+      for (const auto& d : scheduler.assign(now)) {
+        const TaskDef& t = find_task(suites, d.key.cell, d.key.task);
+        msg::EpisodeRequest r;
+        r.channel(d.channel);
+        r.episode_id(d.episode_id);
+        r.suite(d.key.cell);
+        r.task(d.key.task);
+        r.seed(d.key.seed);
+        r.cell(d.key.cell);
+        r.arm(d.key.arm);
+        r.instruction(t.instruction);
+        r.budget_steps(t.budget_steps);
+        client.request(r);
+      }
+      bool changed = false;
+      for (const auto& rec : scheduler.take_finished(now)) {
+        if (db.record(rec)) {
+          progress.finished(rec.success && !rec.infrastructure, rec.infrastructure);
+          ++ran_now;
+          changed = true;
+        }
+      }
+      const bool due = terminal ? now - last_print > std::chrono::milliseconds(250)
+                                : changed && (progress.done() % 10 == 0 || now - last_print > std::chrono::seconds(10));
+      if (!a.json && (due || scheduler.done())) {
+        std::cerr << progress.render(now, terminal);
+        last_print = now;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    if (!a.json && terminal) std::cerr << "\n";
+  }
+
+  const auto summary = report::summarize({{a.db, db.rows()}}, report::ReportOptions{});
+  if (a.json) {
+    nlohmann::json out = summary;
+    out["campaign"] = {{"db", a.db},           {"episodes", all.size()},     {"recorded_before", done_before},
+                       {"ran_now", ran_now},    {"remaining", all.size() - done_before - ran_now},
+                       {"interrupted", interrupted}, {"rerun_rule", kRerunRule}};
+    std::cout << out.dump() << "\n";
+  } else {
+    std::cout << (interrupted ? "campaign interrupted; rerun the same command to resume\n" : "campaign complete\n");
+    print_summary(summary);
+    std::cout << "database " << a.db << "  (dh report --db " << a.db << ")\n";
+  }
+  return interrupted ? 1 : 0;
+}
+
+}  // namespace dh::cli

@@ -1,0 +1,75 @@
+// dh report (campaign databases → Markdown, HTML, PNG), dh stats (the same statistics by hand),
+// dh seeds (a fresh block of seeds for post-selection tests).
+#include <iomanip>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "dh/campaign/db.hpp"
+#include "dh/campaign/plan.hpp"
+#include "dh/common/stats.hpp"
+#include "dh/report/report.hpp"
+
+namespace dh::cli {
+
+int cmd_report(const ReportArgs& a) {
+  std::vector<report::Source> sources;
+  for (const auto& db : a.dbs) sources.push_back({db, campaign::CampaignDb::read_rows(db)});
+  report::ReportOptions options;
+  options.title = a.title;
+  options.bootstrap_resamples = a.resamples;
+  options.bootstrap_seed = a.bootstrap_seed;
+  options.plots = a.plots;
+  if (a.json && a.out.empty()) {
+    std::cout << report::summarize(sources, options).dump() << "\n";
+    return 0;
+  }
+  const std::filesystem::path first(a.dbs.front());
+  options.out_dir = a.out.empty() ? first.parent_path() / (first.stem().string() + "-report") : std::filesystem::path(a.out);
+  const auto files = report::render(sources, options);
+  if (a.json) {
+    std::cout << report::summarize(sources, options).dump() << "\n";
+    return 0;
+  }
+  std::cout << "report " << files.markdown.string() << "\n       " << files.html.string() << "\n";
+  if (files.plots_skipped) std::cout << "plots skipped: " << files.plots_note << "\n";
+  for (const auto& p : files.plots) std::cout << "plot   " << p.string() << "\n";
+  return 0;
+}
+
+int cmd_stats_wilson(unsigned k, unsigned n, bool json) {
+  const auto w = stats::wilson(k, n);
+  if (json) {
+    nlohmann::json j{{"k", k}, {"n", n}, {"wilson_lo", w.lo}, {"wilson_hi", w.hi}, {"z", stats::kZ95}};
+    j["rate"] = n ? nlohmann::json(w.point) : nlohmann::json(nullptr);
+    std::cout << j.dump() << "\n";
+  } else {
+    std::cout << std::setprecision(6) << k << "/" << n << "  rate " << w.point << "  Wilson 95% [" << w.lo << ", "
+              << w.hi << "]\n";
+  }
+  return 0;
+}
+
+int cmd_stats_sign(unsigned wins, unsigned losses, bool json) {
+  const double p = stats::sign_test_p(wins, losses);
+  if (json) {
+    std::cout << nlohmann::json{{"wins", wins}, {"losses", losses}, {"p", p}, {"test", "exact two-sided sign test"}}.dump()
+              << "\n";
+  } else {
+    std::cout << std::setprecision(6) << "W/L " << wins << "/" << losses << "  exact two-sided sign test p = " << p << "\n";
+  }
+  return 0;
+}
+
+int cmd_seeds(unsigned count, std::uint64_t salt, bool json) {
+  const auto seeds = campaign::fresh_seed_block(count, salt);
+  if (json) {
+    std::cout << nlohmann::json{{"salt", salt}, {"seeds", seeds}}.dump() << "\n";
+  } else {
+    for (std::size_t i = 0; i < seeds.size(); ++i) std::cout << (i ? "," : "") << seeds[i];
+    std::cout << "\n";
+  }
+  return 0;
+}
+
+}  // namespace dh::cli

@@ -1,0 +1,83 @@
+#include <unistd.h>
+
+#include <ctime>
+#include <iostream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "client.hpp"
+#include "commands.hpp"
+#include "dh/common/arms.hpp"
+#include "dh/common/paths.hpp"
+#include "dh/common/shutdown.hpp"
+#include "dh/common/suite.hpp"
+
+namespace dh::cli {
+
+namespace {
+std::string episode_id(const std::string& suite, unsigned task, unsigned seed) {
+  char stamp[32];
+  const std::time_t now = std::time(nullptr);
+  std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%S", std::gmtime(&now));
+  return suite + "-t" + std::to_string(task) + "-s" + std::to_string(seed) + "-" + stamp + "-" +
+         std::to_string(getpid());
+}
+}  // namespace
+
+int cmd_run(const RunArgs& a) {
+  const auto suites = load_suites(paths::config_dir());
+  const TaskDef& t = find_task(suites, a.suite, a.task);
+  find_arm(load_arms(paths::config_dir() / "governor.yaml"), a.arm);
+  dds::Participant participant("dh_cli");
+  Client client(participant);
+  std::unique_ptr<Deployment> local;
+  const auto ch = ensure_deployment(client, a.channel, a.launch_file, std::chrono::milliseconds(a.ready_ms), a.json, local);
+  if (!ch) return 1;
+  msg::EpisodeRequest r;
+  r.channel(*ch);
+  r.episode_id(episode_id(a.suite, a.task, a.seed));
+  r.suite(a.suite);
+  r.task(a.task);
+  r.seed(a.seed);
+  r.cell(a.suite);
+  r.arm(a.arm);
+  r.instruction(t.instruction);
+  r.budget_steps(t.budget_steps);
+  const auto t0 = std::chrono::steady_clock::now();
+  client.request(r);
+  if (!a.json) std::cerr << "episode " << r.episode_id() << " on channel " << *ch << ": " << t.instruction << "\n";
+  const auto res = client.wait_result(r.episode_id(), std::chrono::seconds(a.timeout_s));
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (!res) {
+    std::cerr << "error: no result for episode " << r.episode_id() << " within " << a.timeout_s << " s\n";
+    return 1;
+  }
+  if (a.json) {
+    nlohmann::json j{{"success", res->success()}, {"steps", res->steps()}, {"evidence", res->evidence_path()},
+                     {"outcome", res->outcome()}, {"reason", res->reason()}, {"episode_id", res->episode_id()},
+                     {"suite", a.suite}, {"task", a.task}, {"seed", a.seed}, {"arm", a.arm}, {"channel", *ch},
+                     {"budget", t.budget_steps}, {"decisions", res->decisions()}, {"refusals", res->refusals()},
+                     {"wall_s", wall}};
+    std::cout << j.dump() << "\n";
+  } else {
+    std::cout << (res->success() ? "SUCCESS" : "FAILURE") << "  " << a.suite << "/" << a.task << " seed " << a.seed
+              << "  steps " << res->steps() << "/" << t.budget_steps << "  outcome " << res->outcome() << " ("
+              << res->reason() << ")\n"
+              << "evidence " << res->evidence_path() << "\n";
+  }
+  return 0;
+}
+
+int cmd_launch(const std::string& file) {
+  install_shutdown_handlers();
+  const auto path = file.empty() ? paths::home() / "deploy" / "local.yaml" : std::filesystem::path(file);
+  Deployment d(load_launch_file(path), paths::bin_dir(), paths::runs_dir() / "logs");
+  std::cerr << "deployment " << path.string() << " running (logs in " << d.log_dir().string() << "); Ctrl-C stops it\n";
+  while (!shutdown_requested()) {
+    for (const auto& name : d.exited()) std::cerr << "service '" << name << "' exited\n";
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  return 0;
+}
+
+}  // namespace dh::cli

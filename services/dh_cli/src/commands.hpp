@@ -1,0 +1,50 @@
+// The `dh` subcommands. Each returns the process exit code: 0 done (an episode's failure is a result,
+// not an error), 1 infrastructure failure (no deployment, no result in time), 2 bad input.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace dh::cli {
+
+int cmd_tasks(bool json);
+
+struct RunArgs {
+  std::string suite, launch_file;
+  unsigned task = 0, seed = 0, timeout_s = 180, ready_ms = 2500;
+  std::string arm = "full";
+  std::optional<std::uint32_t> channel;
+  bool json = false;
+};
+int cmd_run(const RunArgs& a);
+
+int cmd_launch(const std::string& file);
+
+struct CampaignArgs {
+  std::string arms = "full", cells = "goal", tasks, seeds, db, launch_file;
+  unsigned fresh_seeds = 0;
+  std::uint64_t salt = 1;
+  unsigned ready_ms = 2500;
+  unsigned start_allowance_s = 30;
+  unsigned per_step_allowance_ms = 200;
+  bool json = false;
+};
+int cmd_campaign(const CampaignArgs& a);
+
+struct ReportArgs {
+  std::vector<std::string> dbs;
+  std::string out, title = "DynaHarness campaign report";
+  unsigned resamples = 20000;
+  std::uint64_t bootstrap_seed = 20260926;
+  bool plots = true, json = false;
+};
+int cmd_report(const ReportArgs& a);
+
+int cmd_stats_wilson(unsigned k, unsigned n, bool json);
+int cmd_stats_sign(unsigned wins, unsigned losses, bool json);
+int cmd_seeds(unsigned count, std::uint64_t salt, bool json);
+
+}  // namespace dh::cli

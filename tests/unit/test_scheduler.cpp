@@ -1,0 +1,137 @@
+// Spreading episodes over channels: assignment, results, lost episodes, physics reports.
+#include <gtest/gtest.h>
+
+#include "dh/campaign/scheduler.hpp"
+
+namespace dh::campaign {
+namespace {
+
+using namespace std::chrono_literals;
+
+std::vector<EpisodeKey> keys(unsigned n) {
+  std::vector<EpisodeKey> k;
+  for (unsigned s = 1; s <= n; ++s) k.push_back({"full", "goal", 8, s});
+  return k;
+}
+
+Scheduler make(unsigned n) {
+  SchedulerOptions o;
+  o.run_tag = "r1";
+  o.start_allowance = 10s;
+  o.per_step_allowance = 100ms;  // budget 300 → deadline 40 s
+  o.physics_wait = 2s;
+  return Scheduler(keys(n), [](const EpisodeKey&) { return 300u; }, o);
+}
+
+TEST(Scheduler, IdleChannelsGetEpisodesInOrderAndResultsBecomeRecords) {
+  auto s = make(3);
+  const auto t0 = Clock::now();
+  EXPECT_TRUE(s.assign(t0).empty()) << "no channel known yet";
+  s.channel_status(4, "w1", true, "", 0);
+  s.channel_status(2, "w0", true, "", 0);
+  const auto d = s.assign(t0);
+  ASSERT_EQ(d.size(), 2u);
+  EXPECT_EQ(d[0].channel, 2u);
+  EXPECT_EQ(d[0].key.seed, 1u);
+  EXPECT_EQ(d[1].channel, 4u);
+  EXPECT_EQ(d[1].key.seed, 2u);
+  EXPECT_NE(d[0].episode_id, d[1].episode_id);
+  EXPECT_NE(d[0].episode_id.find("full-goal-t8-s1-r1"), std::string::npos) << d[0].episode_id;
+  EXPECT_TRUE(s.assign(t0).empty()) << "both channels are busy";
+  EXPECT_EQ(s.pending(), 1u);
+
+  s.result({d[0].episode_id, true, 170, "success", "goal holds", "/e/1.jsonl"}, t0 + 3s);
+  EXPECT_TRUE(s.take_finished(t0 + 3s).empty()) << "waits for the channel's physics report";
+  s.channel_status(2, "w0", true, d[0].episode_id, 0.42);
+  const auto recs = s.take_finished(t0 + 3s);
+  ASSERT_EQ(recs.size(), 1u);
+  const EpisodeRecord& r = recs[0];
+  EXPECT_EQ(r.arm, "full");
+  EXPECT_EQ(r.seed, 1u);
+  EXPECT_TRUE(r.success);
+  EXPECT_EQ(r.steps, 170u);
+  EXPECT_EQ(r.budget, 300u);
+  EXPECT_DOUBLE_EQ(r.wall_s, 3.0);
+  EXPECT_DOUBLE_EQ(r.physics_s, 0.42);
+  EXPECT_EQ(r.worker, "w0");
+  EXPECT_EQ(r.channel, 2u);
+  EXPECT_FALSE(r.infrastructure);
+  EXPECT_EQ(r.evidence_path, "/e/1.jsonl");
+
+  const auto d2 = s.assign(t0 + 3s);
+  ASSERT_EQ(d2.size(), 1u);
+  EXPECT_EQ(d2[0].channel, 2u);
+  EXPECT_EQ(d2[0].key.seed, 3u);
+}
+
+TEST(Scheduler, AnIdleAnnouncementCrossingTheRequestDoesNotFreeTheChannel) {
+  auto s = make(2);
+  const auto t0 = Clock::now();
+  s.channel_status(0, "w", true, "", 0);
+  const auto d = s.assign(t0);
+  ASSERT_EQ(d.size(), 1u);
+  s.channel_status(0, "w", true, "", 0);  // sent before the channel saw our request
+  EXPECT_TRUE(s.assign(t0).empty());
+  s.result({d[0].episode_id, false, 300, "budget_exhausted", "", ""}, t0 + 1s);
+  EXPECT_TRUE(s.assign(t0 + 1s).empty()) << "free only once it says it is idle after the episode";
+  s.channel_status(0, "w", true, d[0].episode_id, 0.1);
+  EXPECT_EQ(s.assign(t0 + 1s).size(), 1u);
+  const auto recs = s.take_finished(t0 + 1s);
+  ASSERT_EQ(recs.size(), 1u);
+  EXPECT_TRUE(recs[0].tick_limit);
+}
+
+TEST(Scheduler, AnIdleAnnouncementArrivingBeforeTheResultFreesTheChannelWithTheResult) {
+  auto s = make(2);
+  const auto t0 = Clock::now();
+  s.channel_status(0, "w", true, "", 0);
+  const auto d = s.assign(t0);
+  s.channel_status(0, "w", true, d[0].episode_id, 0.2);  // the result is still on its way
+  EXPECT_TRUE(s.assign(t0).empty());
+  s.result({d[0].episode_id, true, 170, "success", "", ""}, t0 + 1s);
+  EXPECT_EQ(s.assign(t0 + 1s).size(), 1u);
+  const auto recs = s.take_finished(t0 + 1s);
+  ASSERT_EQ(recs.size(), 1u);
+  EXPECT_DOUBLE_EQ(recs[0].physics_s, 0.2);
+}
+
+TEST(Scheduler, AnEpisodeWithoutAResultBeforeItsDeadlineIsAnInfrastructureLoss) {
+  auto s = make(2);
+  const auto t0 = Clock::now();
+  s.channel_status(7, "w", true, "", 0);
+  const auto d = s.assign(t0);
+  s.expire(t0 + 39s);
+  EXPECT_EQ(s.running(), 1u);
+  s.expire(t0 + 41s);
+  EXPECT_EQ(s.running(), 0u);
+  const auto recs = s.take_finished(t0 + 41s);
+  ASSERT_EQ(recs.size(), 1u);
+  EXPECT_TRUE(recs[0].infrastructure);
+  EXPECT_FALSE(recs[0].success);
+  EXPECT_EQ(recs[0].outcome, "infrastructure");
+  EXPECT_NE(recs[0].reason.find("no result within 40 s on channel 7 (worker w)"), std::string::npos) << recs[0].reason;
+  // A late result of the lost episode is ignored; the channel serves again once it says it is idle.
+  s.result({d[0].episode_id, true, 100, "success", "", ""}, t0 + 42s);
+  EXPECT_TRUE(s.take_finished(t0 + 50s).empty());
+  EXPECT_TRUE(s.assign(t0 + 42s).empty());
+  s.channel_status(7, "w", true, d[0].episode_id, 0.3);
+  EXPECT_EQ(s.assign(t0 + 42s).size(), 1u);
+  EXPECT_FALSE(s.done());
+}
+
+TEST(Scheduler, AMissingPhysicsReportLeavesPhysicsUnknownAfterTheWait) {
+  auto s = make(1);
+  const auto t0 = Clock::now();
+  s.channel_status(0, "w", true, "", 0);
+  const auto d = s.assign(t0);
+  s.result({d[0].episode_id, true, 50, "success", "", ""}, t0);
+  s.result({"someone-elses-episode", true, 50, "success", "", ""}, t0);
+  EXPECT_TRUE(s.take_finished(t0 + 1s).empty());
+  const auto recs = s.take_finished(t0 + 2s);
+  ASSERT_EQ(recs.size(), 1u);
+  EXPECT_EQ(recs[0].physics_s, 0.0);
+  EXPECT_TRUE(s.done());
+}
+
+}  // namespace
+}  // namespace dh::campaign
