@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <ctime>
+#include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -56,6 +57,7 @@ std::string run_tag() {
 }
 
 void print_summary(const nlohmann::json& s) {
+  std::cout << std::fixed << std::setprecision(1);
   for (const auto& row : s["summary"]) {
     std::cout << "  " << row["arm"].get<std::string>() << "  " << row["cell"].get<std::string>() << "  "
               << row["successes"] << "/" << row["episodes"];

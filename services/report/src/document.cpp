@@ -58,7 +58,7 @@ std::vector<std::string> paired_row(const std::string& scope, const json& p) {
 }
 
 std::vector<std::string> latency_row(const std::string& arm, const std::string& kind, const json& l) {
-  return {arm, kind, count(l["count"]), fixed(l["p50_ms"], 1), fixed(l["p90_ms"], 1), fixed(l["p99_ms"], 1)};
+  return {arm, kind, count(l["count"]), fixed(l["p50_ms"], 3), fixed(l["p90_ms"], 3), fixed(l["p99_ms"], 3)};
 }
 
 void overview(const json& s, Document& doc) {

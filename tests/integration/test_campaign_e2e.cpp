@@ -1,0 +1,122 @@
+// A campaign over two simulator worker processes: killed half way, resumed without rerunning or
+// double-counting a finished episode, then reported.
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <nlohmann/json.hpp>
+#include <fstream>
+#include <set>
+
+#include "dh/campaign/db.hpp"
+#include "harness.hpp"
+
+extern char** environ;
+
+using namespace dh;
+using namespace std::chrono_literals;
+
+namespace {
+
+constexpr const char* kPlan = " campaign --arms full --cells goal,goal-task --seeds 1-5 --ready-timeout-ms 20000";
+constexpr std::size_t kEpisodes = 2 * 10 * 5;
+
+pid_t spawn_shell(const std::string& cmd) {
+  pid_t pid = 0;
+  const char* argv[] = {"/bin/sh", "-c", cmd.c_str(), nullptr};
+  if (posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ) != 0) return -1;
+  return pid;
+}
+
+std::size_t rows_in(const std::filesystem::path& db) {
+  try {
+    return campaign::CampaignDb::read_rows(db).size();
+  } catch (const campaign::CampaignError&) {
+    return 0;  // not created yet
+  }
+}
+
+}  // namespace
+
+TEST(Campaign, KilledHalfWayResumesWithoutRerunningAndReports) {
+  itest::IsolatedEnv env;
+  const std::string dh = (paths::bin_dir() / "dh").string();
+  const auto db = env.runs / "c.db";
+  cli::Deployment deployment(cli::load_launch_file(paths::home() / "deploy" / "campaign_local.yaml"), paths::bin_dir(),
+                             env.runs / "logs");
+
+  // First run: killed (SIGKILL, no chance to clean up) once a fifth of the episodes are recorded.
+  const pid_t first = spawn_shell("exec " + dh + kPlan + " --db " + db.string() + " > " +
+                                  (env.runs / "first.log").string() + " 2>&1");
+  ASSERT_GT(first, 0);
+  const auto deadline = std::chrono::steady_clock::now() + 120s;
+  while (rows_in(db) < kEpisodes / 5 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(50ms);
+  kill(first, SIGKILL);
+  waitpid(first, nullptr, 0);
+  const std::size_t recorded = rows_in(db);
+  ASSERT_GE(recorded, kEpisodes / 5) << "the first run recorded too little before the deadline";
+  ASSERT_LT(recorded, kEpisodes) << "the first run finished before it could be killed";
+
+  // Second run: resumes; channels still busy with the killed run's episodes are waited for.
+  auto [out, status] = itest::run_command(dh + kPlan + " --db " + db.string() + " --json");
+  ASSERT_EQ(status, 0) << out;
+  const auto j = nlohmann::json::parse(out);
+  EXPECT_EQ(j["campaign"]["recorded_before"].get<std::size_t>(), recorded);
+  EXPECT_EQ(j["campaign"]["ran_now"].get<std::size_t>(), kEpisodes - recorded);
+  EXPECT_EQ(j["campaign"]["remaining"].get<std::size_t>(), 0u);
+  std::size_t episodes = 0;
+  for (const auto& row : j["summary"]) {
+    EXPECT_EQ(row["episodes"].get<std::size_t>(), kEpisodes / 2) << row.dump();
+    episodes += row["episodes"].get<std::size_t>();
+  }
+  EXPECT_EQ(episodes, kEpisodes);
+
+  const auto rows = campaign::CampaignDb::read_rows(db);
+  ASSERT_EQ(rows.size(), kEpisodes);
+  std::set<std::string> workers, keys;
+  std::size_t with_physics = 0;
+  for (const auto& r : rows) {
+    workers.insert(r.worker);
+    keys.insert(campaign::to_string(campaign::key_of(r)));
+    EXPECT_FALSE(r.infrastructure) << r.episode_id << ": " << r.reason;
+    with_physics += r.physics_s > 0;
+    if (r.cell == "goal" && r.task == 8) EXPECT_TRUE(r.success) << r.episode_id << ": " << r.reason;
+  }
+  EXPECT_EQ(keys.size(), kEpisodes) << "one row per (arm, cell, task, seed)";
+  EXPECT_EQ(workers, (std::set<std::string>{"local_a", "local_b"})) << "episodes ran on both worker processes";
+  EXPECT_GE(with_physics, kEpisodes * 9 / 10) << "the simulator's physics time reached the rows";
+
+  // A third run has nothing left; another plan on the same database is refused.
+  std::tie(out, status) = itest::run_command(dh + kPlan + " --db " + db.string() + " --json");
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_EQ(nlohmann::json::parse(out)["campaign"]["ran_now"].get<int>(), 0);
+  std::tie(out, status) = itest::run_command(dh + " campaign --cells goal --seeds 1-6 --db " + db.string() + " 2>&1");
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(out.find("holds another campaign"), std::string::npos) << out;
+
+  // The report renders.
+  const auto report_dir = env.runs / "report";
+  std::tie(out, status) = itest::run_command(dh + " report --db " + db.string() + " --out " + report_dir.string());
+  ASSERT_EQ(status, 0) << out;
+  std::ifstream md(report_dir / "report.md");
+  const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("NOT LIBERO"), std::string::npos);
+  EXPECT_NE(text.find("| full | goal | "), std::string::npos) << text.substr(0, 2000);
+  EXPECT_TRUE(std::filesystem::exists(report_dir / "report.html"));
+}
+
+TEST(Campaign, BadPlansAreRefusedBeforeAnythingRuns) {
+  itest::IsolatedEnv env;
+  const std::string dh = (paths::bin_dir() / "dh").string();
+  const auto db = (env.runs / "x.db").string();
+  auto [out, status] = itest::run_command(dh + " campaign --arms full,wizard --cells goal --seeds 1 --db " + db + " 2>&1");
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(out.find("unknown arm 'wizard'"), std::string::npos) << out;
+  std::tie(out, status) = itest::run_command(dh + " campaign --cells goal-spatial --seeds 1 --db " + db + " 2>&1");
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(out.find("unknown suite 'goal-spatial'"), std::string::npos) << out;
+  std::tie(out, status) = itest::run_command(dh + " campaign --cells goal --seeds 5-3 --db " + db + " 2>&1");
+  EXPECT_EQ(status, 2);
+  EXPECT_NE(out.find("--seeds"), std::string::npos) << out;
+  EXPECT_FALSE(std::filesystem::exists(db) && rows_in(db) > 0);
+}
