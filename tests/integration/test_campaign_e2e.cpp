@@ -58,7 +58,7 @@ TEST(Campaign, KilledHalfWayResumesWithoutRerunningAndReports) {
   ASSERT_LT(recorded, kEpisodes) << "the first run finished before it could be killed";
 
   // Second run: resumes; channels still busy with the killed run's episodes are waited for.
-  auto [out, status] = itest::run_command(dh + kPlan + " --db " + db.string() + " --json");
+  auto [out, status] = itest::run_command(dh + kPlan + " --db " + db.string() + " --json 2>&1");
   ASSERT_EQ(status, 0) << out;
   const auto j = nlohmann::json::parse(out);
   EXPECT_EQ(j["campaign"]["recorded_before"].get<std::size_t>(), recorded);

@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "dh/common/arms.hpp"
 #include "dh/common/config.hpp"
 #include "dh/common/evidence.hpp"
 #include "dh/common/paths.hpp"
@@ -111,4 +112,20 @@ TEST(Evidence, AppendsFlushedRecordsAndSkipsATornLine) {
   ASSERT_EQ(recs.size(), 1u);
   EXPECT_EQ(recs[0]["kind"], "decision");
   EXPECT_EQ(recs[0]["step"], 10);
+}
+
+TEST(Arms, TheShippedArmsLoadAndBadOnesAreNamed) {
+  const auto arms = load_arms(paths::config_dir() / "governor.yaml");
+  for (const char* name : {"full", "static", "seq", "no-analytic"}) EXPECT_TRUE(arms.count(name)) << name;
+  EXPECT_EQ(arms.at("static").mode, "static");
+  EXPECT_EQ(arms.at("no-analytic").masked, std::vector<std::string>{"pick_place"});
+  auto e = error_of([&] { find_arm(arms, "wizard"); });
+  EXPECT_NE(e.find("unknown arm 'wizard' (arms: full, no-analytic, seq, static"), std::string::npos) << e;
+  TempDir t;
+  const auto f = t.write("governor.yaml", "arms:\n  fast: {mode: reckless}\n");
+  e = error_of([&] { load_arms(f); });
+  EXPECT_NE(e.find("governor.yaml: key 'arms.fast.mode': expected full, static or seq, got 'reckless'"), std::string::npos)
+      << e;
+  e = error_of([&] { load_arms(t.write("g2.yaml", "decision_period_steps: 10\n")); });
+  EXPECT_NE(e.find("key 'arms'"), std::string::npos) << e;
 }

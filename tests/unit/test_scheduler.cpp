@@ -27,8 +27,8 @@ TEST(Scheduler, IdleChannelsGetEpisodesInOrderAndResultsBecomeRecords) {
   auto s = make(3);
   const auto t0 = Clock::now();
   EXPECT_TRUE(s.assign(t0).empty()) << "no channel known yet";
-  s.channel_status(4, "w1", true, "", 0);
-  s.channel_status(2, "w0", true, "", 0);
+  s.channel_status(4, "w1", true, "", 0, "", t0);
+  s.channel_status(2, "w0", true, "", 0, "", t0);
   const auto d = s.assign(t0);
   ASSERT_EQ(d.size(), 2u);
   EXPECT_EQ(d[0].channel, 2u);
@@ -42,7 +42,7 @@ TEST(Scheduler, IdleChannelsGetEpisodesInOrderAndResultsBecomeRecords) {
 
   s.result({d[0].episode_id, true, 170, "success", "goal holds", "/e/1.jsonl"}, t0 + 3s);
   EXPECT_TRUE(s.take_finished(t0 + 3s).empty()) << "waits for the channel's physics report";
-  s.channel_status(2, "w0", true, d[0].episode_id, 0.42);
+  s.channel_status(2, "w0", true, d[0].episode_id, 0.42, "", t0);
   const auto recs = s.take_finished(t0 + 3s);
   ASSERT_EQ(recs.size(), 1u);
   const EpisodeRecord& r = recs[0];
@@ -67,14 +67,14 @@ TEST(Scheduler, IdleChannelsGetEpisodesInOrderAndResultsBecomeRecords) {
 TEST(Scheduler, AnIdleAnnouncementCrossingTheRequestDoesNotFreeTheChannel) {
   auto s = make(2);
   const auto t0 = Clock::now();
-  s.channel_status(0, "w", true, "", 0);
+  s.channel_status(0, "w", true, "", 0, "", t0);
   const auto d = s.assign(t0);
   ASSERT_EQ(d.size(), 1u);
-  s.channel_status(0, "w", true, "", 0);  // sent before the channel saw our request
+  s.channel_status(0, "w", true, "", 0, "", t0);  // sent before the channel saw our request
   EXPECT_TRUE(s.assign(t0).empty());
   s.result({d[0].episode_id, false, 300, "budget_exhausted", "", ""}, t0 + 1s);
   EXPECT_TRUE(s.assign(t0 + 1s).empty()) << "free only once it says it is idle after the episode";
-  s.channel_status(0, "w", true, d[0].episode_id, 0.1);
+  s.channel_status(0, "w", true, d[0].episode_id, 0.1, "", t0);
   EXPECT_EQ(s.assign(t0 + 1s).size(), 1u);
   const auto recs = s.take_finished(t0 + 1s);
   ASSERT_EQ(recs.size(), 1u);
@@ -84,9 +84,9 @@ TEST(Scheduler, AnIdleAnnouncementCrossingTheRequestDoesNotFreeTheChannel) {
 TEST(Scheduler, AnIdleAnnouncementArrivingBeforeTheResultFreesTheChannelWithTheResult) {
   auto s = make(2);
   const auto t0 = Clock::now();
-  s.channel_status(0, "w", true, "", 0);
+  s.channel_status(0, "w", true, "", 0, "", t0);
   const auto d = s.assign(t0);
-  s.channel_status(0, "w", true, d[0].episode_id, 0.2);  // the result is still on its way
+  s.channel_status(0, "w", true, d[0].episode_id, 0.2, "", t0);  // the result is still on its way
   EXPECT_TRUE(s.assign(t0).empty());
   s.result({d[0].episode_id, true, 170, "success", "", ""}, t0 + 1s);
   EXPECT_EQ(s.assign(t0 + 1s).size(), 1u);
@@ -98,7 +98,7 @@ TEST(Scheduler, AnIdleAnnouncementArrivingBeforeTheResultFreesTheChannelWithTheR
 TEST(Scheduler, AnEpisodeWithoutAResultBeforeItsDeadlineIsAnInfrastructureLoss) {
   auto s = make(2);
   const auto t0 = Clock::now();
-  s.channel_status(7, "w", true, "", 0);
+  s.channel_status(7, "w", true, "", 0, "", t0);
   const auto d = s.assign(t0);
   s.expire(t0 + 39s);
   EXPECT_EQ(s.running(), 1u);
@@ -114,15 +114,51 @@ TEST(Scheduler, AnEpisodeWithoutAResultBeforeItsDeadlineIsAnInfrastructureLoss) 
   s.result({d[0].episode_id, true, 100, "success", "", ""}, t0 + 42s);
   EXPECT_TRUE(s.take_finished(t0 + 50s).empty());
   EXPECT_TRUE(s.assign(t0 + 42s).empty());
-  s.channel_status(7, "w", true, d[0].episode_id, 0.3);
+  s.channel_status(7, "w", true, d[0].episode_id, 0.3, "", t0);
   EXPECT_EQ(s.assign(t0 + 42s).size(), 1u);
   EXPECT_FALSE(s.done());
+}
+
+TEST(Scheduler, AnEpisodeTheSimulatorCannotStartEndsAtOnceWithItsReason) {
+  auto s = make(2);
+  const auto t0 = Clock::now();
+  s.channel_status(3, "w", true, "", 0, "", t0);
+  const auto d = s.assign(t0);
+  s.channel_status(3, "w", true, d[0].episode_id, 0, "cannot place 'bowl' without overlap for seed 1", t0 + 1s);
+  const auto recs = s.take_finished(t0 + 1s);
+  ASSERT_EQ(recs.size(), 1u);
+  EXPECT_TRUE(recs[0].infrastructure);
+  EXPECT_EQ(recs[0].reason, "simulator: cannot place 'bowl' without overlap for seed 1");
+  EXPECT_EQ(s.assign(t0 + 1s).size(), 1u) << "the channel serves the next episode";
+}
+
+TEST(Scheduler, ARejectedRequestIsFlaggedAndRecordedElsewhereEpisodesAreSkipped) {
+  auto s = make(3);
+  const auto t0 = Clock::now();
+  s.channel_status(0, "w", true, "", 0, "", t0);
+  const auto d = s.assign(t0, [](const EpisodeKey& k) { return k.seed == 1; });
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].key.seed, 2u) << "seed 1 was recorded by another process";
+  s.result({d[0].episode_id, false, 0, "rejected", "unknown arm 'x'", ""}, t0);
+  s.channel_status(0, "w", true, d[0].episode_id, 0, "", t0);
+  const auto recs = s.take_finished(t0);
+  ASSERT_EQ(recs.size(), 1u);
+  EXPECT_TRUE(recs[0].infrastructure);
+}
+
+TEST(Scheduler, TwoWorkersAnnouncingOneChannelIdAreAConflict) {
+  auto s = make(1);
+  const auto t0 = Clock::now();
+  s.channel_status(0, "host_a", true, "", 0, "", t0);
+  EXPECT_TRUE(s.conflict().empty());
+  s.channel_status(0, "host_b", true, "", 0, "", t0);
+  EXPECT_NE(s.conflict().find("channel 0 is announced by two workers, 'host_a' and 'host_b'"), std::string::npos);
 }
 
 TEST(Scheduler, AMissingPhysicsReportLeavesPhysicsUnknownAfterTheWait) {
   auto s = make(1);
   const auto t0 = Clock::now();
-  s.channel_status(0, "w", true, "", 0);
+  s.channel_status(0, "w", true, "", 0, "", t0);
   const auto d = s.assign(t0);
   s.result({d[0].episode_id, true, 50, "success", "", ""}, t0);
   s.result({"someone-elses-episode", true, 50, "success", "", ""}, t0);

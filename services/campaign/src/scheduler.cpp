@@ -18,13 +18,19 @@ Scheduler::Scheduler(std::vector<EpisodeKey> todo, std::function<unsigned(const 
     : pending_(todo.begin(), todo.end()), budget_of_(std::move(budget_of)), options_(std::move(options)) {}
 
 void Scheduler::channel_status(std::uint32_t channel, const std::string& worker, bool idle,
-                               const std::string& last_episode, double last_physics_s) {
+                               const std::string& last_episode, double last_physics_s, const std::string& last_error,
+                               Clock::time_point now) {
   auto& c = channels_[channel];
+  if (!c.worker.empty() && c.worker != worker && conflict_.empty())
+    conflict_ = "channel " + std::to_string(channel) + " is announced by two workers, '" + c.worker + "' and '" +
+                worker + "'; give each worker its own --first-channel range";
   c.worker = worker;
   c.idle = idle;
   if (!last_episode.empty()) {
     physics_[last_episode] = last_physics_s;
     c.last_episode = last_episode;
+    const auto it = running_.find(last_episode);
+    if (idle && !last_error.empty() && it != running_.end()) lose(it, "simulator: " + last_error, now);
   }
   // Our episode on it is over only once its result came: an idle announcement that crosses our request
   // (sent before the channel saw it) must not free the channel.
@@ -35,9 +41,10 @@ void Scheduler::channel_status(std::uint32_t channel, const std::string& worker,
   }
 }
 
-std::vector<Dispatch> Scheduler::assign(Clock::time_point now) {
+std::vector<Dispatch> Scheduler::assign(Clock::time_point now, const std::function<bool(const EpisodeKey&)>& skip) {
   std::vector<Dispatch> out;
   for (auto& [id, c] : channels_) {
+    while (skip && !pending_.empty() && skip(pending_.front())) pending_.pop_front();
     if (pending_.empty()) break;
     if (!c.idle || c.ours) continue;
     Dispatch d{pending_.front(), id, ""};
@@ -78,7 +85,8 @@ void Scheduler::result(const ResultInfo& r, Clock::time_point now) {
   rec.outcome = r.outcome;
   rec.reason = r.reason;
   rec.evidence_path = r.evidence_path;
-  rec.infrastructure = r.outcome == "infrastructure";
+  // "rejected": the governor refused the request itself (unknown arm, busy channel): not the agent's failure.
+  rec.infrastructure = r.outcome == "infrastructure" || r.outcome == "rejected";
   rec.tick_limit = r.outcome == "budget_exhausted";
   // The channel may have announced itself idle after this episode before its result reached us.
   auto& c = channels_[it->second.channel];
@@ -87,23 +95,29 @@ void Scheduler::result(const ResultInfo& r, Clock::time_point now) {
   finishing_[r.episode_id] = {std::move(rec), now + options_.physics_wait};
 }
 
+void Scheduler::lose(std::map<std::string, Running>::iterator it, const std::string& reason, Clock::time_point now) {
+  EpisodeRecord rec = record_of(it->second, now);
+  rec.episode_id = it->first;
+  rec.outcome = "infrastructure";
+  rec.infrastructure = true;
+  rec.reason = reason;
+  finishing_[it->first] = {std::move(rec), now};
+  running_.erase(it);
+}
+
 void Scheduler::expire(Clock::time_point now) {
   for (auto it = running_.begin(); it != running_.end();) {
     if (now < it->second.deadline) {
       ++it;
       continue;
     }
-    EpisodeRecord rec = record_of(it->second, now);
-    rec.episode_id = it->first;
-    rec.outcome = "infrastructure";
-    rec.infrastructure = true;
-    rec.reason = "no result within " +
-                 std::to_string(std::chrono::duration_cast<std::chrono::seconds>(it->second.deadline - it->second.started).count()) +
-                 " s on channel " + std::to_string(it->second.channel) + " (worker " + it->second.worker + ")";
+    const auto& r = it->second;
     // The channel stays ours (unusable) until it announces itself idle again.
-    channels_[it->second.channel].idle = false;
-    finishing_[it->first] = {std::move(rec), now};
-    it = running_.erase(it);
+    channels_[r.channel].idle = false;
+    const std::string reason =
+        "no result within " + std::to_string(std::chrono::duration_cast<std::chrono::seconds>(r.deadline - r.started).count()) +
+        " s on channel " + std::to_string(r.channel) + " (worker " + r.worker + ")";
+    lose(it++, reason, now);
   }
 }
 

@@ -106,6 +106,8 @@ int cmd_campaign(const CampaignArgs& a) {
 
   std::size_t ran_now = 0;
   bool interrupted = false;
+  double run_wall_s = 0;  // first request sent → last episode recorded, this run
+  Clock::time_point last_run_record{};
   if (!todo.empty()) {
     dds::Participant participant("dh_campaign");
     Client client(participant);
@@ -121,21 +123,49 @@ int cmd_campaign(const CampaignArgs& a) {
     }, options);
     campaign::Progress progress(all.size(), done_before, done_ok, done_infra, Clock::now());
     const bool terminal = isatty(STDERR_FILENO);
-    auto last_print = Clock::now();
+    auto last_print = Clock::now(), last_activity = Clock::now();
+    std::optional<Clock::time_point> first_dispatch;
+    auto record = [&](const std::vector<EpisodeRecord>& records) {
+      bool any = false;
+      for (const auto& rec : records)
+        if (db.record(rec)) {
+          progress.finished(rec.success && !rec.infrastructure, rec.infrastructure);
+          ++ran_now;
+          any = true;
+        }
+      if (any) last_run_record = Clock::now();
+      return any;
+    };
     while (!scheduler.done()) {
+      const auto now = Clock::now();
       if (shutdown_requested()) {
+        // Keep what finished; episodes still running are run again on resume.
+        record(scheduler.take_finished(now + options.physics_wait));
         interrupted = true;
         break;
       }
-      const auto now = Clock::now();
       auto news = client.take_news();
       for (const auto& s : news.channels)
         scheduler.channel_status(s.channel(), s.worker(), s.state() == msg::CHANNEL_IDLE, s.last_episode_id(),
-                                 s.last_physics_s());
+                                 s.last_physics_s(), s.last_error(), now);
       for (const auto& r : news.results)
         scheduler.result({r.episode_id(), r.success(), r.steps(), r.outcome(), r.reason(), r.evidence_path()}, now);
+      if (!scheduler.conflict().empty()) throw std::runtime_error(scheduler.conflict());
       scheduler.expire(now);
-      for (const auto& d : scheduler.assign(now)) {
+      // Another process writing this database may have recorded an episode meanwhile.
+      const auto dispatches = scheduler.assign(now, [&](const campaign::EpisodeKey& k) {
+        return db.has(k.arm, k.cell, k.task, k.seed);
+      });
+      if (!dispatches.empty() && !first_dispatch) first_dispatch = now;
+      if (!dispatches.empty() || scheduler.running() > 0) last_activity = now;
+      if (scheduler.pending() > 0 && now - last_activity > std::chrono::seconds(a.idle_abort_s)) {
+        record(scheduler.take_finished(now + options.physics_wait));
+        std::cerr << "\nerror: no simulator channel has been free for " << a.idle_abort_s
+                  << " s (all busy elsewhere or lost); finished episodes are recorded, rerun to resume\n";
+        interrupted = true;
+        break;
+      }
+      for (const auto& d : dispatches) {
         const TaskDef& t = find_task(suites, d.key.cell, d.key.task);
         msg::EpisodeRequest r;
         r.channel(d.channel);
@@ -149,14 +179,7 @@ int cmd_campaign(const CampaignArgs& a) {
         r.budget_steps(t.budget_steps);
         client.request(r);
       }
-      bool changed = false;
-      for (const auto& rec : scheduler.take_finished(now)) {
-        if (db.record(rec)) {
-          progress.finished(rec.success && !rec.infrastructure, rec.infrastructure);
-          ++ran_now;
-          changed = true;
-        }
-      }
+      const bool changed = record(scheduler.take_finished(now));
       const bool due = terminal ? now - last_print > std::chrono::milliseconds(250)
                                 : changed && (progress.done() % 10 == 0 || now - last_print > std::chrono::seconds(10));
       if (!a.json && (due || scheduler.done())) {
@@ -166,6 +189,8 @@ int cmd_campaign(const CampaignArgs& a) {
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
     if (!a.json && terminal) std::cerr << "\n";
+    if (first_dispatch && last_run_record > *first_dispatch)
+      run_wall_s = std::chrono::duration<double>(last_run_record - *first_dispatch).count();
   }
 
   const auto summary = report::summarize({{a.db, db.rows()}}, report::ReportOptions{});
@@ -173,7 +198,7 @@ int cmd_campaign(const CampaignArgs& a) {
     nlohmann::json out = summary;
     out["campaign"] = {{"db", a.db},           {"episodes", all.size()},     {"recorded_before", done_before},
                        {"ran_now", ran_now},    {"remaining", all.size() - done_before - ran_now},
-                       {"interrupted", interrupted}, {"rerun_rule", kRerunRule}};
+                       {"interrupted", interrupted}, {"rerun_rule", kRerunRule}, {"run_wall_s", run_wall_s}};
     std::cout << out.dump() << "\n";
   } else {
     std::cout << (interrupted ? "campaign interrupted; rerun the same command to resume\n" : "campaign complete\n");

@@ -30,6 +30,7 @@ struct CampaignArgs {
   unsigned ready_ms = 2500;
   unsigned start_allowance_s = 30;
   unsigned per_step_allowance_ms = 200;
+  unsigned idle_abort_s = 120;
   bool json = false;
 };
 int cmd_campaign(const CampaignArgs& a);

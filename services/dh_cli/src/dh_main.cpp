@@ -53,6 +53,8 @@ int main(int argc, char** argv) {
   campaign->add_option("--start-allowance-s", camp.start_allowance_s,
                        "an episode is lost to infrastructure without a result after this + budget x per-step allowance");
   campaign->add_option("--per-step-allowance-ms", camp.per_step_allowance_ms, "wall time allowed per budget step");
+  campaign->add_option("--idle-abort-s", camp.idle_abort_s,
+                       "give up (resumable) when no channel has been free for this long with episodes pending");
   campaign->add_flag("--json", camp.json, "one JSON object on stdout (summary per arm and cell)");
 
   ReportArgs rep;

@@ -90,8 +90,14 @@ class Governor {
     auto& ch = channels_[r.channel()];
     if (ch.machine && ch.machine->spec().episode_id == r.episode_id()) return;  // redelivery
     if (std::find(done_.begin(), done_.end(), r.episode_id()) != done_.end()) return;
-    if (ch.machine && !ch.machine->ended())
-      log_->warn("channel={} episode={} replaced by {}", r.channel(), ch.machine->spec().episode_id, r.episode_id());
+    if (ch.machine && !ch.machine->ended()) {
+      // One client's request must not preempt another's episode.
+      const std::string why = "channel " + std::to_string(r.channel()) + " is busy with episode " +
+                              ch.machine->spec().episode_id;
+      publish_result(r.channel(), r.episode_id(), {false, 0, "rejected", why, 0, 0}, "");
+      log_->warn("channel={} request {} rejected: {}", r.channel(), r.episode_id(), why);
+      return;
+    }
     const auto path = runs_ / "evidence" / (file_safe(r.episode_id()) + ".jsonl");
     ch.machine.reset();
     ch.evidence = std::make_unique<EvidenceWriter>(path);

@@ -73,8 +73,8 @@ void overview(const json& s, Document& doc) {
   if (s["duplicates"].get<unsigned>() > 0)
     doc.push_back(
         Paragraph{"Warning: " + count(s["duplicates"]) +
-                  " episode(s) repeat an (arm, cell, task, seed) key already seen; they count in the "
-                  "success tables, only the first enters the paired comparisons."});
+                  " episode(s) repeat an (arm, cell, task, seed) key already seen; only the first row of "
+                  "a key counts anywhere in this report."});
   const json& e = s["evidence"];
   doc.push_back(Paragraph{"Evidence files read: " + count(e["read"]) + "; missing or unreadable: " +
                           count(e["missing"]) + "; not recorded: " + count(e["not_recorded"]) + "."});

@@ -124,6 +124,15 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
     source_list.push_back({{"label", source.label}, {"rows", source.rows.size()}});
     for (const EpisodeRecord& r : source.rows) {
       ++rows;
+      // A key seen again (overlapping databases) is counted as a duplicate and nowhere else: repeats of
+      // one (arm, cell, task, seed) are not independent episodes.
+      const bool first = success_by_key[r.arm]
+                             .emplace(PairKey{r.cell, r.task, r.seed}, r.success && !r.infrastructure)
+                             .second;
+      if (!first) {
+        ++duplicates;
+        continue;
+      }
       arms.see(r.arm);
       cells.see(r.cell);
       by_arm_cell[{r.arm, r.cell}].add(r);
@@ -131,10 +140,6 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
       by_task[{r.arm, r.cell, r.task}].add(r);
       wall_s[{r.arm, r.cell}].push_back(r.wall_s);
       infrastructure += r.infrastructure;
-      const bool first = success_by_key[r.arm]
-                             .emplace(PairKey{r.cell, r.task, r.seed}, r.success && !r.infrastructure)
-                             .second;
-      duplicates += !first;
       ++evidence[collect_latencies(r.evidence_path, latency_by_arm[r.arm])];
     }
   }

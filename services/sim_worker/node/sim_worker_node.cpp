@@ -80,11 +80,17 @@ class Channel {
     st.last_episode_id(last_episode_);
     st.last_steps(last_steps_);
     st.last_physics_s(last_physics_s_);
+    st.last_error(last_error_);
     w_.channel.write(st);
   }
 
   void handle(msg::EpisodeRequest& r) {
-    if (r.episode_id() == episode_) return;  // transient-local redelivery
+    if (r.episode_id() == episode_ || r.episode_id() == last_episode_) return;  // transient-local redelivery
+    if (!episode_.empty()) {
+      // One client's request must not preempt another's episode; the governor answers it "rejected".
+      log_->warn("channel={} busy with episode={}; request {} ignored", id_, episode_, r.episode_id());
+      return;
+    }
     try {
       const TaskDef& task = find_task(suites_, r.suite(), r.task());
       auto& cell = cells_[sim::task_scene_key(task)];
@@ -97,6 +103,7 @@ class Channel {
       for (const auto& p : task.goal) goal_text_ += (goal_text_.empty() ? "" : " AND ") + p.text();
     } catch (const std::exception& e) {
       log_->error("channel={} episode={} cannot start: {}", id_, r.episode_id(), e.what());
+      finish(r.episode_id(), e.what());
       return;
     }
     episode_ = r.episode_id();
@@ -146,13 +153,19 @@ class Channel {
     if (r.episode_id() != episode_) return;
     log_->info("channel={} episode={} ended success={} steps={} physics_s={:.3f}", id_, episode_, r.success(),
                r.steps(), physics_s_);
-    last_episode_ = episode_;
-    last_steps_ = step_;
-    last_physics_s_ = physics_s_;
+    finish(episode_, "");
+  }
+
+  /// The channel goes idle, reporting the episode it ran (or could not run, and why).
+  void finish(const std::string& episode, const std::string& error) {
+    last_episode_ = episode;
+    last_steps_ = error.empty() ? step_ : 0;
+    last_physics_s_ = error.empty() ? physics_s_ : 0;
+    last_error_ = error;
     cell_ = nullptr;
     pending_.reset();
-    announce(msg::CHANNEL_IDLE);
     episode_.clear();
+    announce(msg::CHANNEL_IDLE);
   }
 
   void try_pending() {
@@ -174,7 +187,16 @@ class Channel {
     std::array<double, 7> act{};
     std::copy_n(a.a().begin(), 7, act.begin());
     const auto t0 = Clock::now();
-    const auto events = cell_->step(act);
+    std::vector<sim::StepEvent> events;
+    try {
+      events = cell_->step(act);
+    } catch (const std::exception& e) {
+      // The physics cannot go on (e.g. MuJoCo's contact buffer overflowed): the episode is lost to
+      // infrastructure; the governor's stalled-step deadline ends it and the channel says why.
+      log_->error("channel={} episode={} step={} physics failed: {}", id_, episode_, step_, e.what());
+      finish(episode_, std::string("physics failed at step ") + std::to_string(step_) + ": " + e.what());
+      return;
+    }
     physics_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
     for (const auto& e : events)
       seam_event(step_, a.command_id(),
@@ -220,7 +242,7 @@ class Channel {
   EventQueue<Event> queue_;
   std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  // one model per scene (and swap)
   sim::Workcell* cell_ = nullptr;
-  std::string episode_, goal_text_, last_episode_;
+  std::string episode_, goal_text_, last_episode_, last_error_;
   double physics_s_ = 0, last_physics_s_ = 0;  ///< wall time inside MuJoCo for the running / last episode
   std::uint32_t last_steps_ = 0;
   std::uint32_t budget_ = 0, step_ = 0;

@@ -216,6 +216,11 @@ std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
     }
   }
   mj_forward(m_, d_);
+  // MuJoCo drops contacts and constraints silently when its buffers are full; that physics is wrong.
+  for (int w : {mjWARN_CONTACTFULL, mjWARN_CNSTRFULL})
+    if (d_->warning[w].number > 0)
+      throw std::runtime_error(scene_.name + ": MuJoCo's " + (w == mjWARN_CONTACTFULL ? "contact" : "constraint") +
+                               " buffer overflowed (raise nconmax/njmax in scene_mjcf)");
   return events;
 }
 

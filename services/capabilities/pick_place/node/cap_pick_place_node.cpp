@@ -5,7 +5,9 @@
 //         rt/dh/command/status  (Status)  accepted / refused(reason) / running / completed / failed(reason)
 // Reads   rt/dh/command         (Command) START / CANCEL addressed to this instance
 //         rt/dh/observation     (Observation)
-// Parameters: --library FILE (default configs/library/pick_place.yaml), --instance NAME.
+// Parameters: --library FILE (default configs/library/pick_place.yaml), --instance NAME,
+// --drain-timeout-s S. On SIGTERM/SIGINT the instance drains: it refuses new commands and finishes the
+// ones running (at most S seconds), then exits — how `dh swap` replaces it without losing a command.
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
@@ -54,6 +56,12 @@ class Node {
                it->second.steps_used);
         running_.erase(it);
       }
+      return;
+    }
+    if (draining_) {
+      Running r{c, std::nullopt, 0, "pending"};
+      status(r, msg::STATE_REFUSED, "instance " + instance_ + " is draining (being replaced or stopped)",
+             c.start_step(), 0);
       return;
     }
     running_[c.channel()] = Running{c, std::nullopt, 0, "pending"};
@@ -119,6 +127,10 @@ class Node {
     }
   }
 
+  /// From now on new commands are refused; running ones go on.
+  void drain() { draining_ = true; }
+  std::size_t running() const { return running_.size(); }
+
  private:
   void status(const Running& r, msg::CommandState st, const std::string& reason, std::uint32_t step,
               std::uint32_t used, const std::string& stage = "", double progress = 0) {
@@ -142,6 +154,7 @@ class Node {
   dds::Writer<msg::CommandStatusPubSubType> status_;
   std::map<std::uint32_t, Running> running_;
   std::map<std::uint32_t, msg::Observation> last_obs_;
+  bool draining_ = false;
 };
 
 msg::CapabilityAnnounce load_descriptor(const std::filesystem::path& file, const std::string& instance) {
@@ -169,7 +182,9 @@ msg::CapabilityAnnounce load_descriptor(const std::filesystem::path& file, const
 int run(int argc, char** argv) {
   CLI::App app{"dh_cap_pick_place: analytic pick-and-place capability"};
   std::string library, instance;
+  unsigned drain_timeout_s = 30;
   app.add_option("--library", library, "capability descriptor YAML (default: configs/library/pick_place.yaml)");
+  app.add_option("--drain-timeout-s", drain_timeout_s, "on a stop, how long running commands may take to finish");
   app.add_option("--instance", instance, "instance name (default: pick_place@<host>:<pid>)");
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("dh_cap_pick_place");
@@ -193,6 +208,12 @@ int run(int argc, char** argv) {
     log->info("instance={} cost_steps={} announced", instance, descriptor.cost_steps());
     while (!shutdown_requested())
       if (auto e = queue.pop(std::chrono::milliseconds(50))) std::visit([&](auto& ev) { node.handle(ev); }, *e);
+    node.drain();
+    log->info("instance={} draining: {} command(s) running", instance, node.running());
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(drain_timeout_s);
+    while (node.running() > 0 && std::chrono::steady_clock::now() < deadline)
+      if (auto e = queue.pop(std::chrono::milliseconds(50))) std::visit([&](auto& ev) { node.handle(ev); }, *e);
+    if (node.running() > 0) log->warn("instance={} drain timed out with {} command(s) running", instance, node.running());
   });
 }
 

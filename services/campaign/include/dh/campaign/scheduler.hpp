@@ -48,11 +48,13 @@ class Scheduler {
   Scheduler(std::vector<EpisodeKey> todo, std::function<unsigned(const EpisodeKey&)> budget_of,
             SchedulerOptions options);
 
-  /// A channel announced its state; `last_episode`/`last_physics_s` report its last finished episode.
+  /// A channel announced its state; `last_episode`/`last_physics_s` report its last finished episode and
+  /// `last_error` why it could not run it (then that episode ends at once as an infrastructure loss).
   void channel_status(std::uint32_t channel, const std::string& worker, bool idle, const std::string& last_episode,
-                      double last_physics_s);
+                      double last_physics_s, const std::string& last_error, Clock::time_point now);
   /// Pairs pending episodes with free channels (lowest channel first); the caller sends the requests.
-  std::vector<Dispatch> assign(Clock::time_point now);
+  /// Pending episodes for which `skip` holds (recorded meanwhile by another process) are dropped.
+  std::vector<Dispatch> assign(Clock::time_point now, const std::function<bool(const EpisodeKey&)>& skip = {});
   /// A result for one of this campaign's running episodes; others are ignored.
   void result(const ResultInfo& r, Clock::time_point now);
   /// Episodes whose deadline passed become infrastructure losses; their channels are not used again
@@ -64,7 +66,8 @@ class Scheduler {
   bool done() const { return pending_.empty() && running_.empty() && finishing_.empty(); }
   std::size_t pending() const { return pending_.size(); }
   std::size_t running() const { return running_.size(); }
-  std::size_t channels_known() const { return channels_.size(); }
+  /// Non-empty when two workers announce the same channel id (requests are routed by id alone).
+  const std::string& conflict() const { return conflict_; }
 
  private:
   struct ChannelInfo {
@@ -85,6 +88,7 @@ class Scheduler {
     Clock::time_point wait_until;
   };
   EpisodeRecord record_of(const Running& r, Clock::time_point now) const;
+  void lose(std::map<std::string, Running>::iterator it, const std::string& reason, Clock::time_point now);
 
   std::deque<EpisodeKey> pending_;
   std::function<unsigned(const EpisodeKey&)> budget_of_;
@@ -94,6 +98,7 @@ class Scheduler {
   std::map<std::string, Finishing> finishing_; ///< by episode id
   std::map<std::string, double> physics_;      ///< episode id → physics seconds reported by its channel
   std::size_t dispatched_ = 0;
+  std::string conflict_;
 };
 
 /// The UTC time as ISO-8601 ("2026-11-23T16:56:32Z").

@@ -24,8 +24,8 @@ inline constexpr const char* kBenchmarkNote =
     "published LIBERO numbers.";
 
 /// The rows of one campaign database; `label` names it in the report (e.g. its file name). Rows of all
-/// sources are pooled: an (arm, cell, task, seed) key seen twice in one arm is counted as a duplicate
-/// and only its first row (in source, then row order) enters the paired comparison.
+/// sources are pooled: an (arm, cell, task, seed) key seen twice in one arm is counted as a duplicate;
+/// only its first row (in source, then row order) counts anywhere else (rates, pairs, tasks, times).
 struct Source {
   std::string label;
   std::vector<EpisodeRecord> rows;

@@ -44,7 +44,8 @@ class Workcell {
   /// `seed` places them, lets them settle. Throws std::invalid_argument when a goal predicate names an
   /// unknown entity, region, state or predicate.
   void reset(std::uint64_t seed, const std::vector<PredicateSpec>& goal);
-  /// Applies one 7-d action for one control step (50 ms); returns what the seam corrected.
+  /// Applies one 7-d action for one control step (50 ms); returns what the seam corrected. Throws
+  /// std::runtime_error when MuJoCo's contact or constraint buffer overflowed during the step.
   std::vector<StepEvent> step(const std::array<double, 7>& action);
   /// The observation after the last step (step and budget fields are the caller's to fill).
   Observation observe() const;
