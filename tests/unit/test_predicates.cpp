@@ -92,9 +92,11 @@ TEST(Predicates, OnARegionNeedsTheOriginOverItAndContactWithItsCarrier) {
   s.place("bowl", cook[0], cook[1], 0.12);  // hovering: inside the height band, no contact
   EXPECT_FALSE(s.holds({on_stove}));
   // A table region: the carrier is the table.
-  s.place("plate", 0.07, 0.06, -0.0005);
+  const double* front = s.site("stove_front_region");
+  const double fx = front[0], fy = front[1];
+  s.place("plate", fx, fy, -0.0005);
   EXPECT_TRUE(s.holds({{"On", {"plate", "stove_front_region"}}}));
-  s.place("plate", 0.07, 0.06 + 0.09, -0.0005);
+  s.place("plate", fx, fy + 0.09, -0.0005);
   EXPECT_FALSE(s.holds({{"On", {"plate", "stove_front_region"}}}));
 }
 
@@ -109,6 +111,16 @@ TEST(Predicates, InARegionIsTheOriginInsideItsBox) {
   EXPECT_FALSE(s.holds({{"In", {"bowl", "cabinet_middle_region"}}}));
   s.place("bowl", top[0] - 0.2, top[1], top[2]);  // in front of the drawer
   EXPECT_FALSE(s.holds({in_drawer}));
+}
+
+TEST(Predicates, InIsFalseForAnObjectLyingOnTheRimAboveTheRegion) {
+  SceneState s("study_caddy.yaml");
+  const double* back = s.site("caddy_back_contain_region");
+  const PredicateSpec in_back{"In", {"book", "caddy_back_contain_region"}};
+  s.place("book", back[0], back[1], back[2] - 0.025 + 0.0005);  // on the compartment floor
+  EXPECT_TRUE(s.holds({in_back}));
+  s.place("book", back[0], back[1], 0.0695);  // across the 7 cm rim
+  EXPECT_FALSE(s.holds({in_back}));
 }
 
 TEST(Predicates, OpenCloseTurnOnTurnOffAreJointIntervals) {

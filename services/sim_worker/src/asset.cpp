@@ -81,11 +81,15 @@ double GeomSpec::volume() const {
     case Type::Box:
       return 8 * size[0] * size[1] * size[2];
     case Type::Cylinder:
-    case Type::Disc:
       return std::numbers::pi * size[0] * size[0] * 2 * size[1];
+    // Discs and rings are emitted as boxes and MuJoCo sums the boxes' volumes, overlaps included.
+    case Type::Disc: {
+      const double half_angle = std::numbers::pi / (2 * segments);
+      return segments * 8 * size[0] * std::cos(half_angle) * size[0] * std::sin(half_angle) * size[1];
+    }
     case Type::Ring: {
-      const double r_in = size[0] - size[1];
-      return std::numbers::pi * (size[0] * size[0] - r_in * r_in) * 2 * size[2];
+      const double chord = 2 * size[0] * std::sin(std::numbers::pi / segments) + size[1] / 2;
+      return segments * 8 * (size[1] / 2) * (chord / 2) * size[2];
     }
   }
   return 0;

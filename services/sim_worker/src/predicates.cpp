@@ -132,12 +132,6 @@ bool GoalEvaluator::eval(const Term& t, const mjData_* d) const {
   return false;
 }
 
-std::vector<bool> GoalEvaluator::terms(const mjData_* d) const {
-  std::vector<bool> v;
-  for (const auto& t : terms_) v.push_back(eval(t, d));
-  return v;
-}
-
 bool GoalEvaluator::holds(const mjData_* d) const {
   if (terms_.empty()) return false;
   return std::all_of(terms_.begin(), terms_.end(), [&](const Term& t) { return eval(t, d); });

@@ -71,7 +71,7 @@ std::string geom_xml(const GeomSpec& g, const std::string& name, const std::arra
       return "<geom name=\"" + name + "\" type=\"cylinder\" size=\"" + vec(g.size.data(), 2) + "\" pos=\"" +
              vec(g.pos.data(), 3) + "\"" + common;
     case GeomSpec::Type::Disc: {
-      // Boxes whose corners lie on the rim, turned by pi/segments each: a regular 4·segments-gon.
+      // Boxes whose corners lie on the rim, turned by pi/segments each: a regular 2·segments-gon.
       const double half_angle = std::numbers::pi / (2 * g.segments);
       const double half[3] = {g.size[0] * std::cos(half_angle), g.size[0] * std::sin(half_angle), g.size[1]};
       std::string x;

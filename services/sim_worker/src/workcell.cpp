@@ -236,8 +236,6 @@ bool Workcell::goal_holds() const { return goal_ && goal_->holds(d_); }
 
 bool Workcell::holds(const std::vector<PredicateSpec>& goal) const { return GoalEvaluator(m_, scene_, goal).holds(d_); }
 
-std::vector<bool> Workcell::goal_terms() const { return goal_ ? goal_->terms(d_) : std::vector<bool>{}; }
-
 double Workcell::max_penetration() const {
   double deepest = 0;
   for (int i = 0; i < d_->ncon; ++i) {

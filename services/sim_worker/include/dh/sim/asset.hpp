@@ -26,7 +26,7 @@ struct GeomSpec {
   double yaw = 0;               ///< rotation about z (rad)
   std::optional<std::array<double, 4>> rgba;  ///< own colour; default: the entity's colour
   int segments = 16;            ///< ring: number of wall boxes; disc: number of boxes (default 4)
-  double volume() const;
+  double volume() const;  ///< of what MuJoCo builds (the boxes, for discs and rings)
 };
 
 struct SiteSpec {

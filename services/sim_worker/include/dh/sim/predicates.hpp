@@ -35,8 +35,6 @@ class GoalEvaluator {
 
   /// The conjunction; an empty goal never holds.
   bool holds(const mjData_* d) const;
-  /// Each term's value, in goal order.
-  std::vector<bool> terms(const mjData_* d) const;
 
  private:
   struct Term {

@@ -50,7 +50,6 @@ class Workcell {
   /// The observation after the last step (step and budget fields are the caller's to fill).
   Observation observe() const;
   bool goal_holds() const;
-  std::vector<bool> goal_terms() const;
   /// Whether another goal holds in the current state (throws like reset() for a goal the scene lacks).
   bool holds(const std::vector<PredicateSpec>& goal) const;
   /// Deepest interpenetration among contacts that involve a scene entity (m, positive = overlap).
