@@ -1,17 +1,14 @@
 // A campaign over two simulator worker processes: killed half way, resumed without rerunning or
 // double-counting a finished episode, then reported.
 #include <signal.h>
-#include <spawn.h>
 #include <sys/wait.h>
 
 #include <nlohmann/json.hpp>
 #include <fstream>
 #include <set>
 
-#include "dh/campaign/db.hpp"
+#include "campaign_helpers.hpp"
 #include "harness.hpp"
-
-extern char** environ;
 
 using namespace dh;
 using namespace std::chrono_literals;
@@ -20,21 +17,6 @@ namespace {
 
 constexpr const char* kPlan = " campaign --arms full --cells goal,goal-task --seeds 1-5 --ready-timeout-ms 20000";
 constexpr std::size_t kEpisodes = 2 * 10 * 5;
-
-pid_t spawn_shell(const std::string& cmd) {
-  pid_t pid = 0;
-  const char* argv[] = {"/bin/sh", "-c", cmd.c_str(), nullptr};
-  if (posix_spawn(&pid, "/bin/sh", nullptr, nullptr, const_cast<char**>(argv), environ) != 0) return -1;
-  return pid;
-}
-
-std::size_t rows_in(const std::filesystem::path& db) {
-  try {
-    return campaign::CampaignDb::read_rows(db).size();
-  } catch (const campaign::CampaignError&) {
-    return 0;  // not created yet
-  }
-}
 
 }  // namespace
 
@@ -46,14 +28,14 @@ TEST(Campaign, KilledHalfWayResumesWithoutRerunningAndReports) {
                              env.runs / "logs");
 
   // First run: killed (SIGKILL, no chance to clean up) once a fifth of the episodes are recorded.
-  const pid_t first = spawn_shell("exec " + dh + kPlan + " --db " + db.string() + " > " +
+  const pid_t first = itest::spawn_shell("exec " + dh + kPlan + " --db " + db.string() + " > " +
                                   (env.runs / "first.log").string() + " 2>&1");
   ASSERT_GT(first, 0);
   const auto deadline = std::chrono::steady_clock::now() + 120s;
-  while (rows_in(db) < kEpisodes / 5 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(50ms);
+  while (itest::rows_in(db) < kEpisodes / 5 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(50ms);
   kill(first, SIGKILL);
   waitpid(first, nullptr, 0);
-  const std::size_t recorded = rows_in(db);
+  const std::size_t recorded = itest::rows_in(db);
   ASSERT_GE(recorded, kEpisodes / 5) << "the first run recorded too little before the deadline";
   ASSERT_LT(recorded, kEpisodes) << "the first run finished before it could be killed";
 
@@ -80,7 +62,9 @@ TEST(Campaign, KilledHalfWayResumesWithoutRerunningAndReports) {
     keys.insert(campaign::to_string(campaign::key_of(r)));
     EXPECT_FALSE(r.infrastructure) << r.episode_id << ": " << r.reason;
     with_physics += r.physics_s > 0;
-    if (r.cell == "goal" && r.task == 8) EXPECT_TRUE(r.success) << r.episode_id << ": " << r.reason;
+    if (r.cell == "goal" && r.task == 8) {
+      EXPECT_TRUE(r.success) << r.episode_id << ": " << r.reason;
+    }
   }
   EXPECT_EQ(keys.size(), kEpisodes) << "one row per (arm, cell, task, seed)";
   EXPECT_EQ(workers, (std::set<std::string>{"local_a", "local_b"})) << "episodes ran on both worker processes";
@@ -118,5 +102,5 @@ TEST(Campaign, BadPlansAreRefusedBeforeAnythingRuns) {
   std::tie(out, status) = itest::run_command(dh + " campaign --cells goal --seeds 5-3 --db " + db + " 2>&1");
   EXPECT_EQ(status, 2);
   EXPECT_NE(out.find("--seeds"), std::string::npos) << out;
-  EXPECT_FALSE(std::filesystem::exists(db) && rows_in(db) > 0);
+  EXPECT_FALSE(std::filesystem::exists(db) && itest::rows_in(db) > 0);
 }

@@ -44,6 +44,13 @@ struct ReportArgs {
 };
 int cmd_report(const ReportArgs& a);
 
+struct SwapArgs {
+  std::string capability, exec, library;
+  unsigned wait_s = 20, drain_wait_s = 60, discovery_ms = 1500;
+  bool json = false;
+};
+int cmd_swap(const SwapArgs& a);
+
 int cmd_stats_wilson(unsigned k, unsigned n, bool json);
 int cmd_stats_sign(unsigned wins, unsigned losses, bool json);
 int cmd_seeds(unsigned count, std::uint64_t salt, bool json);

@@ -7,6 +7,7 @@
 //   dh report --db FILE [--db FILE2] [--out DIR] [--json]
 //   dh stats wilson K N | dh stats sign W L [--json]
 //   dh seeds --fresh N --salt S              a fresh block of seeds nobody tuned on
+//   dh swap CAPABILITY [--library FILE]      start a new instance, then drain and stop the old ones
 //   dh launch [FILE]                         runs a deployment in the foreground until Ctrl-C
 // Exit codes: 0 done (an episode that fails is a result), 1 infrastructure failure or interrupted
 // campaign, 2 bad input (unknown cell/task/arm, bad config, malformed option, foreign database).
@@ -87,6 +88,15 @@ int main(int argc, char** argv) {
   seeds->add_option("--salt", salt, "salt of the block (the same salt gives the same seeds)");
   seeds->add_flag("--json", json, "one JSON object on stdout");
 
+  SwapArgs swap_args;
+  auto* swap = app.add_subcommand("swap", "replace a capability process while episodes run");
+  swap->add_option("capability", swap_args.capability, "capability name, e.g. pick_place")->required();
+  swap->add_option("--exec", swap_args.exec, "executable of the new instance (default cap_<capability>)");
+  swap->add_option("--library", swap_args.library, "descriptor YAML for the new instance (changed parameters)");
+  swap->add_option("--wait-s", swap_args.wait_s, "how long the new instance has to announce itself");
+  swap->add_option("--drain-wait-s", swap_args.drain_wait_s, "how long to wait for old instances to drain and exit");
+  swap->add_flag("--json", swap_args.json, "one JSON object on stdout");
+
   std::string deploy;
   auto* launch = app.add_subcommand("launch", "run a deployment until Ctrl-C");
   launch->add_option("file", deploy, "launch YAML (default deploy/local.yaml)");
@@ -100,6 +110,7 @@ int main(int argc, char** argv) {
     if (*wilson) return cmd_stats_wilson(a, b, json);
     if (*sign) return cmd_stats_sign(a, b, json);
     if (*seeds) return cmd_seeds(fresh, salt, json);
+    if (*swap) return cmd_swap(swap_args);
     if (*launch) return cmd_launch(deploy);
   } catch (const dh::ConfigError& e) {
     std::cerr << "error: " << e.what() << "\n";
