@@ -1,7 +1,11 @@
-// Faults across real processes: a capability killed mid-command, and actions under an expired lease.
+// Faults across real processes: a capability killed mid-command, the governor killed mid-episode, and
+// actions under an expired lease.
 #include <signal.h>
 
+#include <algorithm>
 #include <fstream>
+#include <map>
+#include <memory>
 
 #include <nlohmann/json.hpp>
 
@@ -86,6 +90,72 @@ TEST(Faults, KilledCapabilityIsRecordedWithinItsLeaseAndTheEpisodeEnds) {
   });
   EXPECT_TRUE(replanned);
   EXPECT_EQ(recs.back()["kind"], "episode_end");
+}
+
+TEST(Faults, AKilledGovernorLeavesTheArmHeldTheEpisodeAbandonedAndANewGovernorServes) {
+  itest::IsolatedEnv env;
+  cli::Deployment core({itest::service("sim_worker", {"--abandon-after-s", "3"}), itest::service("planner"),
+                        itest::service("cap_pick_place")},
+                       paths::bin_dir(), env.runs / "logs");
+  auto governor = std::make_unique<cli::Deployment>(std::vector{itest::service("governor")}, paths::bin_dir(),
+                                                    env.runs / "logs");
+  dds::Participant p("itest");
+  std::mutex m;
+  std::condition_variable cv;
+  bool announced = false;
+  std::uint32_t step = 0;
+  std::optional<msg::ChannelStatus> status;
+  std::vector<msg::SeamEvent> seam_events;
+  std::map<std::string, msg::EpisodeResult> results;
+  dds::Reader<msg::CapabilityAnnouncePubSubType> ann(p, topics::kAnnounce, dds::Qos::Announce,
+      {[&](const auto&, const auto&) { std::lock_guard l(m); announced = true; cv.notify_all(); }, {}, {}});
+  dds::Reader<msg::ChannelStatusPubSubType> ch(p, topics::kChannelStatus, dds::Qos::Episode,
+      {[&](const msg::ChannelStatus& s, const auto&) { std::lock_guard l(m); status = s; cv.notify_all(); }, {}, {}});
+  dds::Reader<msg::ObservationPubSubType> obs(p, topics::kObservation, dds::Qos::Observation,
+      {[&](const msg::Observation& o, const auto&) { std::lock_guard l(m); step = o.step(); cv.notify_all(); }, {}, {}});
+  dds::Reader<msg::SeamEventPubSubType> seam(p, topics::kSeamEvent, dds::Qos::Status,
+      {[&](const msg::SeamEvent& e, const auto&) { std::lock_guard l(m); seam_events.push_back(e); cv.notify_all(); }, {}, {}});
+  dds::Reader<msg::EpisodeResultPubSubType> res(p, topics::kEpisodeResult, dds::Qos::Episode,
+      {[&](const msg::EpisodeResult& r, const auto&) { std::lock_guard l(m); results[r.episode_id()] = r; cv.notify_all(); }, {}, {}});
+  dds::Writer<msg::EpisodeRequestPubSubType> req(p, topics::kEpisodeRequest, dds::Qos::Episode);
+  auto idle = [&] { return status && status->state() == msg::CHANNEL_IDLE; };
+  ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return announced && idle() && req.matched() >= 2; }));
+  std::this_thread::sleep_for(300ms);
+  req.write(request("orphan"));
+  ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return step >= 40; })) << "the command never got going";
+  ASSERT_TRUE(governor->signal("governor", SIGKILL));
+  std::uint32_t killed_at;
+  {
+    std::lock_guard l(m);
+    killed_at = step;
+  }
+  // The capability keeps asking to move; the seam refuses once the lease (granted to the next decision,
+  // 10 steps ahead) is used up, and the channel gives the episode up and says why.
+  ASSERT_TRUE(itest::wait_until(m, cv, 15s, [&] {
+    return idle() && status->last_episode_id() == "orphan";
+  })) << "the orphaned episode was never abandoned";
+  {
+    std::lock_guard l(m);
+    EXPECT_LE(step, killed_at + 11) << "actions were applied after the lease expired";
+    EXPECT_NE(status->last_error().find("episode abandoned"), std::string::npos) << status->last_error();
+    EXPECT_TRUE(std::any_of(seam_events.begin(), seam_events.end(), [](const auto& e) {
+      return e.episode_id() == "orphan" && e.kind() == msg::SEAM_REJECTED_LEASE;
+    })) << "no lease rejection recorded";
+    EXPECT_FALSE(results.count("orphan")) << "nobody was left to publish a result";
+  }
+  // A restarted governor takes the next episode on the same channel, once DDS has dropped the dead one
+  // (its participant lease) and matched the new one.
+  governor.reset();
+  const auto until = Clock::now() + 20s;
+  while (req.matched() >= 2 && Clock::now() < until) std::this_thread::sleep_for(100ms);
+  ASSERT_LT(req.matched(), 2u) << "the dead governor's reader was never dropped";
+  governor = std::make_unique<cli::Deployment>(std::vector{itest::service("governor")}, paths::bin_dir(),
+                                               env.runs / "logs");
+  ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return req.matched() >= 2; }));
+  std::this_thread::sleep_for(1500ms);  // the new governor discovers the capability and the planner
+  req.write(request("after-restart"));
+  ASSERT_TRUE(itest::wait_until(m, cv, 30s, [&] { return results.count("after-restart") > 0; }));
+  EXPECT_TRUE(results.at("after-restart").success()) << results.at("after-restart").reason();
 }
 
 TEST(Faults, TheSeamRejectsActionsUnderAnExpiredLease) {

@@ -9,7 +9,9 @@
 //         rt/dh/seam/event      (Status)    rejected actions and safety corrections, with reasons
 //         rt/dh/sim/channel     (Episode)   idle/running per channel, so clients find a free one
 // Parameters: --channels K, --first-channel C, --lease-grace-ms (how long an action waits for a
-// lease renewal before it is rejected), --name.
+// lease renewal before it is rejected), --abandon-after-s (a running episode that has had no applied
+// action, lease or request for this long is abandoned: its governor is gone; the channel goes idle and
+// says why), --name.
 #include <CLI/CLI.hpp>
 
 #include <atomic>
@@ -57,8 +59,9 @@ struct Writers {
 class Channel {
  public:
   Channel(std::uint32_t id, std::string worker, const std::map<std::string, SuiteDef>& suites, Writers& w,
-          std::chrono::milliseconds grace, std::shared_ptr<spdlog::logger> log)
-      : id_(id), worker_(std::move(worker)), suites_(suites), w_(w), grace_(grace), log_(std::move(log)) {}
+          std::chrono::milliseconds grace, std::chrono::seconds abandon_after, std::shared_ptr<spdlog::logger> log)
+      : id_(id), worker_(std::move(worker)), suites_(suites), w_(w), grace_(grace), abandon_after_(abandon_after),
+        log_(std::move(log)) {}
 
   EventQueue<Event>& queue() { return queue_; }
 
@@ -67,6 +70,7 @@ class Channel {
     while (!shutdown_requested()) {
       if (auto e = queue_.pop(std::chrono::milliseconds(20))) std::visit([&](auto& ev) { handle(ev); }, *e);
       try_pending();
+      abandon_if_orphaned();
     }
   }
 
@@ -112,6 +116,7 @@ class Channel {
     lease_ = {};
     pending_.reset();
     predicate_ = false;
+    last_sign_of_life_ = Clock::now();
     log_->info("channel={} episode={} suite={} task={} seed={} started", id_, episode_, r.suite(), r.task(), r.seed());
     announce(msg::CHANNEL_RUNNING);
     publish_observation();
@@ -126,6 +131,7 @@ class Channel {
     lease_.revoked = l.revoked();
     lease_.writer_silent = false;
     lease_at_ = Clock::now();
+    last_sign_of_life_ = lease_at_;
   }
 
   // The deadline event names no channel we can use, so each channel checks its own lease's age.
@@ -168,6 +174,16 @@ class Channel {
     announce(msg::CHANNEL_IDLE);
   }
 
+  // Only a dead governor leaves a running episode without any lease, request or applied action this
+  // long: its own deadlines (planner, acknowledgement, stalled steps) end episodes well before.
+  void abandon_if_orphaned() {
+    if (episode_.empty() || Clock::now() - last_sign_of_life_ < abandon_after_) return;
+    const std::string why = "no lease, request or applied action for " + std::to_string(abandon_after_.count()) +
+                            " s (governor gone?); episode abandoned at step " + std::to_string(step_);
+    log_->error("channel={} episode={} {}", id_, episode_, why);
+    finish(episode_, why);
+  }
+
   void try_pending() {
     if (!pending_ || !cell_) return;
     const bool grace_elapsed = Clock::now() - pending_since_ >= grace_;
@@ -198,6 +214,7 @@ class Channel {
       return;
     }
     physics_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
+    last_sign_of_life_ = Clock::now();
     for (const auto& e : events)
       seam_event(step_, a.command_id(),
                  e.kind == sim::StepEvent::SafetyHold ? msg::SEAM_SAFETY_HOLD : msg::SEAM_WORKSPACE_CLAMP, e.reason);
@@ -238,6 +255,8 @@ class Channel {
   const std::map<std::string, SuiteDef>& suites_;
   Writers& w_;
   std::chrono::milliseconds grace_;
+  std::chrono::seconds abandon_after_;
+  Clock::time_point last_sign_of_life_;
   std::shared_ptr<spdlog::logger> log_;
   EventQueue<Event> queue_;
   std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  // one model per scene (and swap)
@@ -255,11 +274,12 @@ class Channel {
 
 int run(int argc, char** argv) {
   CLI::App app{"dh_sim_worker: MuJoCo workcell channels behind the robot seam"};
-  unsigned channels = 1, first = 0, grace_ms = 1000;
+  unsigned channels = 1, first = 0, grace_ms = 1000, abandon_after_s = 30;
   std::string name = "sim_worker";
   app.add_option("--channels", channels, "number of channels (workcells) in this process")->check(CLI::Range(1, 64));
   app.add_option("--first-channel", first, "id of the first channel");
   app.add_option("--lease-grace-ms", grace_ms, "wall time an action waits for a lease renewal");
+  app.add_option("--abandon-after-s", abandon_after_s, "end a running episode nothing has advanced for this long");
   app.add_option("--name", name, "worker name in channel announcements");
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("dh_sim_worker");
@@ -269,7 +289,8 @@ int run(int argc, char** argv) {
     Writers writers(participant);
     std::vector<std::unique_ptr<Channel>> chans;
     for (unsigned i = 0; i < channels; ++i)
-      chans.push_back(std::make_unique<Channel>(first + i, name, suites, writers, std::chrono::milliseconds(grace_ms), log));
+      chans.push_back(std::make_unique<Channel>(first + i, name, suites, writers, std::chrono::milliseconds(grace_ms),
+                                                 std::chrono::seconds(abandon_after_s), log));
     auto route = [&](std::uint32_t ch) -> Channel* {
       return ch >= first && ch < first + channels ? chans[ch - first].get() : nullptr;
     };
