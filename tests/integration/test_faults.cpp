@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <memory>
 
@@ -202,17 +203,32 @@ TEST(Faults, TheSeamRejectsActionsUnderAnExpiredLease) {
   }
   // Step 5 is past the lease and nobody renews it: rejected after the grace period, and the
   // channel does not advance.
-  send(5, "c0");
+  // Garbage values are applied clamped (NaN as 0) and recorded.
+  msg::Action garbage;
+  garbage.channel(0);
+  garbage.episode_id("lease-test");
+  garbage.command_id("c0");
+  garbage.step(5);
+  garbage.a({std::numeric_limits<double>::quiet_NaN(), 5.0, 0, 0, 0, 0, -1});
+  l.valid_until_step(6);
+  lease.write(l);
+  std::this_thread::sleep_for(100ms);
+  act.write(garbage);
+  ASSERT_TRUE(itest::wait_until(m, cv, 5s, [&] { return step == 6 && !events.empty(); }));
+  EXPECT_EQ(events.back().kind(), msg::SEAM_ACTION_CLAMPED);
+  EXPECT_NE(events.back().reason().find("action component 0 = nan"), std::string::npos) << events.back().reason();
+  events.clear();
+  send(6, "c0");
   ASSERT_TRUE(itest::wait_until(m, cv, 5s, [&] { return !events.empty(); }));
   EXPECT_EQ(events.back().kind(), msg::SEAM_REJECTED_LEASE);
-  EXPECT_NE(events.back().reason().find("expired at step 5"), std::string::npos) << events.back().reason();
+  EXPECT_NE(events.back().reason().find("expired at step 6"), std::string::npos) << events.back().reason();
   // An action of a command that was never granted a lease is rejected too.
-  send(5, "intruder");
+  send(6, "intruder");
   ASSERT_TRUE(itest::wait_until(m, cv, 5s, [&] { return events.size() >= 2; }));
   EXPECT_EQ(events.back().kind(), msg::SEAM_REJECTED_COMMAND);
   std::this_thread::sleep_for(200ms);
   std::lock_guard g(m);
-  EXPECT_EQ(step, 5) << "no rejected action moved the robot";
+  EXPECT_EQ(step, 6) << "no rejected action moved the robot";
 }
 
 }  // namespace dh

@@ -162,7 +162,7 @@ class Governor {
   }
   void handle(const msg::SeamEvent& e) {
     static const char* kinds[] = {"rejected_lease", "rejected_budget", "rejected_command", "rejected_step",
-                                  "safety_hold", "workspace_clamp"};
+                                  "safety_hold", "workspace_clamp", "action_clamped"};
     if (auto* mc = machine(e.channel(), e.episode_id()))
       mc->on_seam_event(e.step(), e.command_id(), kinds[static_cast<int>(e.kind())], e.reason());
   }

@@ -217,7 +217,10 @@ class Channel {
     last_sign_of_life_ = Clock::now();
     for (const auto& e : events)
       seam_event(step_, a.command_id(),
-                 e.kind == sim::StepEvent::SafetyHold ? msg::SEAM_SAFETY_HOLD : msg::SEAM_WORKSPACE_CLAMP, e.reason);
+                 e.kind == sim::StepEvent::SafetyHold       ? msg::SEAM_SAFETY_HOLD
+                 : e.kind == sim::StepEvent::WorkspaceClamp ? msg::SEAM_WORKSPACE_CLAMP
+                                                            : msg::SEAM_ACTION_CLAMPED,
+                 e.reason);
     ++step_;
     publish_observation();
   }

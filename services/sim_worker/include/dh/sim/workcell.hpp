@@ -28,7 +28,7 @@ inline constexpr int kSubsteps = 25;          ///< 20 Hz control over 2 ms physi
 inline constexpr int kSafetyEvery = 10;       ///< substeps between safety checks: 50 Hz
 
 struct StepEvent {
-  enum Kind { SafetyHold, WorkspaceClamp } kind;
+  enum Kind { SafetyHold, WorkspaceClamp, ActionClamped } kind;
   std::string reason;
 };
 
