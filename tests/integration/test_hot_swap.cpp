@@ -22,8 +22,18 @@ TEST(HotSwap, NewCommandsGoToTheNewInstanceAndNothingIsLost) {
                              env.runs / "logs");
   const std::string cmd = "exec " + dh + " campaign --cells goal --tasks 8 --seeds 1-48 --ready-timeout-ms 20000 --db " +
                           db.string() + " --json > " + (env.runs / "campaign.json").string() + " 2>&1";
-  const pid_t campaign_pid = itest::spawn_shell(cmd);
+  pid_t campaign_pid = itest::spawn_shell(cmd), fresh = 0;
   ASSERT_GT(campaign_pid, 0);
+  // Whatever fails below, nothing this test started outlives it.
+  struct Cleanup {
+    pid_t& campaign;
+    pid_t& fresh;
+    ~Cleanup() {
+      if (campaign > 0 && kill(campaign, SIGKILL) == 0) waitpid(campaign, nullptr, 0);
+      if (fresh > 0 && kill(fresh, SIGTERM) == 0)
+        for (int i = 0; i < 100 && kill(fresh, 0) == 0; ++i) std::this_thread::sleep_for(50ms);
+    }
+  } cleanup{campaign_pid, fresh};
   const auto deadline = std::chrono::steady_clock::now() + 60s;
   while (itest::rows_in(db) < 6 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(50ms);
   ASSERT_GE(itest::rows_in(db), 6u);
@@ -31,12 +41,12 @@ TEST(HotSwap, NewCommandsGoToTheNewInstanceAndNothingIsLost) {
   const auto [out, status] = itest::run_command(dh + " swap pick_place --json");
   ASSERT_EQ(status, 0) << out;
   const auto swap = nlohmann::json::parse(out);
-  const pid_t fresh = swap["new_pid"].get<pid_t>();
+  fresh = swap["new_pid"].get<pid_t>();
   const std::string old_instance = swap["stopped"][0]["instance"], new_instance = swap["new_instance"];
   EXPECT_TRUE(swap["stopped"][0]["exited"].get<bool>()) << out;
   int wstatus = 0;
   waitpid(campaign_pid, &wstatus, 0);
-  kill(fresh, SIGTERM);
+  campaign_pid = 0;
   ASSERT_TRUE(WIFEXITED(wstatus) && WEXITSTATUS(wstatus) == 0);
 
   const auto rows = campaign::CampaignDb::read_rows(db);

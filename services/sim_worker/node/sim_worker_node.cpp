@@ -174,8 +174,8 @@ class Channel {
     announce(msg::CHANNEL_IDLE);
   }
 
-  // Only a dead governor leaves a running episode without any lease, request or applied action this
-  // long: its own deadlines (planner, acknowledgement, stalled steps) end episodes well before.
+  // A live governor ends an episode before this: its longest wait without leases is 4 refused plans
+  // of 10 s each (configs/governor.yaml), well under the 60 s default. So a dead governor is the cause.
   void abandon_if_orphaned() {
     if (episode_.empty() || Clock::now() - last_sign_of_life_ < abandon_after_) return;
     const std::string why = "no lease, request or applied action for " + std::to_string(abandon_after_.count()) +
@@ -277,12 +277,13 @@ class Channel {
 
 int run(int argc, char** argv) {
   CLI::App app{"dh_sim_worker: MuJoCo workcell channels behind the robot seam"};
-  unsigned channels = 1, first = 0, grace_ms = 1000, abandon_after_s = 30;
+  unsigned channels = 1, first = 0, grace_ms = 1000, abandon_after_s = 60;
   std::string name = "sim_worker";
   app.add_option("--channels", channels, "number of channels (workcells) in this process")->check(CLI::Range(1, 64));
   app.add_option("--first-channel", first, "id of the first channel");
   app.add_option("--lease-grace-ms", grace_ms, "wall time an action waits for a lease renewal");
-  app.add_option("--abandon-after-s", abandon_after_s, "end a running episode nothing has advanced for this long");
+  app.add_option("--abandon-after-s", abandon_after_s, "end a running episode nothing has advanced for this long")
+      ->check(CLI::PositiveNumber);
   app.add_option("--name", name, "worker name in channel announcements");
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("dh_sim_worker");
