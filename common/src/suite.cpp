@@ -13,6 +13,12 @@ std::string PredicateSpec::text() const {
   return s + ")";
 }
 
+std::string goal_text(const std::vector<PredicateSpec>& goal) {
+  std::string s;
+  for (const auto& p : goal) s += (s.empty() ? "" : " AND ") + p.text();
+  return s;
+}
+
 std::string SwapSpec::text() const {
   std::string s;
   for (const auto& [a, b] : exchange) s += (s.empty() ? "" : ";") + a + "<->" + b;

@@ -1,17 +1,8 @@
 #include "dh/campaign/scheduler.hpp"
 
-#include <ctime>
+#include "dh/common/clock.hpp"
 
 namespace dh::campaign {
-
-std::string utc_now_iso() {
-  char stamp[32];
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  std::strftime(stamp, sizeof stamp, "%Y-%m-%dT%H:%M:%SZ", &tm);
-  return stamp;
-}
 
 Scheduler::Scheduler(std::vector<EpisodeKey> todo, std::function<unsigned(const EpisodeKey&)> budget_of,
                      SchedulerOptions options)
@@ -71,7 +62,7 @@ EpisodeRecord Scheduler::record_of(const Running& r, Clock::time_point now) cons
   rec.wall_s = std::chrono::duration<double>(now - r.started).count();
   rec.worker = r.worker;
   rec.channel = r.channel;
-  rec.finished_at = utc_now_iso();
+  rec.finished_at = utc_time("%Y-%m-%dT%H:%M:%SZ");
   return rec;
 }
 

@@ -1,6 +1,3 @@
-#include <unistd.h>
-
-#include <ctime>
 #include <iostream>
 #include <nlohmann/json.hpp>
 #include <thread>
@@ -8,6 +5,7 @@
 #include "client.hpp"
 #include "commands.hpp"
 #include "dh/common/arms.hpp"
+#include "dh/common/clock.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/common/shutdown.hpp"
 #include "dh/common/suite.hpp"
@@ -16,11 +14,7 @@ namespace dh::cli {
 
 namespace {
 std::string episode_id(const std::string& suite, unsigned task, unsigned seed) {
-  char stamp[32];
-  const std::time_t now = std::time(nullptr);
-  std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%S", std::gmtime(&now));
-  return suite + "-t" + std::to_string(task) + "-s" + std::to_string(seed) + "-" + stamp + "-" +
-         std::to_string(getpid());
+  return suite + "-t" + std::to_string(task) + "-s" + std::to_string(seed) + "-" + run_tag();
 }
 }  // namespace
 

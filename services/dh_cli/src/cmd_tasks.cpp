@@ -12,8 +12,7 @@ int cmd_tasks(bool json) {
   nlohmann::json out = nlohmann::json::array();
   for (const auto& [cell, s] : suites)
     for (const auto& [id, t] : s.tasks) {
-      std::string goal;
-      for (const auto& p : t.goal) goal += (goal.empty() ? "" : " AND ") + p.text();
+      const std::string goal = goal_text(t.goal);
       if (json) {
         out.push_back({{"suite", cell}, {"base_suite", s.base_suite}, {"perturbation", s.perturbation},
                        {"task", id}, {"instruction", t.instruction}, {"goal", goal}, {"budget", t.budget_steps},

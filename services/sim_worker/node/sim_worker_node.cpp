@@ -103,8 +103,7 @@ class Channel {
       cell->reset(r.seed(), task.goal);
       physics_s_ = std::chrono::duration<double>(Clock::now() - t0).count();
       cell_ = cell.get();
-      goal_text_.clear();
-      for (const auto& p : task.goal) goal_text_ += (goal_text_.empty() ? "" : " AND ") + p.text();
+      goal_text_ = goal_text(task.goal);
     } catch (const std::exception& e) {
       log_->error("channel={} episode={} cannot start: {}", id_, r.episode_id(), e.what());
       finish(r.episode_id(), e.what());

@@ -49,6 +49,9 @@ struct SuiteDef {
   std::map<unsigned, TaskDef> tasks;
 };
 
+/// A goal as one line: its terms joined by " AND ".
+std::string goal_text(const std::vector<PredicateSpec>& goal);
+
 /// Loads every configs/suites/*.yaml under `config_dir` (three cells per file, keyed by cell name);
 /// throws ConfigError naming file and key.
 std::map<std::string, SuiteDef> load_suites(const std::filesystem::path& config_dir);

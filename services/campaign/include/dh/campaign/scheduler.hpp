@@ -101,7 +101,4 @@ class Scheduler {
   std::string conflict_;
 };
 
-/// The UTC time as ISO-8601 ("2026-11-23T16:56:32Z").
-std::string utc_now_iso();
-
 }  // namespace dh::campaign
