@@ -2,10 +2,10 @@
 // finished episode, resumable: a rerun with the same --db runs only what is not recorded yet.
 #include <unistd.h>
 
-#include <ctime>
 #include <iomanip>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <set>
 #include <thread>
 
 #include "client.hpp"
@@ -14,6 +14,7 @@
 #include "dh/campaign/progress.hpp"
 #include "dh/campaign/scheduler.hpp"
 #include "dh/common/arms.hpp"
+#include "dh/common/clock.hpp"
 #include "dh/common/config.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/common/shutdown.hpp"
@@ -45,15 +46,6 @@ campaign::Plan make_plan(const CampaignArgs& a, const std::map<std::string, Suit
   else throw campaign::PlanError("--seeds: missing (e.g. --seeds 1-20, or --fresh-seeds 20 --salt 7)");
   plan.rerun_rule = kRerunRule;
   return plan;
-}
-
-std::string run_tag() {
-  char stamp[32];
-  const std::time_t now = std::time(nullptr);
-  std::tm tm{};
-  gmtime_r(&now, &tm);
-  std::strftime(stamp, sizeof stamp, "%Y%m%dT%H%M%S", &tm);
-  return std::string(stamp) + "-" + std::to_string(getpid());
 }
 
 void print_summary(const nlohmann::json& s) {
@@ -93,8 +85,9 @@ int cmd_campaign(const CampaignArgs& a) {
   const auto finished = db.finished();
   const auto todo = campaign::remaining(all, finished);
   std::size_t done_ok = 0, done_infra = 0;
+  const std::set<campaign::EpisodeKey> planned(all.begin(), all.end());
   for (const auto& r : db.rows()) {
-    if (std::find(all.begin(), all.end(), campaign::key_of(r)) == all.end()) continue;
+    if (!planned.count(campaign::key_of(r))) continue;
     done_ok += r.success && !r.infrastructure;
     done_infra += r.infrastructure;
   }
