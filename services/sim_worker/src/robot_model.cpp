@@ -6,17 +6,14 @@
 #include <sstream>
 
 #include "dh/common/config.hpp"
+#include "mjcf_text.hpp"
 
 namespace dh::sim {
 
 namespace {
 
-std::string num(double v) {
-  std::ostringstream s;
-  s.precision(10);
-  s << v;
-  return s.str();
-}
+using mjcf::num;
+
 std::string vec3(const urdf::Vector3& v) { return num(v.x) + " " + num(v.y) + " " + num(v.z); }
 std::string quat(const urdf::Rotation& r) {
   return num(r.w) + " " + num(r.x) + " " + num(r.y) + " " + num(r.z);

@@ -4,28 +4,18 @@
 #include <cmath>
 #include <numbers>
 #include <random>
-#include <sstream>
 #include <stdexcept>
 
 #include "dh/common/config.hpp"
 #include "dh/sim/config_arrays.hpp"
+#include "mjcf_text.hpp"
 
 namespace dh::sim {
 
 namespace {
 
-std::string num(double v) {
-  std::ostringstream s;
-  s.precision(10);
-  s << v;
-  return s.str();
-}
-
-std::string vec(const double* v, int n) {
-  std::string s;
-  for (int i = 0; i < n; ++i) s += (i ? " " : "") + num(v[i]);
-  return s;
-}
+using mjcf::num;
+constexpr auto vec = mjcf::list;
 
 std::string yaw_quat(double yaw) { return num(std::cos(yaw / 2)) + " 0 0 " + num(std::sin(yaw / 2)); }
 
