@@ -32,7 +32,8 @@ int main(int argc, char** argv) {
                          "--name", "bench_" + std::to_string(w)}});
   services.push_back({"governor", "governor", {}});
   services.push_back({"planner", "planner", {"--backend", "rules"}});
-  services.push_back({"cap_pick_place", "cap_pick_place", {}});
+  for (const char* cap : {"cap_pick_place", "cap_push", "cap_slide_drawer", "cap_turn_knob", "cap_swing_door", "cap_recovery"})
+    services.push_back({cap, cap, {}});
   cli::Deployment deployment(services, paths::bin_dir(), runs / "logs");
 
   const auto db = runs / "bench.db";

@@ -29,7 +29,7 @@ static void BM_Decide(benchmark::State& state) {
   s.phase = CommandPhase::Failed;
   s.step = 120;
   s.budget_steps = 300;
-  s.failures_of_capability = 2;
+  s.failures_of_step = 2;
   s.vla_available = true;
   DecisionLimits limits;
   for (auto _ : state) {

@@ -10,7 +10,8 @@ std::map<std::string, ArmSpec> load_arms(const std::filesystem::path& governor_y
   std::map<std::string, ArmSpec> out;
   for (const auto& name : arms.keys()) {
     const ConfigNode a = arms.child(name);
-    ArmSpec spec{name, a.get<std::string>("mode"), a.get_or<std::vector<std::string>>("masked_capabilities", {})};
+    ArmSpec spec{name, a.get<std::string>("mode"), a.get_or<std::vector<std::string>>("masked_capabilities", {}),
+                 a.get_or<bool>("latch", true)};
     if (spec.mode != "full" && spec.mode != "static" && spec.mode != "seq")
       a.fail("mode", "expected full, static or seq, got '" + spec.mode + "'");
     out.emplace(name, std::move(spec));

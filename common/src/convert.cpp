@@ -4,6 +4,36 @@
 
 namespace dh::convert {
 
+std::vector<EntityState> from_msg(const std::vector<msg::EntityPose>& entities) {
+  std::vector<EntityState> out;
+  for (const auto& e : entities) {
+    EntityState s;
+    s.name = e.name();
+    s.kind = e.kind();
+    std::copy_n(e.pose().p().begin(), 3, s.p.begin());
+    std::copy_n(e.pose().q().begin(), 4, s.q.begin());
+    std::copy_n(e.half_extents().begin(), 3, s.half_extents.begin());
+    s.joint = e.joint();
+    out.push_back(std::move(s));
+  }
+  return out;
+}
+
+std::vector<msg::EntityPose> to_msg(const std::vector<EntityState>& entities) {
+  std::vector<msg::EntityPose> out;
+  for (const auto& e : entities) {
+    msg::EntityPose p;
+    p.name(e.name);
+    p.kind(e.kind);
+    std::copy_n(e.p.begin(), 3, p.pose().p().begin());
+    std::copy_n(e.q.begin(), 4, p.pose().q().begin());
+    std::copy_n(e.half_extents.begin(), 3, p.half_extents().begin());
+    p.joint(e.joint);
+    out.push_back(std::move(p));
+  }
+  return out;
+}
+
 Observation from_msg(const msg::Observation& m) {
   Observation o;
   o.step = m.step();
@@ -15,15 +45,7 @@ Observation from_msg(const msg::Observation& m) {
   o.contact_right = m.contact_right();
   std::copy_n(m.q().begin(), 7, o.q.begin());
   std::copy_n(m.dq().begin(), 7, o.dq.begin());
-  for (const auto& e : m.entities()) {
-    EntityState s;
-    s.name = e.name();
-    s.kind = e.kind();
-    std::copy_n(e.pose().p().begin(), 3, s.p.begin());
-    std::copy_n(e.pose().q().begin(), 4, s.q.begin());
-    std::copy_n(e.half_extents().begin(), 3, s.half_extents.begin());
-    o.entities.push_back(std::move(s));
-  }
+  o.entities = from_msg(m.entities());
   o.goal_holds = m.task_predicate();
   return o;
 }
@@ -41,15 +63,7 @@ msg::Observation to_msg(const Observation& o, std::uint32_t channel, const std::
   m.contact_right(o.contact_right);
   std::copy_n(o.q.begin(), 7, m.q().begin());
   std::copy_n(o.dq.begin(), 7, m.dq().begin());
-  for (const auto& e : o.entities) {
-    msg::EntityPose p;
-    p.name(e.name);
-    p.kind(e.kind);
-    std::copy_n(e.p.begin(), 3, p.pose().p().begin());
-    std::copy_n(e.q.begin(), 4, p.pose().q().begin());
-    std::copy_n(e.half_extents.begin(), 3, p.half_extents().begin());
-    m.entities().push_back(std::move(p));
-  }
+  m.entities(to_msg(o.entities));
   m.task_predicate(o.goal_holds);
   return m;
 }

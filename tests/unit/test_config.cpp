@@ -116,11 +116,16 @@ TEST(Evidence, AppendsFlushedRecordsAndSkipsATornLine) {
 
 TEST(Arms, TheShippedArmsLoadAndBadOnesAreNamed) {
   const auto arms = load_arms(paths::config_dir() / "governor.yaml");
-  for (const char* name : {"full", "static", "seq", "no-analytic"}) EXPECT_TRUE(arms.count(name)) << name;
+  for (const char* name : {"full", "static", "seq", "no-analytic", "no-recovery", "no-vla", "no-latch"})
+    EXPECT_TRUE(arms.count(name)) << name;
   EXPECT_EQ(arms.at("static").mode, "static");
-  EXPECT_EQ(arms.at("no-analytic").masked, std::vector<std::string>{"pick_place"});
+  EXPECT_EQ(arms.at("no-analytic").masked,
+            (std::vector<std::string>{"pick_place", "push", "slide_drawer", "turn_knob", "swing_door"}));
+  EXPECT_FALSE(arms.at("no-latch").latch);
+  EXPECT_TRUE(arms.at("full").latch);
   auto e = error_of([&] { find_arm(arms, "wizard"); });
-  EXPECT_NE(e.find("unknown arm 'wizard' (arms: full, no-analytic, seq, static"), std::string::npos) << e;
+  EXPECT_NE(e.find("unknown arm 'wizard' (arms: full, no-analytic, no-latch, no-recovery, no-vla, seq, static"),
+            std::string::npos) << e;
   TempDir t;
   const auto f = t.write("governor.yaml", "arms:\n  fast: {mode: reckless}\n");
   e = error_of([&] { load_arms(f); });

@@ -54,50 +54,116 @@ TEST(Decide, ARunningCommandContinuesUntilItStagnates) {
   s.stagnant_decisions = 8;
   EXPECT_EQ(decide(s, {}).kind, DecisionKind::RequestReplan);
   s.recovery_available = true;
+  s.recoveries_left = true;
   EXPECT_EQ(decide(s, {}).kind, DecisionKind::InsertRecovery);
-}
-
-TEST(Decide, AFailureIsRetriedThenRoutedElsewhere) {
-  DecisionState s = running();
-  s.phase = CommandPhase::Failed;
-  s.failures_of_capability = 1;
-  EXPECT_EQ(decide(s, {}).kind, DecisionKind::Retry);
-  s.failures_of_capability = 2;
-  EXPECT_EQ(decide(s, {}).kind, DecisionKind::RequestReplan);
-  s.vla_available = true;
-  EXPECT_EQ(decide(s, {}).kind, DecisionKind::HandToVla);
-  s.recovery_available = true;
-  EXPECT_EQ(decide(s, {}).kind, DecisionKind::InsertRecovery);
-  s.substitute_available = true;
-  EXPECT_EQ(decide(s, {}).kind, DecisionKind::Substitute);
+  s.recoveries_left = false;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::RequestReplan) << "one recovery per step";
   s.replans_used = 4;
-  s.substitute_available = s.recovery_available = s.vla_available = false;
   EXPECT_EQ(decide(s, {}).kind, DecisionKind::GiveUp);
 }
 
-TEST(Decide, StaticModeNeverSubstitutesOrHandsToThePolicy) {
+TEST(Decide, AFailureGetsARecoveryThenARetry) {
+  DecisionState s = running();
+  s.phase = CommandPhase::Failed;
+  s.failures_of_step = 1;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::Retry);
+  s.recovery_available = s.recoveries_left = true;
+  const Decision d = decide(s, {});
+  EXPECT_EQ(d.kind, DecisionKind::InsertRecovery);
+  EXPECT_NE(d.reason.find("retry 1 of 1"), std::string::npos) << d.reason;
+}
+
+TEST(Decide, SpentRetriesGoToASubstituteThenThePolicyThenThePlanner) {
+  DecisionState s = running();
+  s.phase = CommandPhase::Failed;
+  s.failures_of_step = 2;
+  s.recovery_available = s.recoveries_left = true;  // recoveries serve retries only
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::RequestReplan);
+  s.vla_available = true;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::HandToVla);
+  s.substitute_available = true;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::Substitute);
+  s.replans_used = 4;
+  s.substitute_available = s.vla_available = false;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::GiveUp);
+}
+
+TEST(Decide, ARefusalIsNotRetriedButSubstituted) {
+  // A capability that refused before moving would refuse again: the push of Figure 3 becomes a pick and place.
+  DecisionState s = running();
+  s.phase = CommandPhase::Refused;
+  s.failures_of_step = 1;
+  s.recovery_available = s.recoveries_left = true;
+  s.substitute_available = true;
+  const Decision d = decide(s, {});
+  EXPECT_EQ(d.kind, DecisionKind::Substitute);
+  EXPECT_NE(d.reason.find("substitute"), std::string::npos);
+  s.substitute_available = false;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::RequestReplan);
+}
+
+TEST(Decide, StaticModeRetriesThenReexecutesThePlanNeverSubstitutes) {
   DecisionState s = running();
   s.mode = ExecutorMode::Static;
-  s.phase = CommandPhase::Failed;
-  s.failures_of_capability = 2;
-  s.substitute_available = s.recovery_available = s.vla_available = true;
+  s.phase = CommandPhase::Refused;
+  s.failures_of_step = 1;
+  s.substitute_available = s.recovery_available = s.recoveries_left = s.vla_available = true;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::Retry) << "fixed retries, refusals included";
+  s.failures_of_step = 2;
   EXPECT_EQ(decide(s, {}).kind, DecisionKind::RequestReplan);
+  s.phase = CommandPhase::Running;
+  s.stagnant_decisions = 8;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::RequestReplan) << "no recovery insertion in static";
+}
+
+TEST(Decide, SeqModeRunsItsFrozenPlanInOrder) {
+  DecisionState s = running();
   s.mode = ExecutorMode::Seq;
+  s.phase = CommandPhase::Completed;
+  s.sequence_left = true;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::NextInSequence);
+  s.sequence_left = false;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::GiveUp);
+  s.phase = CommandPhase::Failed;
+  s.failures_of_step = 1;
+  s.substitute_available = true;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::Retry);
+  s.failures_of_step = 2;
+  s.sequence_left = true;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::NextInSequence);
+  s.sequence_left = false;
   EXPECT_EQ(decide(s, {}).kind, DecisionKind::GiveUp);
 }
 
 TEST(Decide, ALostInstanceIsRetriedOnlyWhenAnotherLives) {
   DecisionState s = running();
   s.phase = CommandPhase::Lost;
-  s.failures_of_capability = 1;
+  s.failures_of_step = 2;
   s.other_instance_alive = true;
   EXPECT_EQ(decide(s, {}).kind, DecisionKind::Retry);
   s.other_instance_alive = false;
   EXPECT_EQ(decide(s, {}).kind, DecisionKind::RequestReplan);
 }
 
-TEST(Decide, ACompletedCommandWithoutVerdictAsksThePlanner) {
+TEST(Decide, ACompletedCommandWithoutVerdictAsksForTheNextStep) {
   DecisionState s = running();
   s.phase = CommandPhase::Completed;
+  s.replans_used = 4;  // next-step requests do not spend replans
   EXPECT_EQ(decide(s, {}).kind, DecisionKind::RequestReplan);
+}
+
+TEST(Decide, AnEndedRecoveryResumesTheInterruptedStep) {
+  DecisionState s = running();
+  s.was_recovery = true;
+  for (auto phase : {CommandPhase::Completed, CommandPhase::Failed, CommandPhase::Refused}) {
+    s.phase = phase;
+    EXPECT_EQ(decide(s, {}).kind, DecisionKind::Resume) << to_string(phase);
+  }
+}
+
+TEST(Decide, WithoutTheLatchAHeldVerdictDoesNotEndTheEpisode) {
+  DecisionState s = running();
+  s.latched = true;
+  s.latch_enabled = false;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::Continue);
 }

@@ -60,13 +60,13 @@ const PredicateSpec kBowlOnPlate{"On", {"bowl", "plate"}};
 TEST(Predicates, OnAnObjectNeedsContactAndOriginsWithin3cm) {
   SceneState s("kitchen_goal.yaml");
   s.place("plate", -0.1, 0.2, 0.0);
-  s.place("bowl", -0.1, 0.2, 0.0115);  // resting on the 12 mm plate (0.5 mm overlap: in contact)
+  s.place("bowl", -0.1, 0.2, 0.0095);  // resting on the plate's 10 mm floor (0.5 mm overlap: in contact)
   EXPECT_TRUE(s.holds({kBowlOnPlate}));
-  s.place("bowl", -0.1 + 0.032, 0.2, 0.0115);  // still touching, 3.2 cm off centre
+  s.place("bowl", -0.1 + 0.032, 0.2, 0.0095);  // still touching, 3.2 cm off centre
   EXPECT_FALSE(s.holds({kBowlOnPlate}));
   s.place("bowl", -0.1, 0.2, 0.03);  // above the plate, not touching it
   EXPECT_FALSE(s.holds({kBowlOnPlate}));
-  s.place("bowl", -0.1, 0.2, 0.0115);
+  s.place("bowl", -0.1, 0.2, 0.0095);
   EXPECT_FALSE(s.holds({{"On", {"plate", "bowl"}}})) << "the plate is below the bowl";
 }
 

@@ -16,6 +16,7 @@
 #include <variant>
 
 #include "dh/common/arms.hpp"
+#include "dh/gov/config.hpp"
 #include "dh/common/config.hpp"
 #include "dh/common/convert.hpp"
 #include "dh/common/dds.hpp"
@@ -44,31 +45,6 @@ struct LivelinessChange {
 };
 using Event = std::variant<msg::EpisodeRequest, msg::Observation, msg::Advice, msg::CommandStatus, Announced,
                            LivelinessChange, msg::Verdict, msg::SeamEvent>;
-
-gov::GovernorConfig load_config(const std::filesystem::path& file) {
-  const ConfigNode c = ConfigNode::load_file(file);
-  gov::GovernorConfig g;
-  g.decision_period = c.get<unsigned>("decision_period_steps");
-  if (g.decision_period == 0) c.fail("decision_period_steps", "must be at least 1");
-  g.limits.max_retries = c.get<int>("max_retries");
-  g.limits.max_replans = c.get<int>("max_replans");
-  g.limits.stagnation_decisions = c.get<unsigned>("stagnation_decisions");
-  g.max_refusals = c.get<int>("max_refusals_in_row");
-  g.planner_timeout = std::chrono::milliseconds(c.get<unsigned>("planner_timeout_ms"));
-  g.ack_timeout = std::chrono::milliseconds(c.get<unsigned>("ack_timeout_ms"));
-  g.first_observation_timeout = std::chrono::milliseconds(c.get<unsigned>("first_observation_timeout_ms"));
-  g.step_stall_timeout = std::chrono::milliseconds(c.get<unsigned>("step_stall_timeout_ms"));
-  return g;
-}
-
-/// The governor configuration of one episode: the defaults with the arm's mode and masked capabilities.
-gov::GovernorConfig for_arm(gov::GovernorConfig g, const ArmSpec& arm) {
-  g.mode = arm.mode == "static" ? gov::ExecutorMode::Static
-           : arm.mode == "seq"  ? gov::ExecutorMode::Seq
-                                : gov::ExecutorMode::Full;
-  g.masked = {arm.masked.begin(), arm.masked.end()};
-  return g;
-}
 
 std::string file_safe(std::string s) {
   for (char& ch : s)
@@ -119,7 +95,7 @@ class Governor {
       log_->error("channel={} episode={} rejected: {}", r.channel(), r.episode_id(), why);
       return;
     }
-    ch.machine = std::make_unique<gov::EpisodeMachine>(spec, for_arm(config_, arms_.at(arm)), registry_,
+    ch.machine = std::make_unique<gov::EpisodeMachine>(spec, gov::for_arm(config_, arms_.at(arm)), registry_,
                                                        *ch.evidence, gov::Clock::now());
     log_->info("channel={} episode={} arm={} evidence={}", r.channel(), r.episode_id(), arm, path.string());
   }
@@ -130,7 +106,9 @@ class Governor {
   void handle(const msg::Advice& a) {
     auto* mc = machine(a.channel(), a.episode_id());
     if (!mc) return;
-    gov::Advice adv{a.request_id(), a.refused(), a.capability(), convert::from_msg(a.args()), a.rationale(), a.reason(), a.backend()};
+    gov::Advice adv{a.request_id(), a.refused(), a.capability(), convert::from_msg(a.args()), a.rationale(),
+                    a.reason(), a.backend(), a.done(), {}};
+    for (const auto& st : a.rest()) adv.rest.push_back({st.capability(), convert::from_msg(st.args())});
     apply(a.channel(), mc->on_advice(adv, gov::Clock::now()));
   }
   void handle(const msg::CommandStatus& s) {
@@ -232,7 +210,8 @@ class Governor {
       m.request_id(r.request_id);
       m.episode_id(episode);
       m.instruction(r.instruction);
-      m.entities(r.entities);
+      for (const auto& e : r.scene) m.entities().push_back(e.name);
+      m.scene(convert::to_msg(r.scene));
       m.capabilities(r.capabilities);
       m.history(r.history);
       m.step(r.step);
@@ -288,7 +267,7 @@ int run(int argc, char** argv) {
     if (config.empty()) config = (paths::config_dir() / "governor.yaml").string();
     const std::filesystem::path runs_dir = runs.empty() ? paths::runs_dir() : std::filesystem::path(runs);
     dds::Participant participant("dh_governor");
-    Governor gov(participant, load_config(config), load_arms(config), std::filesystem::absolute(runs_dir), log);
+    Governor gov(participant, gov::load_config(config), load_arms(config), std::filesystem::absolute(runs_dir), log);
     EventQueue<Event> q;
     auto push = [&q](auto m) { q.push(std::move(m)); };
     dds::Reader<msg::EpisodeRequestPubSubType> r1(participant, topics::kEpisodeRequest, dds::Qos::Episode,

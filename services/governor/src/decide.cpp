@@ -35,50 +35,89 @@ const char* to_string(DecisionKind k) {
     case DecisionKind::Continue: return "continue";
     case DecisionKind::StopSuccess: return "stop_success";
     case DecisionKind::Retry: return "retry";
+    case DecisionKind::Resume: return "resume";
     case DecisionKind::Substitute: return "substitute";
     case DecisionKind::InsertRecovery: return "insert_recovery";
     case DecisionKind::HandToVla: return "hand_to_vla";
     case DecisionKind::RequestReplan: return "request_replan";
+    case DecisionKind::NextInSequence: return "next_in_sequence";
     case DecisionKind::GiveUp: return "give_up";
   }
   return "?";
 }
 
+namespace {
+
+// What a fixed executor does once its retries are spent: static asks the planner to re-execute the plan
+// from here, seq moves on through its frozen plan.
+Decision fixed_fallback(const DecisionState& s, const DecisionLimits& limits, const std::string& what) {
+  if (s.mode == ExecutorMode::Seq) {
+    if (s.sequence_left) return {DecisionKind::NextInSequence, what + "; retries spent, next step of the frozen plan"};
+    return {DecisionKind::GiveUp, what + "; retries spent and the frozen plan is exhausted"};
+  }
+  if (s.replans_used < limits.max_replans) return {DecisionKind::RequestReplan, what + "; re-execute the plan"};
+  return {DecisionKind::GiveUp, what + "; no replan left"};
+}
+
+Decision after_failure(const DecisionState& s, const DecisionLimits& limits) {
+  const std::string what = std::string("command ") + to_string(s.phase);
+  const bool retry_left = s.failures_of_step <= limits.max_retries;
+  const std::string retry = "retry " + std::to_string(s.failures_of_step) + " of " + std::to_string(limits.max_retries);
+  if (s.phase == CommandPhase::Lost && s.other_instance_alive)
+    return {DecisionKind::Retry, "instance lost; re-ground on the newest live instance"};
+  if (s.mode != ExecutorMode::Full) {
+    // Fixed executors repeat what failed, refusals included.
+    if (retry_left) return {DecisionKind::Retry, what + "; " + retry};
+    return fixed_fallback(s, limits, what);
+  }
+  // A refusal happens before any motion, and a lost capability has no instance left: repeating the same
+  // command cannot help.
+  const bool repeatable = s.phase != CommandPhase::Refused && s.phase != CommandPhase::Lost;
+  if (repeatable && retry_left) {
+    if (s.recovery_available && s.recoveries_left && !s.was_recovery)
+      return {DecisionKind::InsertRecovery, what + "; insert a recovery, then " + retry};
+    return {DecisionKind::Retry, what + "; " + retry};
+  }
+  if (s.substitute_available) return {DecisionKind::Substitute, what + "; substitute an eligible capability for the same goal"};
+  if (s.vla_available) return {DecisionKind::HandToVla, what + "; no analytic route left: hand the segment to vla_act"};
+  if (s.replans_used < limits.max_replans) return {DecisionKind::RequestReplan, what + "; ask the planner"};
+  return {DecisionKind::GiveUp, what + "; no retry, substitute, policy or replan left"};
+}
+
+}  // namespace
+
 Decision decide(const DecisionState& s, const DecisionLimits& limits) {
-  if (s.latched) return {DecisionKind::StopSuccess, "task verdict latched"};
+  if (s.latch_enabled && s.latched) return {DecisionKind::StopSuccess, "task verdict latched"};
   if (s.step >= s.budget_steps) return {DecisionKind::GiveUp, "episode budget exhausted"};
-  const bool full = s.mode == ExecutorMode::Full;
-  const bool can_replan = s.mode != ExecutorMode::Seq && s.replans_used < limits.max_replans;
   switch (s.phase) {
     case CommandPhase::Running:
       if (s.stagnant_decisions < limits.stagnation_decisions) return {DecisionKind::Continue, "command running"};
-      if (full && s.recovery_available) return {DecisionKind::InsertRecovery, "no progress: insert recovery"};
-      if (can_replan) return {DecisionKind::RequestReplan, "no progress for " + std::to_string(s.stagnant_decisions) + " decisions"};
+      if (s.mode == ExecutorMode::Full && s.recovery_available && s.recoveries_left && !s.was_recovery)
+        return {DecisionKind::InsertRecovery, "no progress for " + std::to_string(s.stagnant_decisions) +
+                                                  " decisions: insert a recovery"};
+      if (s.mode == ExecutorMode::Seq)
+        return fixed_fallback(s, limits, "no progress for " + std::to_string(s.stagnant_decisions) + " decisions");
+      if (s.replans_used < limits.max_replans)
+        return {DecisionKind::RequestReplan, "no progress for " + std::to_string(s.stagnant_decisions) + " decisions"};
       return {DecisionKind::GiveUp, "no progress and no replan left"};
     case CommandPhase::Completed:
-      if (can_replan) return {DecisionKind::RequestReplan, "command completed but the task verdict is false"};
-      return {DecisionKind::GiveUp, "command completed, verdict false, no replan left"};
-    case CommandPhase::Lost:
-      if (s.other_instance_alive) return {DecisionKind::Retry, "instance lost; re-ground on the newest live instance"};
-      [[fallthrough]];
+      if (s.was_recovery) return {DecisionKind::Resume, "recovery completed; resume the interrupted step"};
+      if (s.mode == ExecutorMode::Seq) {
+        if (s.sequence_left) return {DecisionKind::NextInSequence, "command completed; next step of the frozen plan"};
+        return {DecisionKind::GiveUp, "the frozen plan is exhausted and the task verdict is false"};
+      }
+      // Nominal one-step replanning: the slow brain names the next step (not counted against max_replans).
+      return {DecisionKind::RequestReplan, "command completed; ask for the next step"};
     case CommandPhase::Failed:
+    case CommandPhase::Expired:
+    case CommandPhase::Lost:
     case CommandPhase::Refused:
-    case CommandPhase::Expired: {
-      const std::string what = std::string("command ") + to_string(s.phase);
-      if (s.phase != CommandPhase::Lost && s.failures_of_capability <= limits.max_retries)
-        return {DecisionKind::Retry, what + "; retry " + std::to_string(s.failures_of_capability) + " of " +
-                                         std::to_string(limits.max_retries)};
-      if (full && s.substitute_available) return {DecisionKind::Substitute, what + "; substitute a capability"};
-      if (full && s.recovery_available) return {DecisionKind::InsertRecovery, what + "; insert recovery"};
-      if (full && s.vla_available) return {DecisionKind::HandToVla, what + "; hand the segment to vla_act"};
-      if (can_replan) return {DecisionKind::RequestReplan, what + "; ask the planner"};
-      return {DecisionKind::GiveUp, what + "; no eligible route left"};
-    }
+      if (s.was_recovery) return {DecisionKind::Resume, std::string("recovery ") + to_string(s.phase) + "; resume the interrupted step"};
+      return after_failure(s, limits);
     case CommandPhase::None:
-      if (can_replan) return {DecisionKind::RequestReplan, "no command grounded"};
-      return {DecisionKind::GiveUp, "no command could be grounded"};
+      break;
   }
-  return {DecisionKind::GiveUp, "unreachable"};
+  return {DecisionKind::GiveUp, "no command and nothing to decide"};
 }
 
 }  // namespace dh::gov

@@ -1,5 +1,7 @@
 #include "dh/gov/episode.hpp"
 
+#include "dh/common/history.hpp"
+
 namespace dh::gov {
 
 const char* to_string(CommandState s) {
@@ -72,7 +74,7 @@ Effects EpisodeMachine::request_plan(const std::string& why, Clock::time_point n
   PlanRequestOut r;
   r.request_id = spec_.episode_id + "/p" + std::to_string(plans_++);
   r.instruction = spec_.instruction;
-  for (const auto& e : last_obs_.entities) r.entities.push_back(e.name);
+  r.scene = last_obs_.entities;
   for (const auto& c : registry_.alive_capabilities())
     if (!config_.masked.count(c)) r.capabilities.push_back(c);
   r.history = history_;
@@ -99,6 +101,13 @@ Effects EpisodeMachine::on_advice(const Advice& advice, Clock::time_point now) {
                    {{"request_id", advice.request_id}, {"step", last_obs_.step}, {"refused", advice.refused},
                     {"capability", advice.capability}, {"args", bindings_json(advice.args)},
                     {"rationale", advice.rationale}, {"reason", advice.reason}, {"backend", advice.backend}});
+  if (advice.done) {
+    // The planner judges every step complete. With the latch on, a true verdict would have ended the
+    // episode at the last decision; the final state decides without it.
+    if (!config_.latch && last_obs_.goal_holds) return end(true, "success", "planner: every step completed; final state satisfies the task");
+    return end(false, "gave_up", "planner: every step of the plan completed, yet the task verdict is false");
+  }
+  if (config_.mode == ExecutorMode::Seq && sequence_.empty() && commands_ == 0) sequence_ = advice.rest;
   last_advice_ = advice;
   return ground_and_dispatch(advice, now);
 }
@@ -108,7 +117,21 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
   const std::string command_id = spec_.episode_id + "/c" + std::to_string(commands_);
   const GroundingResult g = ground({advice, registry_, last_obs_, remaining, config_.masked, command_id,
                                     config_.decision_period});
-  if (!g.command) return refuse(g.refusal, g.reason, now);
+  if (!advice.refused) tried_[history::signature(advice.args)].insert(advice.capability);
+  if (!g.command) {
+    if (g.refusal == Refusal::PlannerRefused || g.refusal == Refusal::Budget) return refuse(g.refusal, g.reason, now);
+    // The advised capability cannot serve this step here: the executor decides what instead.
+    ++refusals_total_;
+    ++refusals_in_row_;
+    evidence_.append("governor", "refusal",
+                     {{"step", last_obs_.step}, {"refusal", to_string(g.refusal)}, {"reason", g.reason},
+                      {"capability", advice.capability}});
+    history_.push_back(history::outcome_line(last_obs_.step, advice.capability, "refused", advice.args, g.reason));
+    if (!recovering_) count_failure();
+    if (refusals_in_row_ >= config_.max_refusals)
+      return end(false, "gave_up", std::to_string(refusals_in_row_) + " refusals in a row; last: " + g.reason);
+    return decide_now(CommandPhase::Refused, "grounding refused: " + g.reason, now);
+  }
   ++commands_;
   refusals_in_row_ = 0;
   const Command& c = *g.command;
@@ -120,11 +143,12 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
                    {{"step", last_obs_.step}, {"command_id", c.command_id}, {"instance", c.instance},
                     {"budget_steps", c.budget_steps}, {"lease_until_step", c.lease_until_step}});
   history_.push_back("step " + std::to_string(last_obs_.step) + ": dispatched " + c.capability + " " +
-                     bindings_json(c.args).dump());
+                     history::signature(c.args));
   running_ = c;
   acknowledged_ = false;
   deferred_end_.reset();
   last_progress_ = 0;
+  progress_at_decision_ = 0;
   stagnant_ = 0;
   phase_ = Phase::Running;
   deadline_ = now + config_.ack_timeout;
@@ -172,22 +196,24 @@ Effects EpisodeMachine::on_status(const CommandStatus& st, Clock::time_point now
 }
 
 Effects EpisodeMachine::finish_command(const CommandStatus& st, Clock::time_point now) {
-  history_.push_back("step " + std::to_string(st.step) + ": " + running_->capability + " " +
-                     to_string(st.state) + (st.reason.empty() ? "" : ": " + st.reason));
+  history_.push_back(history::outcome_line(st.step, running_->capability, to_string(st.state), running_->args, st.reason));
   CommandPhase phase = CommandPhase::Failed;
   if (st.state == CommandState::Completed) phase = CommandPhase::Completed;
-  else if (st.state == CommandState::Refused) phase = CommandPhase::Refused;
+  else if (st.state == CommandState::Refused) {
+    phase = CommandPhase::Refused;
+    ++refusals_total_;
+  }
   else if (st.state == CommandState::Expired) phase = CommandPhase::Expired;
-  if (phase != CommandPhase::Completed) ++failures_[running_->capability];
+  if (phase != CommandPhase::Completed && !recovering_) count_failure();
   return decide_now(phase, std::string("command ") + to_string(st.state), now);
 }
 
 Effects EpisodeMachine::on_capability_lost(const std::string& instance, Clock::time_point now) {
   evidence_.append("governor", "capability_lost", {{"step", last_obs_.step}, {"instance", instance}});
   if (phase_ != Phase::Running || !running_ || running_->instance != instance) return {};
-  ++failures_[running_->capability];
-  history_.push_back("step " + std::to_string(last_obs_.step) + ": " + running_->capability +
-                     " lost (liveliness lease expired)");
+  if (!recovering_) count_failure();
+  history_.push_back(history::outcome_line(last_obs_.step, running_->capability, "lost", running_->args,
+                                           "liveliness lease expired"));
   return decide_now(CommandPhase::Lost, "capability instance " + instance + " lost its liveliness", now);
 }
 
@@ -201,39 +227,74 @@ void EpisodeMachine::on_seam_event(std::uint32_t step, const std::string& comman
   evidence_.append("seam", kind, {{"step", step}, {"command_id", command_id}, {"reason", reason}});
 }
 
+std::string EpisodeMachine::step_key() const {
+  return last_advice_ ? last_advice_->capability + " " + history::signature(last_advice_->args) : "";
+}
+
+void EpisodeMachine::count_failure() { ++failures_[step_key()]; }
+
+bool EpisodeMachine::eligible(const std::string& capability) const {
+  return !config_.masked.count(capability) && registry_.newest_alive(capability).has_value();
+}
+
+std::optional<std::string> EpisodeMachine::substitute() const {
+  if (!last_advice_) return std::nullopt;
+  const auto subs = config_.substitutes.find(last_advice_->capability);
+  if (subs == config_.substitutes.end()) return std::nullopt;
+  const auto tried = tried_.find(history::signature(last_advice_->args));
+  for (const auto& c : subs->second)
+    if (eligible(c) && (tried == tried_.end() || !tried->second.count(c))) return c;
+  return std::nullopt;
+}
+
+std::string EpisodeMachine::recovery_for() const {
+  const bool holding = last_obs_.contact_left && last_obs_.contact_right && last_obs_.gripper_opening > 0.002;
+  return holding ? "release_retreat" : "keyframe_return";
+}
+
 Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now) {
   const std::uint32_t k = decisions_++;
   DecisionState s;
   s.mode = config_.mode;
+  s.latch_enabled = config_.latch;
   s.latched = latch_.decide(last_obs_.step);
   s.phase = phase;
   s.step = last_obs_.step;
   s.budget_steps = spec_.budget_steps;
   if (phase == CommandPhase::Running) {
-    stagnant_ = last_progress_ > 0 || last_obs_.step < running_->start_step + 2 * config_.decision_period
-                    ? 0 : stagnant_ + 1;
+    // Stagnation: the command's reported progress did not grow since the previous decision.
+    stagnant_ = last_progress_ > progress_at_decision_ ? 0 : stagnant_ + 1;
+    progress_at_decision_ = last_progress_;
   }
   s.progress = last_progress_;
   s.stagnant_decisions = stagnant_;
-  const std::string cap = running_ ? running_->capability : "";
-  s.failures_of_capability = failures_.count(cap) ? failures_.at(cap) : 0;
+  const std::string cap = running_ ? running_->capability : last_advice_ ? last_advice_->capability : "";
+  const std::string sig = last_advice_ ? history::signature(last_advice_->args) : "";
+  s.failures_of_step = failures_.count(step_key()) ? failures_.at(step_key()) : 0;
   s.replans_used = replans_;
+  s.was_recovery = recovering_;
+  s.recoveries_left = (recoveries_.count(sig) ? recoveries_.at(sig) : 0) < config_.max_recoveries;
   s.other_instance_alive = running_ && registry_.newest_alive(cap).has_value();
-  const auto alive = registry_.alive_capabilities();
-  auto has = [&](const std::string& n) {
-    return std::find(alive.begin(), alive.end(), n) != alive.end() && !config_.masked.count(n);
-  };
-  s.recovery_available = has("recovery") && cap != "recovery";
-  s.vla_available = has("vla_act") && cap != "vla_act";
+  s.substitute_available = substitute().has_value();
+  s.recovery_available = eligible(recovery_for());
+  s.vla_available = eligible("vla_act") && cap != "vla_act" && !(tried_.count(sig) && tried_.at(sig).count("vla_act"));
+  s.sequence_left = !sequence_.empty();
   const Decision d = decide(s, config_.limits);
   evidence_.append("governor", "decision",
                    {{"k", k}, {"step", s.step}, {"cause", cause}, {"phase", to_string(phase)},
                     {"decision", to_string(d.kind)}, {"reason", d.reason}, {"latched", s.latched},
                     {"progress", s.progress}, {"stagnant", s.stagnant_decisions},
-                    {"failures", s.failures_of_capability}, {"command_id", running_ ? running_->command_id : ""},
+                    {"failures", s.failures_of_step}, {"capability", cap},
+                    {"command_id", running_ ? running_->command_id : ""},
                     // From the governor taking the triggering event to this decision.
                     {"latency_ns", std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - now).count()}});
   Effects fx;
+  const auto fast = [&](Advice a) {
+    a.refused = false;
+    a.done = false;
+    a.rationale = "fast brain: " + d.reason;
+    return a;
+  };
   switch (d.kind) {
     case DecisionKind::Continue: {
       fx.lease = Lease{running_->command_id, s.step + config_.decision_period,
@@ -249,19 +310,47 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
       const Effects stop = stop_command();
       return then(stop, last_advice_ ? ground_and_dispatch(*last_advice_, now) : request_plan(d.reason, now));
     }
-    case DecisionKind::InsertRecovery:
-    case DecisionKind::HandToVla:
+    case DecisionKind::Resume: {
+      const Effects stop = stop_command();
+      recovering_ = false;
+      if (resume_) last_advice_ = fast(*resume_);
+      resume_.reset();
+      return then(stop, last_advice_ ? ground_and_dispatch(*last_advice_, now) : request_plan(d.reason, now));
+    }
     case DecisionKind::Substitute: {
       const Effects stop = stop_command();
-      Advice a = last_advice_.value_or(Advice{});
-      a.refused = false;
-      if (d.kind == DecisionKind::InsertRecovery) a.capability = "recovery";
-      if (d.kind == DecisionKind::HandToVla) a.capability = "vla_act";
-      a.rationale = "fast brain: " + d.reason;
+      Advice a = fast(*last_advice_);
+      a.capability = *substitute();
+      last_advice_ = a;
+      return then(stop, ground_and_dispatch(a, now));
+    }
+    case DecisionKind::HandToVla: {
+      const Effects stop = stop_command();
+      Advice a = fast(*last_advice_);
+      a.capability = "vla_act";
+      last_advice_ = a;
+      return then(stop, ground_and_dispatch(a, now));
+    }
+    case DecisionKind::InsertRecovery: {
+      const Effects stop = stop_command();
+      resume_ = last_advice_;
+      ++recoveries_[sig];
+      recovering_ = true;
+      Advice r = fast(Advice{});
+      r.capability = recovery_for();
+      return then(stop, ground_and_dispatch(r, now));
+    }
+    case DecisionKind::NextInSequence: {
+      const Effects stop = stop_command();
+      Advice a = fast(Advice{});
+      a.capability = sequence_.front().capability;
+      a.args = sequence_.front().args;
+      sequence_.erase(sequence_.begin());
+      last_advice_ = a;
       return then(stop, ground_and_dispatch(a, now));
     }
     case DecisionKind::RequestReplan: {
-      ++replans_;
+      if (phase != CommandPhase::Completed) ++replans_;  // nominal next-step requests are not replans
       const Effects stop = stop_command();
       return then(stop, request_plan(d.reason, now));
     }
@@ -286,8 +375,14 @@ Effects EpisodeMachine::then(const Effects& stop, Effects next) {
   return next;
 }
 
-Effects EpisodeMachine::end(bool success, const std::string& outcome, const std::string& reason) {
+Effects EpisodeMachine::end(bool success, const std::string& outcome_in, const std::string& reason) {
   Effects fx = stop_command();
+  std::string outcome = outcome_in;
+  // Without the latch the benchmark's verdict on the final state decides (unless infrastructure failed).
+  if (!config_.latch && outcome != "infrastructure" && outcome != "rejected") {
+    success = last_obs_.goal_holds;
+    if (success) outcome = "success";
+  }
   phase_ = Phase::Ended;
   EpisodeEnd e{success, last_obs_.step, outcome, reason, decisions_, refusals_total_};
   evidence_.append("governor", "episode_end",
@@ -310,7 +405,7 @@ Effects EpisodeMachine::on_tick(Clock::time_point now) {
       return refuse(Refusal::PlannerRefused, "planner timeout: no " + what, now);
     case Phase::Running:
       if (!acknowledged_) {
-        ++failures_[running_->capability];
+        if (!recovering_) count_failure();
         return decide_now(CommandPhase::Failed, "no " + what, now);
       }
       return end(false, "infrastructure", "no " + what);

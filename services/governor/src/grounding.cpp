@@ -42,7 +42,7 @@ std::optional<std::string> precondition_fails(const std::string& pre, const Advi
   if (pre == "distinct_entities") {
     std::set<std::string> seen;
     for (const auto& [role, e] : a.args)
-      if (!seen.insert(e).second) return "entity '" + e + "' is given for two roles";
+      if (obs.entity(e) && !seen.insert(e).second) return "entity '" + e + "' is given for two roles";
     return std::nullopt;
   }
   if (pre == "task_goal_unmet") {
@@ -65,13 +65,29 @@ GroundingResult ground(const GroundingInput& in) {
   if (!info)
     return refuse(Refusal::CapabilityNotAlive,
                   "every instance of '" + a.capability + "' lost its liveliness lease");
-  for (const auto& role : info->arguments)
-    if (!arg(a, role))
-      return refuse(Refusal::MissingArgument, "'" + a.capability + "' needs argument '" + role + "'");
-  for (const auto& [role, entity] : a.args)
-    if (!in.obs.entity(entity))
-      return refuse(Refusal::UnresolvedEntity,
-                    "argument " + role + "='" + entity + "' names no entity in the scene");
+  // Declared roles: "object" takes a scene entity, "state:open|closed" one of the listed symbols.
+  for (const auto& decl : info->arguments) {
+    const auto colon = decl.find(':');
+    const std::string role = decl.substr(0, colon);
+    const std::string* value = arg(a, role);
+    if (!value) return refuse(Refusal::MissingArgument, "'" + a.capability + "' needs argument '" + role + "'");
+    if (colon == std::string::npos) {
+      if (!in.obs.entity(*value))
+        return refuse(Refusal::UnresolvedEntity, "argument " + role + "='" + *value + "' names no entity in the scene");
+      continue;
+    }
+    const std::string choices = "|" + decl.substr(colon + 1) + "|";
+    if (value->empty() || choices.find("|" + *value + "|") == std::string::npos)
+      return refuse(Refusal::MissingArgument, "argument " + role + "='" + *value + "' of '" + a.capability +
+                                                  "' is not one of " + decl.substr(colon + 1));
+  }
+  for (const auto& [role, entity] : a.args) {
+    const bool declared = std::any_of(info->arguments.begin(), info->arguments.end(), [&](const std::string& d) {
+      return d.substr(0, d.find(':')) == role;
+    });
+    if (!declared)
+      return refuse(Refusal::MissingArgument, "'" + a.capability + "' takes no argument '" + role + "'");
+  }
   for (const auto& pre : info->preconditions)
     if (auto why = precondition_fails(pre, a, in.obs)) return refuse(Refusal::Precondition, *why);
   if (info->cost_steps > in.remaining_steps)

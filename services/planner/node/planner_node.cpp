@@ -35,7 +35,7 @@ int run(int argc, char** argv) {
       auto r = q.pop(std::chrono::milliseconds(50));
       if (!r) continue;
       const planner::PlannerAdvice a =
-          planner::plan_rules({r->instruction(), r->entities(), r->capabilities(), r->history()});
+          planner::plan_rules({r->instruction(), convert::from_msg(r->scene()), r->capabilities(), r->history()});
       msg::Advice m;
       m.channel(r->channel());
       m.request_id(r->request_id());
@@ -46,6 +46,13 @@ int run(int argc, char** argv) {
       m.rationale(a.rationale);
       m.reason(a.reason);
       m.backend(backend);
+      m.done(a.done);
+      for (const auto& st : a.rest) {
+        msg::PlanStep p;
+        p.capability(st.capability);
+        p.args(convert::to_msg(st.args));
+        m.rest().push_back(std::move(p));
+      }
       advice.write(m);
       log->info("channel={} request={} -> {}", r->channel(), r->request_id(),
                 a.refused ? "refused: " + a.reason : a.capability);

@@ -137,6 +137,9 @@ AssetSpec load_asset(const std::filesystem::path& file) {
     for (const auto& p : root.items("parts")) {
       PartSpec part;
       part.name = p.get<std::string>("name");
+      part.kind = p.get<std::string>("kind");
+      const ConfigNode grip = p.child("grip");
+      part.grip = {"grip", get_array<3>(grip, "half"), get_array<3>(grip, "pos")};
       part.pos = get_array<3>(p, "pos");
       part.joint = load_joint(p.child("joint"));
       part.mass = p.get_or<double>("mass", 0.3);

@@ -127,6 +127,8 @@ std::string entity_xml(const EntitySpec& e, const Placement& p) {
       x += geom_xml(part.geoms[i], part_body(e.name, part.name) + "_g" + std::to_string(i), e.rgba, a.friction,
                     part_density, 4);
     x += sites_xml(part.sites, e.name);
+    x += "<site name=\"" + part_grip_site(e.name, part.name) + "\" type=\"box\" size=\"" +
+         vec(part.grip.half.data(), 3) + "\" pos=\"" + vec(part.grip.pos.data(), 3) + "\" rgba=\"0 0 1 0\" group=\"3\"/>\n";
     x += "</body>\n";
   }
   x += "</body>\n";
@@ -137,6 +139,7 @@ std::string entity_xml(const EntitySpec& e, const Placement& p) {
 
 std::string part_body(const std::string& entity, const std::string& part) { return entity + "_" + part; }
 std::string part_joint(const std::string& entity, const std::string& part) { return entity + "_" + part + "_joint"; }
+std::string part_grip_site(const std::string& entity, const std::string& part) { return entity + "_" + part + "_grip"; }
 
 const EntitySpec* SceneSpec::entity(const std::string& n) const {
   for (const auto& e : entities)

@@ -33,7 +33,13 @@ struct Workcell::Ids {
   std::vector<std::size_t> object_entity;     ///< index into scene.entities
   std::vector<int> fixture_body;
   std::vector<std::size_t> fixture_entity;
-  std::vector<int> region_site;               ///< every site: table regions and asset regions
+  struct Part {
+    std::string name, kind;
+    int body = -1, grip_site = -1, qpos = -1;
+    std::array<double, 3> grip_half{};
+  };
+  std::vector<Part> parts;                    ///< fixtures' articulated parts, in scene order
+  std::vector<int> region_site;               ///< every other site: table regions and asset regions
   std::vector<double> q_lower, q_upper;
   std::vector<double> effort;
 };
@@ -79,6 +85,10 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
     if (e.fixture()) {
       ids_->fixture_body.push_back(need(mjOBJ_BODY, e.name));
       ids_->fixture_entity.push_back(k);
+      for (const auto& part : e.asset.parts)
+        ids_->parts.push_back({part_body(e.name, part.name), part.kind, need(mjOBJ_BODY, part_body(e.name, part.name)),
+                               need(mjOBJ_SITE, part_grip_site(e.name, part.name)),
+                               m_->jnt_qposadr[need(mjOBJ_JOINT, part_joint(e.name, part.name))], part.grip.half});
       continue;
     }
     ids_->object_body.push_back(need(mjOBJ_BODY, e.name));
@@ -86,7 +96,9 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
     ids_->object_entity.push_back(k);
   }
   for (int s = 0; s < m_->nsite; ++s)
-    if (s != ids_->tcp_site) ids_->region_site.push_back(s);
+    if (s != ids_->tcp_site && std::none_of(ids_->parts.begin(), ids_->parts.end(),
+                                            [&](const Ids::Part& p) { return p.grip_site == s; }))
+      ids_->region_site.push_back(s);
 }
 
 Workcell::~Workcell() {
@@ -295,6 +307,16 @@ Observation Workcell::observe() const {
   }
   for (std::size_t k = 0; k < ids_->fixture_body.size(); ++k)
     o.entities.push_back(entity(ids_->fixture_body[k], scene_.entities[ids_->fixture_entity[k]]));
+  for (const auto& part : ids_->parts) {
+    EntityState e;
+    e.name = part.name;
+    e.kind = part.kind;
+    std::copy(d_->site_xpos + 3 * part.grip_site, d_->site_xpos + 3 * part.grip_site + 3, e.p.begin());
+    std::copy(d_->xquat + 4 * part.body, d_->xquat + 4 * part.body + 4, e.q.begin());
+    e.half_extents = part.grip_half;
+    e.joint = d_->qpos[part.qpos];
+    o.entities.push_back(std::move(e));
+  }
   for (int s : ids_->region_site) {
     EntityState e;
     e.name = mj_id2name(m_, mjOBJ_SITE, s);

@@ -13,6 +13,7 @@ struct ArmSpec {
   std::string name;
   std::string mode;                 ///< full | static | seq
   std::vector<std::string> masked;  ///< capabilities switched off in this arm
+  bool latch = true;                ///< end on the latched verdict (false: the final state decides)
 };
 
 /// The arms of a governor configuration; throws ConfigError naming file and key (an unknown mode, no arms).

@@ -12,6 +12,8 @@
 
 namespace dh::convert {
 
+std::vector<EntityState> from_msg(const std::vector<msg::EntityPose>& entities);
+std::vector<msg::EntityPose> to_msg(const std::vector<EntityState>& entities);
 Observation from_msg(const msg::Observation& m);
 msg::Observation to_msg(const Observation& o, std::uint32_t channel, const std::string& episode_id);
 

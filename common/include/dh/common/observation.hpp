@@ -10,9 +10,11 @@ namespace dh {
 
 struct EntityState {
   std::string name, kind;
-  std::array<double, 3> p{};               ///< bottom centre, m
+  /// Bottom centre (m) of an object or fixture; a region's centre; an articulated part's grip centre.
+  std::array<double, 3> p{};
   std::array<double, 4> q{1, 0, 0, 0};     ///< w, x, y, z
   std::array<double, 3> half_extents{};    ///< m
+  double joint = 0;  ///< an articulated part's joint position (m or rad); 0 for other entities
 };
 
 struct Observation {

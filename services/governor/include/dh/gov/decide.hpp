@@ -23,34 +23,42 @@ class VerdictLatch {
   std::uint32_t pending_step_ = 0, event_step_ = 0;
 };
 
+/// full: dynamic decisions; static: nominal one-step replanning after successes, fixed retries and plan
+/// re-execution after failures; seq: one up-front plan run in order with fixed retries.
 enum class ExecutorMode { Full, Static, Seq };
 
+/// How the command the decision is about stands. Refused: the capability (or grounding) refused before
+/// any motion, so repeating it cannot help; Failed/Expired: it moved and did not complete.
 enum class CommandPhase { None, Running, Completed, Failed, Lost, Refused, Expired };
 const char* to_string(CommandPhase p);
 
 struct DecisionState {
   ExecutorMode mode = ExecutorMode::Full;
+  bool latch_enabled = true;
   bool latched = false;
   CommandPhase phase = CommandPhase::None;
   std::uint32_t step = 0, budget_steps = 0;
   double progress = 0;
   std::uint32_t stagnant_decisions = 0;  ///< decisions in a row without progress
-  int failures_of_capability = 0;        ///< failures of the current capability in this episode
+  int failures_of_step = 0;              ///< failures of this capability on these arguments in this episode
   int replans_used = 0;
+  bool was_recovery = false;             ///< the command was a recovery the fast brain inserted
+  bool recoveries_left = false;          ///< the step may still get a recovery inserted
   bool other_instance_alive = false;     ///< the capability has another live instance (hot swap)
-  bool substitute_available = false;     ///< another eligible capability serves the same goal
-  bool recovery_available = false;
+  bool substitute_available = false;     ///< another eligible capability serves the same arguments
+  bool recovery_available = false;       ///< a recovery capability is eligible
   bool vla_available = false;
+  bool sequence_left = false;            ///< seq: steps of the frozen plan remain
 };
 
 struct DecisionLimits {
-  int max_retries = 1;            ///< re-grounds of the same step per capability
-  int max_replans = 4;            ///< slow-brain calls after the first
+  int max_retries = 1;            ///< re-grounds of the same step after a failure
+  int max_replans = 4;            ///< slow-brain calls after failures or stagnation
   std::uint32_t stagnation_decisions = 8;
 };
 
 enum class DecisionKind {
-  Continue, StopSuccess, Retry, Substitute, InsertRecovery, HandToVla, RequestReplan, GiveUp
+  Continue, StopSuccess, Retry, Resume, Substitute, InsertRecovery, HandToVla, RequestReplan, NextInSequence, GiveUp
 };
 const char* to_string(DecisionKind k);
 

@@ -26,7 +26,11 @@ struct GovernorConfig {
   ExecutorMode mode = ExecutorMode::Full;
   DecisionLimits limits;
   int max_refusals = 4;                ///< refusals in a row before the episode is given up
+  int max_recoveries = 1;              ///< recoveries inserted per step
+  bool latch = true;                   ///< end on the latched verdict (off: the final state decides)
   std::set<std::string> masked;        ///< capabilities switched off (ablations)
+  /// Capabilities that serve the same arguments' goal another way (push -> pick_place).
+  std::map<std::string, std::vector<std::string>> substitutes;
   std::chrono::milliseconds planner_timeout{10000};
   std::chrono::milliseconds ack_timeout{3000};
   std::chrono::milliseconds first_observation_timeout{15000};
@@ -41,7 +45,8 @@ struct EpisodeSpec {
 
 struct PlanRequestOut {
   std::string request_id, instruction;
-  std::vector<std::string> entities, capabilities, history;
+  std::vector<EntityState> scene;
+  std::vector<std::string> capabilities, history;
   std::uint32_t step = 0;
 };
 
@@ -86,6 +91,12 @@ class EpisodeMachine {
   Effects ground_and_dispatch(const Advice& advice, Clock::time_point now);
   Effects refuse(Refusal r, const std::string& reason, Clock::time_point now);
   Effects decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now);
+  /// Records a failure of the current step's command (by capability and arguments).
+  void count_failure();
+  std::string step_key() const;  ///< current capability and arguments
+  bool eligible(const std::string& capability) const;
+  std::optional<std::string> substitute() const;  ///< an eligible capability not yet tried for this step
+  std::string recovery_for() const;               ///< release_retreat with something in hand, else keyframe_return
   Effects end(bool success, const std::string& outcome, const std::string& reason);
   Effects stop_command();  ///< cancel + revoking lease for the running command, if any
   /// `next` after stopping: the stop's cancel and revocation ride along unless `next` sets its own.
@@ -104,13 +115,18 @@ class EpisodeMachine {
   Observation last_obs_;
   bool have_obs_ = false;
   VerdictLatch latch_;
-  std::optional<Advice> last_advice_;
+  std::optional<Advice> last_advice_;            ///< the step being executed (capability + arguments)
+  std::optional<Advice> resume_;                 ///< the step a recovery interrupted
+  std::vector<PlanStep> sequence_;               ///< seq: the frozen plan's remaining steps
+  std::map<std::string, std::set<std::string>> tried_;  ///< per argument signature: capabilities tried
+  std::map<std::string, int> recoveries_;         ///< per argument signature: recoveries inserted
+  bool recovering_ = false;                       ///< the command in flight is an inserted recovery
   std::optional<Command> running_;
   std::optional<CommandStatus> deferred_end_;  ///< a command end reported before its observation arrived
   bool acknowledged_ = false;
-  double last_progress_ = 0;
+  double last_progress_ = 0, progress_at_decision_ = 0;
   std::uint32_t stagnant_ = 0;
-  std::map<std::string, int> failures_;
+  std::map<std::string, int> failures_;  ///< per capability and arguments
   std::vector<std::string> history_;
   std::string pending_request_;
   std::uint32_t decisions_ = 0, refusals_total_ = 0;

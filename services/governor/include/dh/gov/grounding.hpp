@@ -18,7 +18,7 @@ enum class Refusal {
   UnknownCapability,   ///< never announced
   CapabilityNotAlive,  ///< announced, but its liveliness lapsed
   CapabilityMasked,    ///< switched off by the executor configuration
-  MissingArgument,     ///< a role the capability needs is absent
+  MissingArgument,     ///< a role the capability needs is absent, undeclared, or not one of its symbols
   UnresolvedEntity,    ///< an argument names no entity in the scene
   Precondition,        ///< a declared precondition does not hold
   Budget,              ///< remaining steps cannot pay for the cost model

@@ -10,12 +10,19 @@ namespace dh::gov {
 
 using Bindings = std::vector<std::pair<std::string, std::string>>;  ///< role -> entity, in order
 
+struct PlanStep {
+  std::string capability;
+  Bindings args;
+};
+
 struct Advice {
   std::string request_id;
   bool refused = false;
   std::string capability;
   Bindings args;
   std::string rationale, reason, backend;
+  bool done = false;            ///< the planner judges every step completed
+  std::vector<PlanStep> rest;   ///< the plan's later steps (seq runs them in order)
 };
 
 struct CapabilityInfo {

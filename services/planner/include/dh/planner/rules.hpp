@@ -1,32 +1,53 @@
-// The `rules` slow-brain backend: deterministic parsing of the instruction against the scene's entity
-// names. It advises a capability and symbolic arguments, never poses; what it cannot form becomes an
-// advisory of refusal with its reason.
+// The `rules` slow-brain backend: deterministic parsing of the instruction against the scene snapshot.
+// It splits the instruction into clauses (open/close a drawer or door, turn a knob on or off, push an
+// object somewhere, put or place objects somewhere, pick up ... and place it ...), resolves noun phrases
+// to scene entities, articulated parts and regions, and advises the first step whose arguments have not
+// completed yet, with the rest of the plan behind it. It names the capability the instruction asks for
+// (a push for "push") and leaves feasibility to the fast brain. It never gives poses; what it cannot
+// form is a refusal with its reason.
 #pragma once
 
 #include <string>
 #include <utility>
 #include <vector>
 
+#include "dh/common/observation.hpp"
+
 namespace dh::planner {
+
+using Args = std::vector<std::pair<std::string, std::string>>;
 
 struct PlanContext {
   std::string instruction;
-  std::vector<std::string> entities;      ///< scene entity names
+  std::vector<EntityState> scene;         ///< entity names, kinds, positions, part joint values
   std::vector<std::string> capabilities;  ///< eligible capabilities
-  std::vector<std::string> history;
+  std::vector<std::string> history;       ///< dh::history lines
+};
+
+struct PlanStep {
+  std::string capability;
+  Args args;
 };
 
 struct PlannerAdvice {
   bool refused = false;
+  bool done = false;            ///< every step of the plan completed (a refusal that says so)
   std::string capability;
-  std::vector<std::pair<std::string, std::string>> args;
+  Args args;
   std::string rationale, reason;
+  std::vector<PlanStep> rest;   ///< the plan's later steps, in order
 };
 
 PlannerAdvice plan_rules(const PlanContext& ctx);
 
-/// Finds the scene entity a noun phrase names ("the black bowl" -> "bowl", "wine bottle" ->
-/// "wine_bottle"); empty when none or more than one matches.
-std::string resolve_entity(const std::string& phrase, const std::vector<std::string>& entities);
+/// The whole plan for an instruction in a scene; throws std::invalid_argument with the reason when a
+/// clause cannot be formed.
+std::vector<PlanStep> plan_steps(const std::string& instruction, const std::vector<EntityState>& scene);
+
+/// Finds the scene entities a noun phrase names ("the black bowl" -> bowl, "the top drawer" ->
+/// cabinet_top_drawer, "the back compartment of the caddy" -> caddy_back_contain_region, "both moka
+/// pots" -> both); "left"/"right"/"front"/"back" pick among otherwise equal candidates by position.
+/// Empty when none matches or the match is ambiguous.
+std::vector<std::string> resolve(const std::string& phrase, const std::vector<EntityState>& scene);
 
 }  // namespace dh::planner

@@ -49,11 +49,14 @@ struct JointSpec {
 
 struct PartSpec {
   std::string name;
+  std::string kind;  ///< what capabilities call it: drawer, knob, door
   std::array<double, 3> pos{};  ///< joint anchor / part origin in the asset frame
   JointSpec joint;
   double mass = 0.3;
   std::vector<GeomSpec> geoms;
   std::vector<SiteSpec> sites;
+  /// Where a hand takes the part (handle bar, knob lever), in the part frame; observed as the part's pose.
+  SiteSpec grip;
 };
 
 struct AssetSpec {

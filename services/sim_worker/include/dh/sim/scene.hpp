@@ -79,8 +79,10 @@ std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t s
 std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& placements);
 
 /// MJCF names: a part body is "<entity>_<part>", its joint "<entity>_<part>_joint", an asset site
-/// "<entity>_<site>" (also for sites on parts), a table region keeps its own name.
+/// "<entity>_<site>" (also for sites on parts), a table region keeps its own name; a part's grip site is
+/// "<entity>_<part>_grip".
 std::string part_body(const std::string& entity, const std::string& part);
 std::string part_joint(const std::string& entity, const std::string& part);
+std::string part_grip_site(const std::string& entity, const std::string& part);
 
 }  // namespace dh::sim

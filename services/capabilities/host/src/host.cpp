@@ -1,0 +1,263 @@
+// One capability family as its own process.
+//
+// Writes  rt/dh/capability/announce (Announce: transient-local, liveliness AUTOMATIC, lease 1 s), one
+//                                    sample per capability the family serves
+//         rt/dh/action          (Action)  one action per observation while a command runs
+//         rt/dh/command/status  (Status)  accepted / refused(reason) / running / completed / failed(reason)
+// Reads   rt/dh/command         (Command) START / CANCEL addressed to one of this process's instances;
+//                                         every START on a channel also records a keyframe there
+//         rt/dh/observation     (Observation)
+// On SIGTERM/SIGINT the process drains: it refuses new commands and finishes the ones running (at most
+// --drain-timeout-s), then exits — how `dh swap` replaces it without losing a command.
+#include "dh/cap/host.hpp"
+
+#include <CLI/CLI.hpp>
+#include <unistd.h>
+
+#include <chrono>
+#include <map>
+#include <variant>
+
+#include "dh/cap/descriptor.hpp"
+#include "dh/common/config.hpp"
+#include "dh/common/convert.hpp"
+#include "dh/common/dds.hpp"
+#include "dh/common/event_queue.hpp"
+#include "dh/common/log.hpp"
+#include "dh/common/service.hpp"
+#include "dh/common/topics.hpp"
+#include "dh/msg/capabilityPubSubTypes.h"
+#include "dh/msg/commandPubSubTypes.h"
+#include "dh/msg/robotPubSubTypes.h"
+
+namespace dh::cap {
+namespace {
+
+using Event = std::variant<msg::Command, msg::Observation>;
+
+struct Served {
+  CapabilityDef def;
+  msg::CapabilityAnnounce descriptor;
+};
+
+struct Running {
+  msg::Command command;
+  const Served* served = nullptr;
+  std::unique_ptr<Skill> skill;  // set once the command's first observation arrived
+  std::uint32_t steps_used = 0;
+  std::string stage;
+};
+
+Bindings bindings(const msg::Command& c) {
+  Bindings b;
+  for (const auto& x : c.args()) b.emplace_back(x.role(), x.entity());
+  return b;
+}
+
+class Node {
+ public:
+  Node(dds::Participant& p, const std::vector<Served>& served, std::shared_ptr<spdlog::logger> log)
+      : served_(served), log_(std::move(log)), action_(p, topics::kAction, dds::Qos::Action),
+        status_(p, topics::kCommandStatus, dds::Qos::Status) {}
+
+  void handle(const msg::Command& c) {
+    if (c.kind() == msg::COMMAND_START) record_keyframe(c);
+    const Served* s = find(c.instance());
+    if (!s) return;
+    if (c.kind() == msg::COMMAND_CANCEL) {
+      auto it = running_.find(c.channel());
+      if (it != running_.end() && it->second.command.command_id() == c.command_id()) {
+        status(it->second, msg::STATE_CANCELLED, "cancelled by the governor", c.start_step() + it->second.steps_used,
+               it->second.steps_used);
+        running_.erase(it);
+      }
+      return;
+    }
+    Running r{c, s, nullptr, 0, "pending"};
+    if (draining_) {
+      status(r, msg::STATE_REFUSED, "instance " + c.instance() + " is draining (being replaced or stopped)",
+             c.start_step(), 0);
+      return;
+    }
+    running_[c.channel()] = std::move(r);
+    if (auto o = last_obs_.find(c.channel()); o != last_obs_.end()) handle(o->second);
+  }
+
+  void handle(const msg::Observation& m) {
+    auto& last = last_obs_[m.channel()];
+    if (last.episode_id() != m.episode_id()) keyframes_.erase(m.channel());
+    last = m;
+    auto it = running_.find(m.channel());
+    if (it == running_.end()) return;
+    Running& r = it->second;
+    if (m.episode_id() != r.command.episode_id() || m.step() < r.command.start_step()) return;
+    const Observation obs = convert::from_msg(m);
+    if (!r.skill && !begin(r, obs)) {
+      running_.erase(it);
+      return;
+    }
+    if (r.steps_used >= r.command.budget_steps()) {
+      status(r, msg::STATE_EXPIRED, "command budget of " + std::to_string(r.command.budget_steps()) + " steps spent",
+             m.step(), r.steps_used);
+      running_.erase(it);
+      return;
+    }
+    const SkillStep s = r.skill->next(obs);
+    if (s.status != SkillStatus::Running) {
+      const bool ok = s.status == SkillStatus::Completed;
+      status(r, ok ? msg::STATE_COMPLETED : msg::STATE_FAILED, s.reason, m.step(), r.steps_used, s.stage, s.progress);
+      log_->info("channel={} command={} {} at step {} {}", m.channel(), r.command.command_id(),
+                 ok ? "completed" : "failed", m.step(), s.reason);
+      running_.erase(it);
+      return;
+    }
+    msg::Action a;
+    a.channel(m.channel());
+    a.episode_id(m.episode_id());
+    a.command_id(r.command.command_id());
+    a.step(m.step());
+    std::copy_n(s.action.begin(), 7, a.a().begin());
+    action_.write(a);
+    ++r.steps_used;
+    if (s.stage != r.stage || m.step() % 10 == 0) {
+      r.stage = s.stage;
+      status(r, msg::STATE_RUNNING, "", m.step(), r.steps_used, s.stage, s.progress);
+    }
+  }
+
+  /// From now on new commands are refused; running ones go on.
+  void drain() { draining_ = true; }
+  std::size_t running() const { return running_.size(); }
+
+ private:
+  const Served* find(const std::string& instance) const {
+    for (const auto& s : served_)
+      if (s.descriptor.instance() == instance) return &s;
+    return nullptr;
+  }
+
+  // Grounding at the capability on the command's first observation: θ, the skill's own check, start.
+  bool begin(Running& r, const Observation& obs) {
+    if (obs.step != r.command.start_step()) return true;  // wait for the start step's observation
+    std::optional<std::string> why;
+    std::unique_ptr<Skill> skill;
+    try {
+      skill = r.served->def.make(convert::from_msg(r.command.theta()));
+    } catch (const std::invalid_argument& e) {
+      why = std::string("malformed command: ") + e.what();
+    }
+    const Bindings args = bindings(r.command);
+    if (!why) why = skill->check(args, obs, static_cast<int>(r.command.budget_steps()));
+    if (why) {
+      status(r, msg::STATE_REFUSED, *why, obs.step, 0);
+      log_->info("channel={} command={} refused: {}", r.command.channel(), r.command.command_id(), *why);
+      return false;
+    }
+    SkillContext ctx;
+    if (auto k = keyframes_.find(r.command.channel()); k != keyframes_.end()) ctx.keyframes = k->second;
+    skill->start(args, obs, ctx);
+    r.skill = std::move(skill);
+    status(r, msg::STATE_ACCEPTED, "", obs.step, 0);
+    return true;
+  }
+
+  // The tool pose when a command starts on a channel with an empty hand: a pose the arm reached safely.
+  void record_keyframe(const msg::Command& c) {
+    auto o = last_obs_.find(c.channel());
+    if (o == last_obs_.end() || o->second.episode_id() != c.episode_id()) return;
+    const msg::Observation& m = o->second;
+    if (m.contact_left() && m.contact_right() && m.gripper_opening() > 0.002) return;
+    Keyframe k;
+    k.step = m.step();
+    std::copy_n(m.ee().p().begin(), 3, k.p.begin());
+    std::copy_n(m.ee().q().begin(), 4, k.q.begin());
+    keyframes_[c.channel()].push_back(k);
+  }
+
+  void status(const Running& r, msg::CommandState st, const std::string& reason, std::uint32_t step,
+              std::uint32_t used, const std::string& stage = "", double progress = 0) {
+    msg::CommandStatus s;
+    s.channel(r.command.channel());
+    s.episode_id(r.command.episode_id());
+    s.command_id(r.command.command_id());
+    s.instance(r.command.instance());
+    s.state(st);
+    s.reason(reason);
+    s.step(step);
+    s.steps_used(used);
+    s.progress(progress);
+    s.stage(stage);
+    status_.write(s);
+  }
+
+  const std::vector<Served>& served_;
+  std::shared_ptr<spdlog::logger> log_;
+  dds::Writer<msg::ActionPubSubType> action_;
+  dds::Writer<msg::CommandStatusPubSubType> status_;
+  std::map<std::uint32_t, Running> running_;
+  std::map<std::uint32_t, msg::Observation> last_obs_;
+  std::map<std::uint32_t, std::vector<Keyframe>> keyframes_;
+  bool draining_ = false;
+};
+
+msg::CapabilityAnnounce announcement(const Descriptor& d, const std::string& instance) {
+  msg::CapabilityAnnounce a;
+  a.capability(d.capability);
+  a.instance(instance);
+  a.version(d.version);
+  a.arguments(d.arguments);
+  a.preconditions(d.preconditions);
+  a.cost_steps(static_cast<std::uint32_t>(d.cost_steps));
+  a.parameters(convert::to_msg(d.parameters));
+  a.started_ns(static_cast<unsigned long long>(
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::system_clock::now().time_since_epoch()).count()));
+  return a;
+}
+
+}  // namespace
+
+int run_capability_host(int argc, char** argv, const std::string& family, std::vector<CapabilityDef> capabilities) {
+  const std::string service = "dh_cap_" + family;
+  CLI::App app{service + ": capability family '" + family + "'"};
+  std::vector<std::string> libraries;
+  unsigned drain_timeout_s = 30;
+  app.add_option("--library", libraries,
+                 "capability descriptor YAML, one per capability served (default: configs/library/<capability>.yaml)");
+  app.add_option("--drain-timeout-s", drain_timeout_s, "on a stop, how long running commands may take to finish");
+  CLI11_PARSE(app, argc, argv);
+  auto log = make_logger(service);
+  return run_service(*log, [&] {
+    char host[256] = "";
+    gethostname(host, sizeof host - 1);
+    std::vector<Served> served;
+    for (const auto& def : capabilities) {
+      std::filesystem::path file = default_descriptor_file(def.name);
+      for (const auto& l : libraries)
+        if (ConfigNode::load_file(l).get<std::string>("capability") == def.name) file = l;
+      const std::string instance = def.name + "@" + std::string(host) + ":" + std::to_string(getpid());
+      served.push_back({def, announcement(load_descriptor(file, def), instance)});
+    }
+    dds::Participant participant(service);
+    EventQueue<Event> queue;
+    Node node(participant, served, log);  // θ arrives with each command
+    dds::Reader<msg::CommandPubSubType> cmd(participant, topics::kCommand, dds::Qos::Command,
+        {[&](const msg::Command& m, const auto&) { queue.push(m); }, {}, {}});
+    dds::Reader<msg::ObservationPubSubType> obs(participant, topics::kObservation, dds::Qos::Observation,
+        {[&](const msg::Observation& m, const auto&) { queue.push(m); }, {}, {}});
+    dds::Writer<msg::CapabilityAnnouncePubSubType> announce(participant, topics::kAnnounce, dds::Qos::Announce);
+    for (const auto& s : served) {
+      announce.write(s.descriptor);
+      log->info("instance={} cost_steps={} announced", s.descriptor.instance(), s.descriptor.cost_steps());
+    }
+    while (!shutdown_requested())
+      if (auto e = queue.pop(std::chrono::milliseconds(50))) std::visit([&](auto& ev) { node.handle(ev); }, *e);
+    node.drain();
+    log->info("family={} draining: {} command(s) running", family, node.running());
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(drain_timeout_s);
+    while (node.running() > 0 && std::chrono::steady_clock::now() < deadline)
+      if (auto e = queue.pop(std::chrono::milliseconds(50))) std::visit([&](auto& ev) { node.handle(ev); }, *e);
+    if (node.running() > 0) log->warn("family={} drain timed out with {} command(s) running", family, node.running());
+  });
+}
+
+}  // namespace dh::cap

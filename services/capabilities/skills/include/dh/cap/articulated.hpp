@@ -1,0 +1,147 @@
+// Analytic skills for fixtures' articulated parts, each computed from the part's observed grip (handle
+// bar or lever) and joint position, with the part geometry they assume as revisable parameters:
+//  - slide_drawer: a closed fist, its jaw axis along the handle bar, comes down behind the bar and pulls
+//    it to open, or in front of it and pushes it to close (the cabinet's handles alternate sides, so
+//    the Panda hand, 20 cm along its jaw, passes the handle of the drawer above), then rises;
+//  - turn_knob: sweep the closed jaw across the lever's upper half (the wrist ramp) until the knob
+//    reaches the on or off angle;
+//  - swing_door: take the door's handle, carry it along the arc about the hinge (hinge radius and
+//    handle standoff locate the hinge from the handle), let go, retreat.
+#pragma once
+
+#include "dh/cap/motion.hpp"
+#include "dh/cap/skill.hpp"
+
+namespace dh::cap {
+
+struct DrawerParams {
+  double open_position = 0.155;  ///< m out at which the drawer counts open (aimed at)
+  double closed_position = -0.004;  ///< m: aimed at, a little past shut (the joint limit stops it)
+  double done_tolerance = 0.012;    ///< m from the aimed position that still completes
+  double hook_offset = 0.02;        ///< m from the bar's centre (behind it to open, before it to close) for the fist
+  double grasp_drop = 0.004;        ///< m the tool centre sits above the bar's centre
+  double pull_slack = 0.006;        ///< m the fist travels before it bears on the bar
+  double push_slack = 0.012;        ///< m the fist travels before it bears on the bar, plus a little past shut
+  double approach_height = 0.06;
+  double slide_speed = 0.1;         ///< m/s
+  double approach_steps = 35, descent_steps = 20, slide_min_steps = 25, slide_max_steps = 60, retreat_steps = 20;
+  ParamTable table();
+};
+
+struct KnobParams {
+  double on_angle = 1.0;         ///< rad aimed at for on
+  double off_angle = -0.08;      ///< rad aimed at for off
+  double on_min = 0.55;          ///< rad from which the knob counts on
+  double off_max = 0.0;          ///< rad up to which the knob counts off
+  double contact_height = 0.006; ///< m above the knob's axis where the pads' lower edge sweeps
+  double lever_half_width = 0.007;
+  double standoff = 0.012;       ///< m between pad and lever before the sweep
+  double approach_height = 0.06;
+  double approach_steps = 30, descent_steps = 20, ramp_steps = 40, retreat_steps = 20;
+  ParamTable table();
+};
+
+struct DoorParams {
+  double hinge_radius = 0.3;      ///< m from the hinge line to the handle, along the door
+  double handle_standoff = 0.032; ///< m from the door's face to the handle
+  double open_angle = -1.5;       ///< rad aimed at for open
+  double closed_angle = 0.0;      ///< rad aimed at for closed
+  double open_max = -1.3;         ///< rad from which the door counts open
+  double closed_min = -0.005;     ///< rad from which the door counts closed
+  double grasp_opening = 0.04;
+  double approach_height = 0.06;
+  double approach_steps = 35, descent_steps = 20, close_steps = 8, swing_steps = 70, release_steps = 8,
+         retreat_steps = 20;
+  ParamTable table();
+};
+
+/// Stages shared by the three: approach above the grip, descend, close, move the part, release, retreat.
+class ArticulatedSkill : public Skill {
+ public:
+  SkillStep next(const Observation& obs) override;
+
+ protected:
+  enum class Stage { Approach, Descent, Close, Move, Release, Retreat, Done };
+  /// Called on entering Move; sets up the motion of the part.
+  virtual void begin_move(const Observation& obs) = 0;
+  /// The action for one step of Move; sets `finished` when the move's time is up.
+  virtual std::array<double, 7> move_step(const Observation& obs, bool& finished) = 0;
+  /// Whether the part reached the asked state; the failure reason when not.
+  virtual std::optional<std::string> verify(const EntityState& part) const = 0;
+  /// Jaw command while moving (closed on a handle, or a closed fist sweeping a lever).
+  virtual double move_grip() const { return kGripClose; }
+  virtual bool grasps() const { return true; }  ///< Close and Release stages run
+
+  struct Durations {
+    double approach = 30, descent = 20, close = 8, release = 8, retreat = 20;
+  };
+  /// Starts the approach to the tool pose (`grip_tool`, `q`) with the fingers `opening` apart, from the
+  /// point `approach` away from it (straight up: from high enough to clear what stands near); the
+  /// retreat goes the same way back.
+  void begin(const Observation& obs, const Eigen::Vector3d& grip_tool, const Eigen::Quaterniond& q, double opening,
+             const Eigen::Vector3d& approach, Durations d, int cost);
+  std::string part_;
+  Stage stage_ = Stage::Done;
+  Motion m_;
+  Eigen::Vector3d grip_tool_{0, 0, 0};
+  Eigen::Quaterniond q_{1, 0, 0, 0};
+  double opening_ = 0.05;
+  Eigen::Vector3d approach_{0, 0, 0.06};
+  Durations d_;
+  int total_steps_ = 0, cost_ = 1;
+};
+
+class SlideDrawerSkill : public ArticulatedSkill {
+ public:
+  explicit SlideDrawerSkill(const Theta& theta = {});
+  std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
+  void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
+  int cost_steps() const override;
+
+ private:
+  void begin_move(const Observation& obs) override;
+  std::array<double, 7> move_step(const Observation& obs, bool& finished) override;
+  std::optional<std::string> verify(const EntityState& part) const override;
+  bool grasps() const override { return false; }
+  DrawerParams p_;
+  bool open_ = true;
+};
+
+class TurnKnobSkill : public ArticulatedSkill {
+ public:
+  explicit TurnKnobSkill(const Theta& theta = {});
+  std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
+  void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
+  int cost_steps() const override;
+
+ private:
+  void begin_move(const Observation& obs) override;
+  std::array<double, 7> move_step(const Observation& obs, bool& finished) override;
+  std::optional<std::string> verify(const EntityState& part) const override;
+  double move_grip() const override { return kGripClose; }
+  bool grasps() const override { return false; }
+  KnobParams p_;
+  bool on_ = true;
+  Eigen::Vector3d sweep_{0, 0, 0};  ///< direction the lever's top moves towards the asked state
+  double stroke_ = 0;
+};
+
+class SwingDoorSkill : public ArticulatedSkill {
+ public:
+  explicit SwingDoorSkill(const Theta& theta = {});
+  std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
+  void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
+  int cost_steps() const override;
+
+ private:
+  void begin_move(const Observation& obs) override;
+  std::array<double, 7> move_step(const Observation& obs, bool& finished) override;
+  std::optional<std::string> verify(const EntityState& part) const override;
+  DoorParams p_;
+  bool open_ = false;
+  Eigen::Vector2d hinge_{0, 0};
+  double radius_ = 0, phi0_ = 0, sweep_ = 0, z_ = 0, yaw0_ = 0;
+  int swing_step_ = 0, swing_steps_ = 1;
+};
+
+}  // namespace dh::cap

@@ -1,0 +1,19 @@
+// The capability families: which capabilities each process serves.
+#pragma once
+
+#include <vector>
+
+#include "dh/cap/skill.hpp"
+
+namespace dh::cap {
+
+std::vector<CapabilityDef> pick_place_family();  ///< pick_place
+std::vector<CapabilityDef> push_family();        ///< push
+std::vector<CapabilityDef> slide_drawer_family();      ///< slide_drawer
+std::vector<CapabilityDef> turn_knob_family();        ///< turn_knob
+std::vector<CapabilityDef> swing_door_family();        ///< swing_door
+std::vector<CapabilityDef> recovery_family();    ///< keyframe_return, release_retreat
+/// Every capability of every family (in-process runs and tests).
+std::vector<CapabilityDef> all_capabilities();
+
+}  // namespace dh::cap

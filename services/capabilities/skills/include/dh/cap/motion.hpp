@@ -1,0 +1,62 @@
+// Straight-line tool motions with a smooth time profile, turned into OSC_POSE-like actions: the
+// building block every analytic skill's stages are made of.
+#pragma once
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <string>
+
+#include "dh/cap/skill.hpp"
+
+namespace dh::cap {
+
+inline constexpr double kGripOpen = -1.0, kGripClose = 1.0;
+inline constexpr double kMaxJaw = 0.08;  ///< m, full opening of the parallel jaw
+
+class Motion {
+ public:
+  /// A segment from the observed tool pose to (`to`, `q_to`) over `steps` control steps.
+  void go(const Observation& obs, const Eigen::Vector3d& to, const Eigen::Quaterniond& q_to, int steps);
+  /// Stay where the tool is for `steps` steps (closing or opening the jaw).
+  void hold(const Observation& obs, int steps);
+  bool done() const { return step_ >= steps_; }
+  int steps() const { return steps_; }
+  int elapsed() const { return step_; }
+  const Eigen::Vector3d& from() const { return from_; }
+  const Eigen::Vector3d& to() const { return to_; }
+  /// Distance from the tool to the segment's end.
+  double error(const Observation& obs) const;
+  /// Advances one step; the action moves the tool towards this step's waypoint with jaw command `grip`.
+  std::array<double, 7> advance(const Observation& obs, double grip);
+
+ private:
+  Eigen::Vector3d from_{0, 0, 0}, to_{0, 0, 0};
+  Eigen::Quaterniond q_from_{1, 0, 0, 0}, q_to_{1, 0, 0, 0};
+  int steps_ = 1, step_ = 0;
+};
+
+/// The action that moves the tool from the observed pose towards (p, q) at once, clamped to [-1, 1].
+std::array<double, 7> action_towards(const Observation& obs, const Eigen::Vector3d& p, const Eigen::Quaterniond& q,
+                                     double grip);
+
+/// Jaw command that holds the fingers `width` m apart (the seam maps -1 … +1 to 0.08 … 0 m).
+inline double grip_for_opening(double width) { return std::clamp(1.0 - width / 0.04, -1.0, 1.0); }
+/// Tool orientation pointing down with the jaw's closing axis (tool y) along the table direction `axis`,
+/// of the two such orientations the one nearer the observed tool yaw.
+Eigen::Quaterniond jaw_along(const Observation& obs, const Eigen::Vector2d& axis);
+/// Tool orientation pointing level along the table direction `pointing`, the jaw's axis vertical (it
+/// closes from above and below) or horizontal.
+Eigen::Quaterniond horizontal_tool(const Eigen::Vector2d& pointing, bool jaw_vertical);
+/// Direction a fixture's part faces (its -x axis in the world), on the table plane.
+Eigen::Vector2d front_of(const EntityState& part);
+
+/// Height of an entity's top surface: an object or fixture from its bottom, a region from its centre.
+double top_of(const EntityState& e);
+/// The height to come down from onto `at`: at least `at`'s own, and `clearance` above the top of every
+/// entity (not region, not `except`) whose footprint lies within `reach` of the vertical through it.
+double clear_height(const Observation& obs, const Eigen::Vector3d& at, double reach, double clearance,
+                    const std::string& except);
+/// Whether the jaw holds something: both fingers in contact and not closed on itself.
+bool holding(const Observation& obs);
+
+}  // namespace dh::cap

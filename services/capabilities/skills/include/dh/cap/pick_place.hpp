@@ -1,0 +1,62 @@
+// Analytic pick-and-place from observed geometry: approach, guarded descent, close, lift, carry over a
+// corridor that clears everything on the way, lower, release, retreat (about 230 steps; the paper's
+// Table 8). Rims (bowls, plates, mugs) are pinched at the point nearest the tool, boxes and bottles across
+// their narrow side. The place point is the target's centre, or a free slot of a receptacle that holds
+// something already, so two objects in one basket each get a place.
+#pragma once
+
+#include "dh/cap/motion.hpp"
+#include "dh/cap/skill.hpp"
+
+namespace dh::cap {
+
+/// Revisable physical parameters θ (configs/library/pick_place.yaml); physical quantities only.
+struct PickPlaceParams {
+  double approach_height = 0.08;   ///< m above the grasp point before the descent
+  double corridor_height = 0.16;   ///< m of the object's bottom above the table during the carry, at least
+  double corridor_clearance = 0.04;///< m above anything the carry passes over
+  double rim_grasp_depth = 0.022;  ///< m below a rim where the jaw closes
+  double place_clearance = 0.012;  ///< m between object bottom and target surface at release
+  double max_speed = 0.35;         ///< m/s of the tool at the fastest
+  double retreat_height = 0.1;
+  double approach_steps = 30, descent_steps = 30, close_steps = 10, lift_steps = 23, carry_min_steps = 60,
+         carry_max_steps = 80, lower_steps = 15, release_steps = 10, retreat_steps = 23;
+
+  ParamTable table();
+};
+
+class PickPlaceSkill : public Skill {
+ public:
+  explicit PickPlaceSkill(const Theta& theta = {});
+  std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
+  void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
+  SkillStep next(const Observation& obs) override;
+  int cost_steps() const override;
+  const PickPlaceParams& params() const { return p_; }
+
+ private:
+  enum class Stage { Approach, Descent, Close, Lift, Carry, Lower, Release, Retreat, Done };
+  void enter(Stage s, const Observation& obs);
+  static const char* stage_name(Stage s);
+  Eigen::Vector2d place_xy(const Observation& obs) const;
+  double corridor_z(const Observation& obs, const Eigen::Vector2d& to) const;
+
+  PickPlaceParams p_;
+  std::string object_, target_;
+  Stage stage_ = Stage::Done;
+  int total_steps_ = 0;
+  Motion m_;
+  Eigen::Vector3d grasp_{0, 0, 0};      ///< tool position at the grasp
+  Eigen::Quaterniond grasp_q_;          ///< tool orientation at the grasp
+  Eigen::Vector2d grasp_offset_{0, 0};  ///< tool xy minus object xy, measured after the close
+  Eigen::Vector2d place_{0, 0};         ///< object xy at the release
+  double grasp_height_ = 0;             ///< tool z minus object z, measured after the close
+  double object_z0_ = 0;
+};
+
+/// Whether the jaw takes this object by its rim (bowl, plate, mug) rather than across its body.
+bool has_rim(const EntityState& e);
+/// Radius of the rim's wall centre line.
+double rim_radius(const EntityState& e);
+
+}  // namespace dh::cap

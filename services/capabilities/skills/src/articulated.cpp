@@ -1,0 +1,335 @@
+#include "dh/cap/articulated.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "dh/common/geometry.hpp"
+
+namespace dh::cap {
+
+namespace {
+constexpr double kPadBelowTcp = 0.01, kPadHalf = 0.01;
+
+std::string fmt(const char* f, double a, double b) {
+  char buf[160];
+  std::snprintf(buf, sizeof buf, f, a, b);
+  return buf;
+}
+
+// Common grounding: the part exists and is of `kind`, the asked state is one of two, the budget pays.
+std::optional<std::string> check_part(const Bindings& args, const Observation& obs, const std::string& role,
+                                      const std::string& kind, const char* s1, const char* s2, int cost,
+                                      int budget_steps, const std::string& capability) {
+  const std::string name = arg(args, role);
+  const EntityState* e = obs.entity(name);
+  if (!e) return role + " '" + name + "' is not in the scene";
+  if (e->kind != kind) return "'" + name + "' is a " + e->kind + ", not a " + kind;
+  const std::string state = arg(args, "state");
+  if (state != s1 && state != s2) return "state '" + state + "' is neither '" + s1 + "' nor '" + s2 + "'";
+  if (budget_steps < cost)
+    return "budget of " + std::to_string(budget_steps) + " steps cannot pay for " + capability + "'s cost of " +
+           std::to_string(cost) + " steps";
+  return std::nullopt;
+}
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------------------
+void ArticulatedSkill::begin(const Observation& obs, const Eigen::Vector3d& grip_tool, const Eigen::Quaterniond& q,
+                             double opening, const Eigen::Vector3d& approach, Durations d, int cost) {
+  grip_tool_ = grip_tool;
+  q_ = q;
+  opening_ = opening;
+  approach_ = approach;
+  d_ = d;
+  cost_ = cost;
+  total_steps_ = 0;
+  stage_ = Stage::Approach;
+  // From above, come down clear of whatever stands near the part (another handle, the fixture's top).
+  Eigen::Vector3d start = grip_tool_ + approach_;
+  if (approach_.head<2>().norm() < 1e-9) start.z() = clear_height(obs, start, 0.03, 0.03, part_);
+  m_.go(obs, start, q_, steps(d_.approach));
+}
+
+SkillStep ArticulatedSkill::next(const Observation& obs) {
+  SkillStep out;
+  const EntityState* part = obs.entity(part_);
+  auto fail = [&](const std::string& why) {
+    out.status = SkillStatus::Failed;
+    out.reason = why;
+    return out;
+  };
+  if (!part) return fail("part '" + part_ + "' left the observation");
+  bool move_finished = false;
+  std::array<double, 7> move_action{};
+  switch (stage_) {
+    case Stage::Approach:
+      if (m_.done()) {
+        stage_ = Stage::Descent;
+        m_.go(obs, grip_tool_, q_, steps(d_.descent * std::max(1.0, (m_.to() - grip_tool_).norm() / approach_.norm())));
+      }
+      break;
+    case Stage::Descent:
+      if (m_.done()) {
+        if (grasps()) {
+          stage_ = Stage::Close;
+          m_.hold(obs, steps(d_.close));
+        } else {
+          stage_ = Stage::Move;
+          begin_move(obs);
+        }
+      }
+      break;
+    case Stage::Close:
+      if (m_.done()) {
+        if (obs.gripper_opening < 0.003) return fail("handle missed: the jaw closed on nothing");
+        stage_ = Stage::Move;
+        begin_move(obs);
+      }
+      break;
+    case Stage::Move:
+      break;
+    case Stage::Release:
+      if (m_.done()) {
+        stage_ = Stage::Retreat;
+        m_.go(obs, geo::vec(obs.ee_p) + approach_, q_, steps(d_.retreat));
+      }
+      break;
+    case Stage::Retreat:
+      if (m_.done()) {
+        if (auto why = verify(*part)) return fail(*why);
+        stage_ = Stage::Done;
+      }
+      break;
+    case Stage::Done:
+      break;
+  }
+  if (stage_ == Stage::Move) {
+    if (grasps() && obs.gripper_opening < 0.003) return fail("lost the handle while moving the part");
+    move_action = move_step(obs, move_finished);
+    if (move_finished) {
+      if (grasps()) {
+        stage_ = Stage::Release;
+        m_.hold(obs, steps(d_.release));
+      } else {
+        stage_ = Stage::Retreat;
+        m_.go(obs, geo::vec(obs.ee_p) + approach_, q_, steps(d_.retreat));
+      }
+    }
+  }
+  static constexpr const char* names[] = {"approach", "descent", "close", "move", "release", "retreat", "done"};
+  out.stage = names[static_cast<int>(stage_)];
+  if (stage_ == Stage::Done) return completed_step();
+  ++total_steps_;
+  out.progress = std::min(1.0, static_cast<double>(total_steps_) / cost_);
+  if (stage_ == Stage::Move) {
+    out.action = move_action;
+    return out;
+  }
+  const bool closed = stage_ == Stage::Close || (!grasps() && stage_ != Stage::Retreat);
+  out.action = m_.advance(obs, closed ? move_grip() : grip_for_opening(opening_));
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+ParamTable DrawerParams::table() {
+  return ParamTable("slide_drawer", {{"open_position", &open_position}, {"closed_position", &closed_position},
+                                     {"done_tolerance", &done_tolerance}, {"hook_offset", &hook_offset},
+                                     {"grasp_drop", &grasp_drop}, {"pull_slack", &pull_slack},
+                                     {"push_slack", &push_slack}, {"approach_height", &approach_height},
+                                     {"slide_speed", &slide_speed}, {"approach_steps", &approach_steps},
+                                     {"descent_steps", &descent_steps}, {"slide_min_steps", &slide_min_steps},
+                                     {"slide_max_steps", &slide_max_steps}, {"retreat_steps", &retreat_steps}});
+}
+
+SlideDrawerSkill::SlideDrawerSkill(const Theta& theta) { p_.table().load(theta); }
+
+int SlideDrawerSkill::cost_steps() const {
+  return steps(p_.approach_steps + p_.descent_steps + p_.slide_max_steps + p_.retreat_steps);
+}
+
+std::optional<std::string> SlideDrawerSkill::check(const Bindings& args, const Observation& obs, int budget_steps) const {
+  if (auto why = check_part(args, obs, "drawer", "drawer", "open", "closed", cost_steps(), budget_steps, "slide_drawer"))
+    return why;
+  const EntityState& d = *obs.entity(arg(args, "drawer"));
+  const bool open = arg(args, "state") == "open";
+  if (open && d.joint >= p_.open_position - p_.done_tolerance) return "the drawer is already open";
+  if (!open && d.joint <= p_.closed_position + p_.done_tolerance) return "the drawer is already closed";
+  return std::nullopt;
+}
+
+void SlideDrawerSkill::start(const Bindings& args, const Observation& obs, const SkillContext&) {
+  part_ = arg(args, "drawer");
+  open_ = arg(args, "state") == "open";
+  const EntityState& d = *obs.entity(part_);
+  // A closed fist, its jaw axis along the bar, comes down behind the bar to pull it out, or in front of
+  // it to push it in. (Pushing on the drawer's front instead would bring the hand against the drawer above.)
+  const Eigen::Vector2d f = front_of(d);
+  const double offset = open_ ? -p_.hook_offset : p_.hook_offset;
+  const Eigen::Vector3d tool = geo::vec(d.p) + Eigen::Vector3d(f.x(), f.y(), 0) * offset +
+                               Eigen::Vector3d(0, 0, p_.grasp_drop);
+  begin(obs, tool, jaw_along(obs, Eigen::Vector2d(-f.y(), f.x())), 0.0, {0, 0, p_.approach_height},
+        {p_.approach_steps, p_.descent_steps, 0, 0, p_.retreat_steps}, cost_steps());
+}
+
+void SlideDrawerSkill::begin_move(const Observation& obs) {
+  const EntityState& d = *obs.entity(part_);
+  const double aim = open_ ? p_.open_position : p_.closed_position;
+  const Eigen::Vector2d f = front_of(d);
+  // Along the front direction: out to open (holding the bar), in to close (the fist bearing on the bar).
+  const double dist = aim - d.joint + (open_ ? p_.pull_slack : -p_.push_slack);
+  const Eigen::Vector3d to = geo::vec(obs.ee_p) + Eigen::Vector3d(f.x(), f.y(), 0) * dist;
+  m_.go(obs, to, q_,
+        std::clamp(steps(1.6 * std::abs(dist) / (p_.slide_speed * 0.05)), steps(p_.slide_min_steps),
+                   steps(p_.slide_max_steps)));
+}
+
+std::array<double, 7> SlideDrawerSkill::move_step(const Observation& obs, bool& finished) {
+  const EntityState& d = *obs.entity(part_);
+  finished = m_.done() || (open_ ? d.joint >= p_.open_position : d.joint <= p_.closed_position);
+  return m_.advance(obs, kGripClose);
+}
+
+std::optional<std::string> SlideDrawerSkill::verify(const EntityState& d) const {
+  if (open_ && d.joint < p_.open_position - p_.done_tolerance)
+    return fmt("the drawer is out %.3f m, short of open (%.3f m)", d.joint, p_.open_position);
+  if (!open_ && d.joint > p_.closed_position + p_.done_tolerance)
+    return fmt("the drawer is still out %.3f m (closed within %.3f m)", d.joint, p_.closed_position + p_.done_tolerance);
+  return std::nullopt;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+ParamTable KnobParams::table() {
+  return ParamTable("turn_knob", {{"on_angle", &on_angle}, {"off_angle", &off_angle}, {"on_min", &on_min},
+                                  {"off_max", &off_max}, {"contact_height", &contact_height},
+                                  {"lever_half_width", &lever_half_width}, {"standoff", &standoff},
+                                  {"approach_height", &approach_height}, {"approach_steps", &approach_steps},
+                                  {"descent_steps", &descent_steps}, {"ramp_steps", &ramp_steps},
+                                  {"retreat_steps", &retreat_steps}});
+}
+
+TurnKnobSkill::TurnKnobSkill(const Theta& theta) { p_.table().load(theta); }
+
+int TurnKnobSkill::cost_steps() const {
+  return steps(p_.approach_steps + p_.descent_steps + p_.ramp_steps + p_.retreat_steps);
+}
+
+std::optional<std::string> TurnKnobSkill::check(const Bindings& args, const Observation& obs, int budget_steps) const {
+  if (auto why = check_part(args, obs, "knob", "knob", "on", "off", cost_steps(), budget_steps, "turn_knob")) return why;
+  const EntityState& k = *obs.entity(arg(args, "knob"));
+  const bool on = arg(args, "state") == "on";
+  if (on && k.joint >= p_.on_min) return "the knob is already on";
+  if (!on && k.joint <= p_.off_max) return "the knob is already off";
+  return std::nullopt;
+}
+
+void TurnKnobSkill::start(const Bindings& args, const Observation& obs, const SkillContext&) {
+  part_ = arg(args, "knob");
+  on_ = arg(args, "state") == "on";
+  const EntityState& k = *obs.entity(part_);
+  // The axis runs through the lever's centre along the part's front; turning on (the angle growing about
+  // the axis -front) moves the lever's top towards front × up.
+  const Eigen::Quaterniond q = geo::quat(k.q);
+  const Eigen::Vector3d axis = q * Eigen::Vector3d(-1, 0, 0);
+  const Eigen::Vector3d up = q * Eigen::Vector3d(0, 0, 1);
+  sweep_ = axis.cross(up);
+  sweep_.z() = 0;
+  sweep_ = (on_ ? 1.0 : -1.0) * sweep_.normalized();
+  const double aim = on_ ? p_.on_angle : p_.off_angle;
+  const double lever_arm = p_.contact_height + 0.006;  // the pads bear on the lever about here above the axis
+  const double lead = p_.lever_half_width + p_.standoff + kPadHalf;
+  stroke_ = lead + lever_arm * std::tan(std::clamp(std::abs(aim - k.joint), 0.0, 1.2)) + 0.004;
+  const Eigen::Vector3d start =
+      geo::vec(k.p) - sweep_ * lead + Eigen::Vector3d(0, 0, p_.contact_height + kPadBelowTcp);
+  // A closed fist with the jaw's axis along the knob's axis: the pads' 2 cm face bears on the lever.
+  begin(obs, start, jaw_along(obs, Eigen::Vector2d(axis.x(), axis.y())), 0.0, {0, 0, p_.approach_height},
+        {p_.approach_steps, p_.descent_steps, 0, 0, p_.retreat_steps}, cost_steps());
+}
+
+void TurnKnobSkill::begin_move(const Observation& obs) {
+  m_.go(obs, geo::vec(obs.ee_p) + sweep_ * stroke_, q_, steps(p_.ramp_steps));
+}
+
+std::array<double, 7> TurnKnobSkill::move_step(const Observation& obs, bool& finished) {
+  const EntityState& k = *obs.entity(part_);
+  finished = m_.done() || (on_ ? k.joint >= p_.on_angle : k.joint <= p_.off_angle);
+  return m_.advance(obs, kGripClose);
+}
+
+std::optional<std::string> TurnKnobSkill::verify(const EntityState& k) const {
+  if (on_ && k.joint < p_.on_min) return fmt("the knob turned to %.2f rad, short of on (%.2f rad)", k.joint, p_.on_min);
+  if (!on_ && k.joint > p_.off_max) return fmt("the knob rests at %.2f rad, above off (%.2f rad)", k.joint, p_.off_max);
+  return std::nullopt;
+}
+
+// ---------------------------------------------------------------------------------------------------------
+ParamTable DoorParams::table() {
+  return ParamTable("swing_door", {{"hinge_radius", &hinge_radius}, {"handle_standoff", &handle_standoff},
+                                   {"open_angle", &open_angle}, {"closed_angle", &closed_angle},
+                                   {"open_max", &open_max}, {"closed_min", &closed_min},
+                                   {"grasp_opening", &grasp_opening}, {"approach_height", &approach_height},
+                                   {"approach_steps", &approach_steps}, {"descent_steps", &descent_steps},
+                                   {"close_steps", &close_steps}, {"swing_steps", &swing_steps},
+                                   {"release_steps", &release_steps}, {"retreat_steps", &retreat_steps}});
+}
+
+SwingDoorSkill::SwingDoorSkill(const Theta& theta) { p_.table().load(theta); }
+
+int SwingDoorSkill::cost_steps() const {
+  return steps(p_.approach_steps + p_.descent_steps + p_.close_steps + p_.swing_steps + p_.release_steps +
+               p_.retreat_steps);
+}
+
+std::optional<std::string> SwingDoorSkill::check(const Bindings& args, const Observation& obs, int budget_steps) const {
+  if (auto why = check_part(args, obs, "door", "door", "open", "closed", cost_steps(), budget_steps, "swing_door"))
+    return why;
+  const EntityState& d = *obs.entity(arg(args, "door"));
+  const bool open = arg(args, "state") == "open";
+  if (open && d.joint <= p_.open_max) return "the door is already open";
+  if (!open && d.joint >= p_.closed_min) return "the door is already closed";
+  return std::nullopt;
+}
+
+void SwingDoorSkill::start(const Bindings& args, const Observation& obs, const SkillContext&) {
+  part_ = arg(args, "door");
+  open_ = arg(args, "state") == "open";
+  const EntityState& d = *obs.entity(part_);
+  // The hinge line from the handle: the door runs along its -y from the hinge, the handle stands off its
+  // front face (-x) by the standoff.
+  const Eigen::Vector3d hinge = geo::vec(d.p) + geo::quat(d.q) * Eigen::Vector3d(p_.handle_standoff, p_.hinge_radius, 0);
+  hinge_ = {hinge.x(), hinge.y()};
+  const Eigen::Vector2d v = Eigen::Vector2d(d.p[0], d.p[1]) - hinge_;
+  radius_ = v.norm();
+  phi0_ = std::atan2(v.y(), v.x());
+  sweep_ = (open_ ? p_.open_angle : p_.closed_angle) - d.joint;
+  z_ = d.p[2];
+  // The jaw closes across the handle, along the door.
+  const Eigen::Vector2d along = v.normalized();
+  const Eigen::Quaterniond q = jaw_along(obs, along);
+  yaw0_ = geo::tool_yaw(q);
+  begin(obs, Eigen::Vector3d(d.p[0], d.p[1], z_), q, p_.grasp_opening, {0, 0, p_.approach_height},
+        {p_.approach_steps, p_.descent_steps, p_.close_steps, p_.release_steps, p_.retreat_steps}, cost_steps());
+}
+
+void SwingDoorSkill::begin_move(const Observation&) {
+  swing_step_ = 0;
+  swing_steps_ = steps(p_.swing_steps);
+}
+
+std::array<double, 7> SwingDoorSkill::move_step(const Observation& obs, bool& finished) {
+  swing_step_ = std::min(swing_step_ + 1, swing_steps_);
+  finished = swing_step_ >= swing_steps_;
+  const double s = geo::smooth(static_cast<double>(swing_step_) / swing_steps_);
+  const double phi = phi0_ + s * sweep_;
+  const Eigen::Vector3d p(hinge_.x() + radius_ * std::cos(phi), hinge_.y() + radius_ * std::sin(phi), z_);
+  return action_towards(obs, p, geo::top_down(yaw0_ + s * sweep_), kGripClose);
+}
+
+std::optional<std::string> SwingDoorSkill::verify(const EntityState& d) const {
+  if (open_ && d.joint > p_.open_max) return fmt("the door stands at %.2f rad, short of open (%.2f rad)", d.joint, p_.open_max);
+  if (!open_ && d.joint < p_.closed_min)
+    return fmt("the door stands at %.3f rad, short of closed (%.3f rad)", d.joint, p_.closed_min);
+  return std::nullopt;
+}
+
+}  // namespace dh::cap

@@ -1,0 +1,269 @@
+#include "dh/cap/pick_place.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "dh/common/geometry.hpp"
+
+namespace dh::cap {
+
+namespace {
+constexpr double kPadBelowTcp = 0.01;  // m the finger pads reach below the tool centre point
+
+
+bool inside_xy(const EntityState& e, const Eigen::Vector2d& xy, double margin) {
+  return std::abs(xy.x() - e.p[0]) < e.half_extents[0] + margin && std::abs(xy.y() - e.p[1]) < e.half_extents[1] + margin;
+}
+}  // namespace
+
+bool has_rim(const EntityState& e) { return e.kind == "bowl" || e.kind == "plate" || e.kind == "mug"; }
+
+double rim_radius(const EntityState& e) {
+  // A mug's x extent includes its handle; its rim is the y extent. Walls are 6-8 mm thick.
+  return std::min(e.half_extents[0], e.half_extents[1]) - 0.0035;
+}
+
+ParamTable PickPlaceParams::table() {
+  return ParamTable("pick_place", {{"approach_height", &approach_height}, {"corridor_height", &corridor_height},
+                                   {"corridor_clearance", &corridor_clearance}, {"rim_grasp_depth", &rim_grasp_depth},
+                                   {"place_clearance", &place_clearance}, {"max_speed", &max_speed},
+                                   {"retreat_height", &retreat_height}, {"approach_steps", &approach_steps},
+                                   {"descent_steps", &descent_steps}, {"close_steps", &close_steps},
+                                   {"lift_steps", &lift_steps}, {"carry_min_steps", &carry_min_steps},
+                                   {"carry_max_steps", &carry_max_steps}, {"lower_steps", &lower_steps},
+                                   {"release_steps", &release_steps}, {"retreat_steps", &retreat_steps}});
+}
+
+PickPlaceSkill::PickPlaceSkill(const Theta& theta) { p_.table().load(theta); }
+
+int PickPlaceSkill::cost_steps() const {
+  return steps(p_.approach_steps + p_.descent_steps + p_.close_steps + p_.lift_steps + p_.carry_max_steps +
+               p_.lower_steps + p_.release_steps + p_.retreat_steps);
+}
+
+std::optional<std::string> PickPlaceSkill::check(const Bindings& args, const Observation& obs, int budget_steps) const {
+  const std::string object = arg(args, "object"), target = arg(args, "target");
+  const EntityState* o = obs.entity(object);
+  const EntityState* t = obs.entity(target);
+  if (!o) return "object '" + object + "' is not in the scene";
+  if (!t) return "target '" + target + "' is not in the scene";
+  if (object == target) return "object and target are the same entity '" + object + "'";
+  if (o->kind == "region" || o->kind == "drawer" || o->kind == "knob" || o->kind == "door")
+    return "'" + object + "' is a " + o->kind + ", not an object a jaw can carry";
+  if (!has_rim(*o) && 2 * std::min(o->half_extents[0], o->half_extents[1]) > kMaxJaw - 0.01)
+    return "object '" + object + "' is wider than the jaw opens";
+  if (budget_steps < cost_steps())
+    return "budget of " + std::to_string(budget_steps) + " steps cannot pay for pick_place's cost of " +
+           std::to_string(cost_steps()) + " steps";
+  return std::nullopt;
+}
+
+void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const SkillContext&) {
+  object_ = arg(args, "object");
+  target_ = arg(args, "target");
+  total_steps_ = 0;
+  const EntityState& o = *obs.entity(object_);
+  const Eigen::Vector3d c = geo::vec(o.p);
+  const Eigen::Vector3d ee = geo::vec(obs.ee_p);
+  const double ee_yaw = geo::tool_yaw(geo::quat(obs.ee_q));
+  double yaw;
+  if (has_rim(o)) {
+    // Pinch the rim at the point nearest the tool; the jaw closes across the wall (radially). A mug's
+    // handle (+x of its body) is avoided by at least 60°.
+    double phi = std::atan2(ee.y() - c.y(), ee.x() - c.x());
+    if (o.kind == "mug") {
+      const double handle = geo::tool_yaw(geo::quat(o.q));
+      const double d = geo::wrap(phi - handle);
+      if (std::abs(d) < std::numbers::pi / 3) phi = handle + (d >= 0 ? 1 : -1) * std::numbers::pi / 3;
+    }
+    const double depth = std::min(p_.rim_grasp_depth, 2 * o.half_extents[2] - kPadBelowTcp - 0.011);
+    const double r = rim_radius(o);
+    grasp_ = {c.x() + r * std::cos(phi), c.y() + r * std::sin(phi), top_of(o) - depth};
+    yaw = phi + std::numbers::pi / 2;
+  } else {
+    // Close across the narrow side of a box, at half its height (a cylinder: any side).
+    const double obj_yaw = geo::tool_yaw(geo::quat(o.q));
+    const bool narrow_x = o.half_extents[0] <= o.half_extents[1];
+    yaw = narrow_x ? obj_yaw + std::numbers::pi / 2 : obj_yaw;
+    grasp_ = {c.x(), c.y(), o.p[2] + std::max(o.half_extents[2], 2 * o.half_extents[2] - 0.03)};
+  }
+  // The jaw is symmetric: of yaw and yaw+π take the one closer to the tool's current yaw.
+  if (std::abs(geo::wrap(yaw - ee_yaw)) > std::numbers::pi / 2) yaw += std::numbers::pi;
+  grasp_q_ = geo::top_down(geo::wrap(yaw));
+  enter(Stage::Approach, obs);
+}
+
+const char* PickPlaceSkill::stage_name(Stage s) {
+  switch (s) {
+    case Stage::Approach: return "approach";
+    case Stage::Descent: return "guarded_descent";
+    case Stage::Close: return "close";
+    case Stage::Lift: return "lift";
+    case Stage::Carry: return "carry";
+    case Stage::Lower: return "lower";
+    case Stage::Release: return "release";
+    case Stage::Retreat: return "retreat";
+    case Stage::Done: return "done";
+  }
+  return "?";
+}
+
+Eigen::Vector2d PickPlaceSkill::place_xy(const Observation& obs) const {
+  const EntityState& t = *obs.entity(target_);
+  const EntityState& o = *obs.entity(object_);
+  const Eigen::Vector2d centre(t.p[0], t.p[1]);
+  // Objects already resting in or on the target take their room; the slots are the centre and the
+  // eight points half a free width away from it.
+  std::vector<Eigen::Vector2d> occupants;
+  for (const auto& e : obs.entities)
+    if (e.name != object_ && e.name != target_ && e.kind != "region" && e.kind != "drawer" && e.kind != "knob" &&
+        e.kind != "door" && e.half_extents[0] < t.half_extents[0] && inside_xy(t, {e.p[0], e.p[1]}, 0) &&
+        e.p[2] >= t.p[2] - t.half_extents[2] - 0.01)
+      occupants.emplace_back(e.p[0], e.p[1]);
+  if (occupants.empty()) return centre;
+  const double r = std::max(o.half_extents[0], o.half_extents[1]);
+  const double fx = std::max(0.0, t.half_extents[0] - r - 0.005), fy = std::max(0.0, t.half_extents[1] - r - 0.005);
+  Eigen::Vector2d best = centre;
+  double best_gap = -1;
+  for (int i = -1; i <= 1; ++i)
+    for (int j = -1; j <= 1; ++j) {
+      const Eigen::Vector2d c = centre + Eigen::Vector2d(i * fx, j * fy);
+      double gap = 1e9;
+      for (const auto& q : occupants) gap = std::min(gap, (c - q).norm());
+      if (gap > best_gap + 1e-6) {
+        best_gap = gap;
+        best = c;
+      }
+    }
+  return best;
+}
+
+double PickPlaceSkill::corridor_z(const Observation& obs, const Eigen::Vector2d& to) const {
+  // The carried object's bottom must pass above the target and everything between here and there.
+  const Eigen::Vector2d from(obs.ee_p[0], obs.ee_p[1]);
+  double z = std::max(p_.corridor_height, top_of(*obs.entity(target_)) + p_.corridor_clearance);
+  for (const auto& e : obs.entities) {
+    if (e.name == object_ || e.kind == "region" || e.kind == "knob") continue;
+    for (double s = 0; s <= 1.0; s += 0.1)
+      if (inside_xy(e, from + s * (to - from), 0.05)) z = std::max(z, top_of(e) + p_.corridor_clearance);
+  }
+  return z;
+}
+
+void PickPlaceSkill::enter(Stage s, const Observation& obs) {
+  stage_ = s;
+  const Eigen::Vector3d ee = geo::vec(obs.ee_p);
+  const Eigen::Quaterniond eq = geo::quat(obs.ee_q);
+  switch (s) {
+    case Stage::Approach:
+      m_.go(obs, grasp_ + Eigen::Vector3d(0, 0, p_.approach_height), grasp_q_, steps(p_.approach_steps));
+      break;
+    case Stage::Descent:
+      m_.go(obs, grasp_, grasp_q_, steps(p_.descent_steps));
+      break;
+    case Stage::Close:
+      m_.hold(obs, steps(p_.close_steps));
+      break;
+    case Stage::Release:
+      m_.hold(obs, steps(p_.release_steps));
+      break;
+    case Stage::Lift: {
+      const EntityState& o = *obs.entity(object_);
+      object_z0_ = o.p[2];
+      grasp_offset_ = {ee.x() - o.p[0], ee.y() - o.p[1]};
+      grasp_height_ = ee.z() - o.p[2];
+      place_ = place_xy(obs);
+      const double z = corridor_z(obs, place_ + grasp_offset_);
+      m_.go(obs, {ee.x(), ee.y(), z + grasp_height_}, grasp_q_, steps(p_.lift_steps * std::max(1.0, z / p_.corridor_height)));
+      break;
+    }
+    case Stage::Carry: {
+      const Eigen::Vector3d to(place_.x() + grasp_offset_.x(), place_.y() + grasp_offset_.y(), ee.z());
+      const double dist = (to - ee).norm();
+      m_.go(obs, to, grasp_q_,
+            std::clamp(static_cast<int>(std::ceil(dist / (p_.max_speed * 0.05) * 1.9)), steps(p_.carry_min_steps),
+                       steps(p_.carry_max_steps)));
+      break;
+    }
+    case Stage::Lower: {
+      const EntityState& t = *obs.entity(target_);
+      // A deep region (a basket's or drawer's inside) is filled from its floor; a thin one is a surface.
+      const double surface = t.kind == "region" && t.half_extents[2] > 0.02 ? t.p[2] - t.half_extents[2] : top_of(t);
+      m_.go(obs, {place_.x() + grasp_offset_.x(), place_.y() + grasp_offset_.y(), surface + p_.place_clearance + grasp_height_},
+            grasp_q_, steps(p_.lower_steps));
+      break;
+    }
+    case Stage::Retreat:
+      m_.go(obs, ee + Eigen::Vector3d(0, 0, p_.retreat_height), eq, steps(p_.retreat_steps));
+      break;
+    case Stage::Done:
+      break;
+  }
+}
+
+SkillStep PickPlaceSkill::next(const Observation& obs) {
+  SkillStep out;
+  out.stage = stage_name(stage_);
+  const EntityState* o = obs.entity(object_);
+  if (!o || !obs.entity(target_)) {
+    out.status = SkillStatus::Failed;
+    out.reason = "entity '" + (o ? target_ : object_) + "' left the observation";
+    return out;
+  }
+  auto fail = [&](const std::string& why) {
+    out.status = SkillStatus::Failed;
+    out.reason = why;
+    return out;
+  };
+  // Stage transitions driven by what is observed.
+  switch (stage_) {
+    case Stage::Approach:
+      if (m_.done()) enter(Stage::Descent, obs);
+      break;
+    case Stage::Descent:
+      // Guarded: stop early when a finger touches something or the target is reached.
+      if (m_.done() || m_.error(obs) < 0.003 || (m_.elapsed() > 3 && (obs.contact_left || obs.contact_right)))
+        enter(Stage::Close, obs);
+      break;
+    case Stage::Close:
+      if (m_.done()) {
+        if (obs.gripper_opening < 0.002) return fail("grasp missed: the jaw closed on nothing");
+        enter(Stage::Lift, obs);
+      }
+      break;
+    case Stage::Lift:
+      if (m_.done()) {
+        if (o->p[2] - object_z0_ < 0.5 * (m_.to().z() - m_.from().z()))
+          return fail("object did not rise with the tool (slipped from the jaw)");
+        enter(Stage::Carry, obs);
+      }
+      break;
+    case Stage::Carry:
+      if (!(obs.contact_left || obs.contact_right) || obs.gripper_opening < 0.002)
+        return fail("object dropped during the carry");
+      if (m_.done()) enter(Stage::Lower, obs);
+      break;
+    case Stage::Lower:
+      if (m_.done()) enter(Stage::Release, obs);
+      break;
+    case Stage::Release:
+      if (m_.done()) enter(Stage::Retreat, obs);
+      break;
+    case Stage::Retreat:
+      if (m_.done()) stage_ = Stage::Done;
+      break;
+    case Stage::Done:
+      break;
+  }
+  if (stage_ == Stage::Done) return completed_step();
+  ++total_steps_;
+  const bool closed = stage_ == Stage::Close || stage_ == Stage::Lift || stage_ == Stage::Carry ||
+                      stage_ == Stage::Lower;
+  out.action = m_.advance(obs, closed ? kGripClose : kGripOpen);
+  out.stage = stage_name(stage_);
+  out.progress = std::min(1.0, static_cast<double>(total_steps_) / cost_steps());
+  return out;
+}
+
+}  // namespace dh::cap

@@ -1,0 +1,38 @@
+#include "dh/gov/config.hpp"
+
+#include "dh/common/config.hpp"
+
+namespace dh::gov {
+
+GovernorConfig load_config(const std::filesystem::path& file) {
+  const ConfigNode c = ConfigNode::load_file(file);
+  GovernorConfig g;
+  g.decision_period = c.get<unsigned>("decision_period_steps");
+  if (g.decision_period == 0) c.fail("decision_period_steps", "must be at least 1");
+  g.limits.max_retries = c.get<int>("max_retries");
+  g.limits.max_replans = c.get<int>("max_replans");
+  g.limits.stagnation_decisions = c.get<unsigned>("stagnation_decisions");
+  g.max_refusals = c.get<int>("max_refusals_in_row");
+  g.max_recoveries = c.get<int>("max_recoveries");
+  if (c.has("substitutes")) {
+    const ConfigNode subs = c.child("substitutes");
+    for (const auto& k : subs.keys()) g.substitutes[k] = subs.get<std::vector<std::string>>(k);
+  }
+  g.planner_timeout = std::chrono::milliseconds(c.get<unsigned>("planner_timeout_ms"));
+  g.ack_timeout = std::chrono::milliseconds(c.get<unsigned>("ack_timeout_ms"));
+  g.first_observation_timeout = std::chrono::milliseconds(c.get<unsigned>("first_observation_timeout_ms"));
+  g.step_stall_timeout = std::chrono::milliseconds(c.get<unsigned>("step_stall_timeout_ms"));
+  return g;
+}
+
+/// The governor configuration of one episode: the defaults with the arm's mode and masked capabilities.
+GovernorConfig for_arm(GovernorConfig g, const ArmSpec& arm) {
+  g.mode = arm.mode == "static" ? ExecutorMode::Static
+           : arm.mode == "seq"  ? ExecutorMode::Seq
+                                : ExecutorMode::Full;
+  g.masked = {arm.masked.begin(), arm.masked.end()};
+  g.latch = arm.latch;
+  return g;
+}
+
+}  // namespace dh::gov

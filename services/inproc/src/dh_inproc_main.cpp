@@ -1,0 +1,77 @@
+// dh_inproc: runs episodes of the whole stack in one process, without DDS (see dh/inproc/stack.hpp), and
+// prints one line per episode and the success per cell and task. For developing skills and planner rules;
+// the figures that count come from `dh campaign` over the services.
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <cstdio>
+#include <map>
+
+#include "dh/common/paths.hpp"
+#include "dh/inproc/stack.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{"dh_inproc: episodes of the whole stack in one process (no DDS)"};
+  std::string cells = "goal", tasks = "0-9", seeds = "1-5", arm = "full", out = "runs/inproc";
+  bool quiet = false;
+  app.add_option("--cells", cells, "comma-separated cells (goal, goal-task, goal-swap, long, ...)");
+  app.add_option("--tasks", tasks, "task ids, e.g. 0-9 or 1,3");
+  app.add_option("--seeds", seeds, "seeds, e.g. 21-40");
+  app.add_option("--arm", arm, "arm of configs/governor.yaml");
+  app.add_option("--out", out, "evidence folder");
+  app.add_flag("--quiet", quiet, "only the summary");
+  CLI11_PARSE(app, argc, argv);
+  auto range = [](const std::string& s) {
+    std::vector<unsigned> v;
+    std::size_t pos = 0;
+    while (pos < s.size()) {
+      std::size_t comma = s.find(',', pos);
+      if (comma == std::string::npos) comma = s.size();
+      const std::string part = s.substr(pos, comma - pos);
+      const auto dash = part.find('-');
+      const unsigned a = std::stoul(part.substr(0, dash));
+      const unsigned b = dash == std::string::npos ? a : std::stoul(part.substr(dash + 1));
+      for (unsigned i = a; i <= b; ++i) v.push_back(i);
+      pos = comma + 1;
+    }
+    return v;
+  };
+  try {
+    const auto suites = dh::load_suites(dh::paths::config_dir());
+    dh::inproc::Stack stack(dh::paths::config_dir());
+    std::map<std::string, std::pair<int, int>> per_task, per_cell;
+    int ok = 0, n = 0;
+    const auto t0 = std::chrono::steady_clock::now();
+    std::size_t start = 0;
+    while (start <= cells.size()) {
+      std::size_t comma = cells.find(',', start);
+      if (comma == std::string::npos) comma = cells.size();
+      const std::string cell = cells.substr(start, comma - start);
+      start = comma + 1;
+      for (unsigned t : range(tasks))
+        for (unsigned seed : range(seeds)) {
+          const dh::TaskDef& task = dh::find_task(suites, cell, t);
+          const auto ev = std::filesystem::path(out) / cell / (std::to_string(t) + "_" + std::to_string(seed) + ".jsonl");
+          const auto r = stack.run(task, seed, arm, ev);
+          ok += r.success;
+          ++n;
+          auto& pt = per_task[cell + "[" + std::to_string(t) + "]"];
+          pt.first += r.success;
+          ++pt.second;
+          auto& pc = per_cell[cell];
+          pc.first += r.success;
+          ++pc.second;
+          if (!quiet)
+            std::printf("%-10s %d seed %-3u %-16s steps %-4u %s\n", cell.c_str(), t, seed, r.outcome.c_str(), r.steps,
+                        r.reason.c_str());
+        }
+    }
+    for (const auto& [k, v] : per_task) std::printf("%-14s %d/%d\n", k.c_str(), v.first, v.second);
+    for (const auto& [k, v] : per_cell) std::printf("cell %-10s %d/%d\n", k.c_str(), v.first, v.second);
+    const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    std::printf("all %d/%d (%.1f %%) in %.1f s\n", ok, n, n ? 100.0 * ok / n : 0.0, s);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "dh_inproc: %s\n", e.what());
+    return 1;
+  }
+}
