@@ -68,7 +68,7 @@ static void BM_Ground(benchmark::State& state) {
   Observation obs;
   obs.step = 40;
   for (const char* n : {"bowl", "plate", "cream_cheese", "wine_bottle"}) obs.entities.push_back({n, "box", {}, {}, {}});
-  Advice a{"p0", false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules"};
+  Advice a{"p0", false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules", false, {}};
   const std::set<std::string> masked;
   for (auto _ : state) benchmark::DoNotOptimize(ground({a, registry, obs, 260, masked, "ep/c0", 10}));
 }

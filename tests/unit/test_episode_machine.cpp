@@ -28,7 +28,9 @@ struct Machine : ::testing::Test {
                                          registry, *evidence, t0);
   }
   void TearDown() override { std::filesystem::remove(file); }
-  Advice good(const std::string& id) { return {id, false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules"}; }
+  Advice good(const std::string& id) {
+    return {id, false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules", false, {}};
+  }
   std::vector<std::string> kinds() {
     std::vector<std::string> k;
     for (const auto& r : read_evidence(file)) k.push_back(r["kind"]);

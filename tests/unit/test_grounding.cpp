@@ -11,7 +11,7 @@ struct Grounding : ::testing::Test {
   Registry registry;
   Observation obs = test::scene_observation(40);
   std::set<std::string> masked;
-  Advice advice{"p0", false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules"};
+  Advice advice{"p0", false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules", false, {}};
   void SetUp() override { registry.announce(test::pick_place_info()); }
   GroundingResult run(std::uint32_t remaining = 260) {
     return ground({advice, registry, obs, remaining, masked, "ep/c0", 10});
@@ -26,7 +26,7 @@ TEST_F(Grounding, AGroundedCommandCarriesBudgetLeaseAndTheta) {
   EXPECT_EQ(g.command->start_step, 40u);
   EXPECT_EQ(g.command->lease_until_step, 50u) << "the lease runs to the next decision step";
   EXPECT_EQ(g.command->budget_steps, command_budget(221, 260));
-  EXPECT_EQ(g.command->budget_steps, 254u);  // ceil(221 * 1.1) + 10
+  EXPECT_EQ(g.command->budget_steps, 260u) << "ceil(221 * 1.5) + 10 = 342, capped at the 260 steps left";
   EXPECT_DOUBLE_EQ(g.command->theta.at("corridor_height"), 0.16);
 }
 
@@ -101,5 +101,5 @@ TEST_F(Grounding, HotSwapRoutesToTheNewestLiveInstance) {
 
 TEST(CommandBudget, NeverMoreThanWhatRemains) {
   EXPECT_EQ(command_budget(221, 100), 100u);
-  EXPECT_EQ(command_budget(100, 1000), 120u);
+  EXPECT_EQ(command_budget(100, 1000), 160u);
 }

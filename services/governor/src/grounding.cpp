@@ -19,7 +19,7 @@ const char* to_string(Refusal r) {
 }
 
 std::uint32_t command_budget(std::uint32_t cost_steps, std::uint32_t remaining_steps) {
-  const std::uint32_t b = (cost_steps * 11 + 9) / 10 + 10;  // ceil(cost × 1.1) + 10, in integers
+  const std::uint32_t b = (cost_steps * 3 + 1) / 2 + 10;  // ceil(cost × 1.5) + 10, in integers
   return std::min(b, remaining_steps);
 }
 

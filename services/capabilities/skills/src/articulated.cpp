@@ -41,6 +41,7 @@ void ArticulatedSkill::begin(const Observation& obs, const Eigen::Vector3d& grip
   q_ = q;
   opening_ = opening;
   approach_ = approach;
+  if (retreat_.isZero()) retreat_ = approach;
   d_ = d;
   cost_ = cost;
   total_steps_ = 0;
@@ -66,11 +67,15 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
     case Stage::Approach:
       if (m_.done()) {
         stage_ = Stage::Descent;
-        m_.go(obs, grip_tool_, q_, steps(d_.descent * std::max(1.0, (m_.to() - grip_tool_).norm() / approach_.norm())));
+        const Eigen::Vector3d next = via_ ? *via_ : grip_tool_;
+        m_.go(obs, next, q_, steps(d_.descent * std::max(1.0, (m_.to() - next).norm() / approach_.norm())));
       }
       break;
     case Stage::Descent:
-      if (m_.done()) {
+      if (m_.done() && via_) {
+        m_.go(obs, grip_tool_, q_, steps(d_.descent / 2));
+        via_.reset();
+      } else if (m_.done()) {
         if (grasps()) {
           stage_ = Stage::Close;
           m_.hold(obs, steps(d_.close));
@@ -92,7 +97,7 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
     case Stage::Release:
       if (m_.done()) {
         stage_ = Stage::Retreat;
-        m_.go(obs, geo::vec(obs.ee_p) + approach_, q_, steps(d_.retreat));
+        m_.go(obs, geo::vec(obs.ee_p) + retreat_, q_, steps(d_.retreat));
       }
       break;
     case Stage::Retreat:
@@ -113,7 +118,7 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
         m_.hold(obs, steps(d_.release));
       } else {
         stage_ = Stage::Retreat;
-        m_.go(obs, geo::vec(obs.ee_p) + approach_, q_, steps(d_.retreat));
+        m_.go(obs, geo::vec(obs.ee_p) + retreat_, q_, steps(d_.retreat));
       }
     }
   }
@@ -136,7 +141,9 @@ ParamTable DrawerParams::table() {
   return ParamTable("slide_drawer", {{"open_position", &open_position}, {"closed_position", &closed_position},
                                      {"done_tolerance", &done_tolerance}, {"hook_offset", &hook_offset},
                                      {"grasp_drop", &grasp_drop}, {"pull_slack", &pull_slack},
-                                     {"push_slack", &push_slack}, {"approach_height", &approach_height},
+                                     {"push_slack", &push_slack}, {"bar_clearance", &bar_clearance},
+                                     {"retreat_rise", &retreat_rise},
+                                     {"approach_distance", &approach_distance},
                                      {"slide_speed", &slide_speed}, {"approach_steps", &approach_steps},
                                      {"descent_steps", &descent_steps}, {"slide_min_steps", &slide_min_steps},
                                      {"slide_max_steps", &slide_max_steps}, {"retreat_steps", &retreat_steps}});
@@ -164,11 +171,18 @@ void SlideDrawerSkill::start(const Bindings& args, const Observation& obs, const
   const EntityState& d = *obs.entity(part_);
   // A closed fist, its jaw axis along the bar, comes down behind the bar to pull it out, or in front of
   // it to push it in. (Pushing on the drawer's front instead would bring the hand against the drawer above.)
+  // The fist comes in level from the front, just above the bar, then drops behind it: coming down from
+  // above would bring the hand (5 cm above the fingertips) against the handles of the drawers above.
   const Eigen::Vector2d f = front_of(d);
+  const Eigen::Vector3d out(f.x(), f.y(), 0), up(0, 0, 1);
   const double offset = open_ ? -p_.hook_offset : p_.hook_offset;
-  const Eigen::Vector3d tool = geo::vec(d.p) + Eigen::Vector3d(f.x(), f.y(), 0) * offset +
-                               Eigen::Vector3d(0, 0, p_.grasp_drop);
-  begin(obs, tool, jaw_along(obs, Eigen::Vector2d(-f.y(), f.x())), 0.0, {0, 0, p_.approach_height},
+  const Eigen::Vector3d tool = geo::vec(d.p) + out * offset + up * p_.grasp_drop;
+  const double hover = open_ ? d.half_extents[2] + p_.bar_clearance + 0.01 - p_.grasp_drop : 0.0;
+  if (open_) via_ = tool + up * hover;
+  // Back off and rise clear of the drawer's walls, so the next motion does not sweep it shut.
+  retreat_ = out * (p_.hook_offset + p_.approach_distance) + up * p_.retreat_rise;
+  begin(obs, tool, jaw_along(obs, Eigen::Vector2d(-f.y(), f.x())), 0.0,
+        out * (p_.hook_offset + p_.approach_distance) + up * hover,
         {p_.approach_steps, p_.descent_steps, 0, 0, p_.retreat_steps}, cost_steps());
 }
 

@@ -82,6 +82,22 @@ double clear_height(const Observation& obs, const Eigen::Vector3d& at, double re
   return z;
 }
 
+double path_height(const Observation& obs, const Eigen::Vector2d& from, const Eigen::Vector2d& to, double reach,
+                   double clearance, double floor, const std::vector<std::string>& skip) {
+  double z = floor;
+  for (const auto& e : obs.entities) {
+    if (std::find(skip.begin(), skip.end(), e.name) != skip.end()) continue;
+    for (int i = 0; i <= 20; ++i) {
+      const Eigen::Vector2d p = from + (to - from) * (i / 20.0);
+      if (std::abs(p.x() - e.p[0]) < e.half_extents[0] + reach && std::abs(p.y() - e.p[1]) < e.half_extents[1] + reach) {
+        z = std::max(z, top_of(e) + clearance);
+        break;
+      }
+    }
+  }
+  return z;
+}
+
 bool holding(const Observation& obs) {
   return obs.contact_left && obs.contact_right && obs.gripper_opening > 0.002;
 }

@@ -51,7 +51,7 @@ std::optional<std::string> PickPlaceSkill::check(const Bindings& args, const Obs
   if (object == target) return "object and target are the same entity '" + object + "'";
   if (o->kind == "region" || o->kind == "drawer" || o->kind == "knob" || o->kind == "door")
     return "'" + object + "' is a " + o->kind + ", not an object a jaw can carry";
-  if (!has_rim(*o) && 2 * std::min(o->half_extents[0], o->half_extents[1]) > kMaxJaw - 0.01)
+  if (!has_rim(*o) && 2 * std::min(o->half_extents[0], o->half_extents[1]) > kMaxJaw - 0.002)
     return "object '" + object + "' is wider than the jaw opens";
   if (budget_steps < cost_steps())
     return "budget of " + std::to_string(budget_steps) + " steps cannot pay for pick_place's cost of " +
@@ -113,42 +113,55 @@ Eigen::Vector2d PickPlaceSkill::place_xy(const Observation& obs) const {
   const EntityState& t = *obs.entity(target_);
   const EntityState& o = *obs.entity(object_);
   const Eigen::Vector2d centre(t.p[0], t.p[1]);
+  // A body's room on the table: a rim's radius, a handled pot's body, else the box's larger half side.
+  const double r = has_rim(o) || o.kind == "moka_pot" ? std::min(o.half_extents[0], o.half_extents[1])
+                                                     : std::max(o.half_extents[0], o.half_extents[1]);
+  const double fx = std::max(0.0, t.half_extents[0] - r - 0.005), fy = std::max(0.0, t.half_extents[1] - r - 0.005);
+  auto part = [](const EntityState& e) { return e.kind == "region" || e.kind == "drawer" || e.kind == "knob" || e.kind == "door"; };
+  auto handle = [](const EntityState& e) { return e.kind == "drawer" || e.kind == "door"; };
   // Objects already resting in or on the target take their room; the slots are the centre and the
   // eight points half a free width away from it.
   std::vector<Eigen::Vector2d> occupants;
   for (const auto& e : obs.entities)
-    if (e.name != object_ && e.name != target_ && e.kind != "region" && e.kind != "drawer" && e.kind != "knob" &&
-        e.kind != "door" && e.half_extents[0] < t.half_extents[0] && inside_xy(t, {e.p[0], e.p[1]}, 0) &&
-        e.p[2] >= t.p[2] - t.half_extents[2] - 0.01)
+    if (e.name != object_ && e.name != target_ && !part(e) && e.half_extents[0] < t.half_extents[0] &&
+        inside_xy(t, {e.p[0], e.p[1]}, 0) && e.p[2] >= t.p[2] - t.half_extents[2] - 0.01)
       occupants.emplace_back(e.p[0], e.p[1]);
-  if (occupants.empty()) return centre;
-  const double r = std::max(o.half_extents[0], o.half_extents[1]);
-  const double fx = std::max(0.0, t.half_extents[0] - r - 0.005), fy = std::max(0.0, t.half_extents[1] - r - 0.005);
   Eigen::Vector2d best = centre;
   double best_gap = -1;
-  for (int i = -1; i <= 1; ++i)
-    for (int j = -1; j <= 1; ++j) {
-      const Eigen::Vector2d c = centre + Eigen::Vector2d(i * fx, j * fy);
-      double gap = 1e9;
-      for (const auto& q : occupants) gap = std::min(gap, (c - q).norm());
-      if (gap > best_gap + 1e-6) {
-        best_gap = gap;
-        best = c;
+  if (!occupants.empty())
+    for (int i = -1; i <= 1; ++i)
+      for (int j = -1; j <= 1; ++j) {
+        const Eigen::Vector2d c = centre + Eigen::Vector2d(i * fx, j * fy);
+        double gap = 1e9;
+        for (const auto& q : occupants) gap = std::min(gap, (c - q).norm());
+        if (gap > best_gap + 1e-6) {
+          best_gap = gap;
+          best = c;
+        }
       }
-    }
+  if (t.kind != "region") return best;
+  // A region partly under something taller (a drawer pulled out of its cabinet): the object comes down
+  // where nothing stands over it, as far as the region allows.
+  for (const auto& c : obs.entities) {
+    // Fixtures and the handles of other drawers count; regions, knobs and what rests inside do not.
+    const bool rests_inside = inside_xy(t, {c.p[0], c.p[1]}, 0) && c.p[2] <= top_of(t);
+    if ((part(c) && !handle(c)) || c.name == object_ || top_of(c) <= top_of(t) + 0.01 || rests_inside) continue;
+    const double ox = c.half_extents[0] + r + 0.005 - std::abs(best.x() - c.p[0]);
+    const double oy = c.half_extents[1] + r + 0.005 - std::abs(best.y() - c.p[1]);
+    if (ox <= 0 || oy <= 0) continue;
+    if (ox < oy) best.x() += best.x() < c.p[0] ? -ox : ox;
+    else best.y() += best.y() < c.p[1] ? -oy : oy;
+    best.x() = std::clamp(best.x(), centre.x() - fx, centre.x() + fx);
+    best.y() = std::clamp(best.y(), centre.y() - fy, centre.y() + fy);
+  }
   return best;
 }
 
 double PickPlaceSkill::corridor_z(const Observation& obs, const Eigen::Vector2d& to) const {
-  // The carried object's bottom must pass above the target and everything between here and there.
+  // The carried object's bottom passes above the target and everything between here and there.
   const Eigen::Vector2d from(obs.ee_p[0], obs.ee_p[1]);
-  double z = std::max(p_.corridor_height, top_of(*obs.entity(target_)) + p_.corridor_clearance);
-  for (const auto& e : obs.entities) {
-    if (e.name == object_ || e.kind == "region" || e.kind == "knob") continue;
-    for (double s = 0; s <= 1.0; s += 0.1)
-      if (inside_xy(e, from + s * (to - from), 0.05)) z = std::max(z, top_of(e) + p_.corridor_clearance);
-  }
-  return z;
+  const double floor = std::max(p_.corridor_height, top_of(*obs.entity(target_)) + p_.corridor_clearance);
+  return path_height(obs, from, to, 0.05, p_.corridor_clearance, floor, {object_, target_});
 }
 
 void PickPlaceSkill::enter(Stage s, const Observation& obs) {
@@ -156,11 +169,17 @@ void PickPlaceSkill::enter(Stage s, const Observation& obs) {
   const Eigen::Vector3d ee = geo::vec(obs.ee_p);
   const Eigen::Quaterniond eq = geo::quat(obs.ee_q);
   switch (s) {
-    case Stage::Approach:
-      m_.go(obs, grasp_ + Eigen::Vector3d(0, 0, p_.approach_height), grasp_q_, steps(p_.approach_steps));
+    case Stage::Approach: {
+      // Above the grasp, high enough that the hand passes over what stands between (an open drawer).
+      const Eigen::Vector2d to(grasp_.x(), grasp_.y());
+      const double z = path_height(obs, {ee.x(), ee.y()}, to, 0.08, p_.corridor_clearance,
+                                   grasp_.z() + p_.approach_height, {object_});
+      m_.go(obs, {to.x(), to.y(), z}, grasp_q_,
+            steps(p_.approach_steps * std::max(1.0, (z - grasp_.z()) / p_.approach_height / 2)));
       break;
+    }
     case Stage::Descent:
-      m_.go(obs, grasp_, grasp_q_, steps(p_.descent_steps));
+      m_.go(obs, grasp_, grasp_q_, steps(p_.descent_steps * std::max(1.0, (ee.z() - grasp_.z()) / p_.approach_height)));
       break;
     case Stage::Close:
       m_.hold(obs, steps(p_.close_steps));

@@ -43,8 +43,9 @@ struct GroundingInput {
 
 GroundingResult ground(const GroundingInput& in);
 
-/// The command's budget: the cost model × 1.1 + 10 steps of margin, never more than what remains
-/// (cf. MoveIt's expected duration × 1.1 + 0.5 s).
+/// The command's budget: the cost model × 1.5 + 10 steps, never more than what remains. (MoveIt allows its
+/// expected duration × 1.1 + 0.5 s; analytic skills stretch their stages with the path's length and
+/// height, so the nominal cost needs the wider margin.)
 std::uint32_t command_budget(std::uint32_t cost_steps, std::uint32_t remaining_steps);
 
 }  // namespace dh::gov

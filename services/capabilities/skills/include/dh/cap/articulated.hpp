@@ -1,8 +1,9 @@
 // Analytic skills for fixtures' articulated parts, each computed from the part's observed grip (handle
 // bar or lever) and joint position, with the part geometry they assume as revisable parameters:
-//  - slide_drawer: a closed fist, its jaw axis along the handle bar, comes down behind the bar and pulls
-//    it to open, or in front of it and pushes it to close (the cabinet's handles alternate sides, so
-//    the Panda hand, 20 cm along its jaw, passes the handle of the drawer above), then rises;
+//  - slide_drawer: a closed fist, its jaw axis along the handle bar, comes in level from the front, over
+//    the bar and down behind it to pull it out, or up to its front to push it in (coming down from above,
+//    the Panda hand, 5 cm above the fingertips and 20 cm along its jaw, would meet the handles of the
+//    drawers above; the cabinet's handles also alternate sides), then backs off;
 //  - turn_knob: sweep the closed jaw across the lever's upper half (the wrist ramp) until the knob
 //    reaches the on or off angle;
 //  - swing_door: take the door's handle, carry it along the arc about the hinge (hinge radius and
@@ -22,7 +23,9 @@ struct DrawerParams {
   double grasp_drop = 0.004;        ///< m the tool centre sits above the bar's centre
   double pull_slack = 0.006;        ///< m the fist travels before it bears on the bar
   double push_slack = 0.012;        ///< m the fist travels before it bears on the bar, plus a little past shut
-  double approach_height = 0.06;
+  double bar_clearance = 0.008;     ///< m between the fist and the bar's top as it comes in over the bar
+  double approach_distance = 0.06;  ///< m in front of the bar where the level approach starts
+  double retreat_rise = 0.1;        ///< m the fist rises as it backs off, clear of the drawer's walls
   double slide_speed = 0.1;         ///< m/s
   double approach_steps = 35, descent_steps = 20, slide_min_steps = 25, slide_max_steps = 60, retreat_steps = 20;
   ParamTable table();
@@ -49,7 +52,7 @@ struct DoorParams {
   double open_max = -1.3;         ///< rad from which the door counts open
   double closed_min = -0.005;     ///< rad from which the door counts closed
   double grasp_opening = 0.04;
-  double approach_height = 0.06;
+  double approach_height = 0.13;   ///< m above the handle: over the door's top edge
   double approach_steps = 35, descent_steps = 20, close_steps = 8, swing_steps = 70, release_steps = 8,
          retreat_steps = 20;
   ParamTable table();
@@ -87,6 +90,8 @@ class ArticulatedSkill : public Skill {
   Eigen::Quaterniond q_{1, 0, 0, 0};
   double opening_ = 0.05;
   Eigen::Vector3d approach_{0, 0, 0.06};
+  std::optional<Eigen::Vector3d> via_;  ///< a point the descent passes before the grip (over a handle)
+  Eigen::Vector3d retreat_{0, 0, 0};     ///< the retreat's displacement (default: back the way it came)
   Durations d_;
   int total_steps_ = 0, cost_ = 1;
 };

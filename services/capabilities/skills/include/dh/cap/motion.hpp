@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <string>
+#include <vector>
 
 #include "dh/cap/skill.hpp"
 
@@ -56,6 +57,11 @@ double top_of(const EntityState& e);
 /// entity (not region, not `except`) whose footprint lies within `reach` of the vertical through it.
 double clear_height(const Observation& obs, const Eigen::Vector3d& at, double reach, double clearance,
                     const std::string& except);
+/// The lowest height (at least `floor`) a tool path from `from` to `to` on the table plane may run at to
+/// pass `clearance` above every entity (regions included: an open drawer's inside stands above its
+/// walls' level) whose footprint it passes within `reach` of, except those named in `skip`.
+double path_height(const Observation& obs, const Eigen::Vector2d& from, const Eigen::Vector2d& to, double reach,
+                   double clearance, double floor, const std::vector<std::string>& skip);
 /// Whether the jaw holds something: both fingers in contact and not closed on itself.
 bool holding(const Observation& obs);
 
