@@ -86,6 +86,8 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
     const double obj_yaw = geo::tool_yaw(geo::quat(o.q));
     const bool narrow_x = o.half_extents[0] <= o.half_extents[1];
     yaw = narrow_x ? obj_yaw + std::numbers::pi / 2 : obj_yaw;
+    // A round body (a bottle) is held across any diameter: keep the wrist where it is.
+    if (std::abs(o.half_extents[0] - o.half_extents[1]) < 1e-3) yaw = ee_yaw;
     grasp_ = {c.x(), c.y(), o.p[2] + std::max(o.half_extents[2], 2 * o.half_extents[2] - 0.03)};
   }
   // The jaw is symmetric: of yaw and yaw+π take the one closer to the tool's current yaw.
