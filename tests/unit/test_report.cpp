@@ -68,6 +68,16 @@ void write_evidence(const fs::path& path) {
   plan("plan_request", "e/p1", t0 + 2'000'000'000);
   plan("advice", "e/p1", t0 + 2'250'000'000);
   plan("plan_request", "e/p2", t0 + 3'000'000'000);
+  // Figure 3 in miniature: the push is refused, a pick and place substituted and completed.
+  for (const json& r : {json{{"kind", "grounding"}, {"result", "grounded"}, {"command_id", "e/c0"}, {"capability", "push"}},
+                        json{{"kind", "command_status"}, {"command_id", "e/c0"}, {"state", "refused"}},
+                        json{{"kind", "decision"}, {"decision", "substitute"}, {"phase", "refused"}},
+                        json{{"kind", "grounding"}, {"result", "grounded"}, {"command_id", "e/c1"}, {"capability", "pick_place"}},
+                        json{{"kind", "command_status"}, {"command_id", "e/c1"}, {"state", "completed"}},
+                        json{{"kind", "decision"}, {"decision", "request_replan"}, {"phase", "completed"}},
+                        json{{"kind", "decision"}, {"decision", "request_replan"}, {"phase", "failed"}},
+                        json{{"kind", "refusal"}, {"refusal", "budget"}}})
+    out << r.dump() << "\n";
   out << R"({"kind":"decision","latency_ns":9)";  // torn: the writer died mid-record
 }
 
@@ -243,6 +253,22 @@ TEST(Summarize, LatenciesFromEvidenceAndAMissingFileIsCounted) {
   EXPECT_EQ(by_arm[1]["arm"], "static");
   EXPECT_EQ(by_arm[1]["planner"]["count"], 0);
   EXPECT_TRUE(by_arm[1]["planner"]["p50_ms"].is_null());
+}
+
+TEST(Summarize, MechanismsFromEvidence) {
+  TempDir dir;
+  const json s = summarize(campaign(dir.path()), options(dir.path()));
+  ASSERT_EQ(s["mechanisms"].size(), 2u);
+  const json& m = s["mechanisms"][0];
+  EXPECT_EQ(m["arm"], "full");
+  EXPECT_EQ(m["episodes"], 1) << "one evidence file read";
+  EXPECT_EQ(m["decisions"]["substitute"], 1);
+  EXPECT_EQ(m["decisions"]["next_step"], 1) << "a replan request after a completion is the next step";
+  EXPECT_EQ(m["decisions"]["request_replan"], 1);
+  EXPECT_EQ(m["refusals"], 2) << "the capability's refusal and the grounding refusal";
+  EXPECT_EQ(m["commands"], json::parse(R"([{"capability":"pick_place","completed":1,"dispatched":1},
+                                           {"capability":"push","completed":0,"dispatched":1}])"));
+  EXPECT_EQ(s["mechanisms"][1]["episodes"], 0);
 }
 
 TEST(Summarize, ARepeatedKeyIsCountedAsADuplicateAndNowhereElse) {

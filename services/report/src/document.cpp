@@ -166,6 +166,30 @@ void latency(const json& s, Document& doc) {
   doc.push_back(std::move(t));
 }
 
+void mechanisms(const json& s, Document& doc) {
+  doc.push_back(Heading{2, "Execution mechanisms"});
+  doc.push_back(Paragraph{
+      "From the evidence files: how often the fast brain substituted a capability, inserted a recovery, "
+      "resumed after one, retried, replanned after a failure or stagnation, asked for the next step after a "
+      "completion, or moved on in a frozen plan; refusals count grounding refusals and capabilities that "
+      "refused before moving. Counts are totals over the arm's episodes."});
+  const std::vector<std::string> kinds{"substitute", "insert_recovery", "resume", "retry", "hand_to_vla",
+                                       "request_replan", "next_step", "next_in_sequence"};
+  Table t{{"Arm", "Episodes", "Refusals"}, {}};
+  for (const auto& k : kinds) t.header.push_back(k);
+  for (const json& m : s["mechanisms"]) {
+    std::vector<std::string> row{m["arm"], count(m["episodes"]), count(m["refusals"])};
+    for (const auto& k : kinds) row.push_back(count(m["decisions"].value(k, 0u)));
+    t.rows.push_back(std::move(row));
+  }
+  doc.push_back(std::move(t));
+  Table c{{"Arm", "Capability", "Dispatched", "Completed"}, {}};
+  for (const json& m : s["mechanisms"])
+    for (const json& k : m["commands"])
+      c.rows.push_back({m["arm"], k["capability"], count(k["dispatched"]), count(k["completed"])});
+  doc.push_back(std::move(c));
+}
+
 }  // namespace
 
 Document build_document(const json& summary, const PlotResult& plots) {
@@ -177,6 +201,7 @@ Document build_document(const json& summary, const PlotResult& plots) {
   per_task(summary, doc);
   wall_clock(summary, plots, doc);
   latency(summary, doc);
+  mechanisms(summary, doc);
   return doc;
 }
 

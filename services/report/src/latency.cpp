@@ -26,7 +26,17 @@ void Latencies::merge(const Latencies& other) {
   unanswered += other.unanswered;
 }
 
-EvidenceStatus collect_latencies(const std::string& path, Latencies& into) {
+void Mechanisms::merge(const Mechanisms& other) {
+  episodes += other.episodes;
+  for (const auto& [k, n] : other.decisions) decisions[k] += n;
+  refusals += other.refusals;
+  for (const auto& [c, n] : other.commands) {
+    commands[c].first += n.first;
+    commands[c].second += n.second;
+  }
+}
+
+EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechanisms& mech) {
   if (path.empty()) return EvidenceStatus::NotRecorded;
   std::vector<nlohmann::json> records;
   std::error_code ec;
@@ -37,9 +47,30 @@ EvidenceStatus collect_latencies(const std::string& path, Latencies& into) {
     return EvidenceStatus::Missing;
   }
   std::map<std::string, std::int64_t> open_requests;  // request_id (dumped) → t_wall_ns of the request
+  std::map<std::string, std::string> capability_of;   // command_id → capability
+  ++mech.episodes;
+  auto text = [](const nlohmann::json& r, const char* key) {
+    const auto it = r.find(key);
+    return it != r.end() && it->is_string() ? it->get<std::string>() : std::string();
+  };
   for (const nlohmann::json& r : records) {
     if (!r.is_object()) continue;
-    const std::string kind = r.contains("kind") && r["kind"].is_string() ? r["kind"].get<std::string>() : "";
+    const std::string kind = text(r, "kind");
+    if (kind == "decision") {
+      std::string d = text(r, "decision");
+      if (d == "request_replan" && text(r, "phase") == "completed") d = "next_step";
+      if (!d.empty() && d != "continue") ++mech.decisions[d];
+    } else if (kind == "refusal") {
+      ++mech.refusals;
+    } else if (kind == "grounding" && text(r, "result") == "grounded") {
+      capability_of[text(r, "command_id")] = text(r, "capability");
+      ++mech.commands[text(r, "capability")].first;
+    } else if (kind == "command_status") {
+      const auto c = capability_of.find(text(r, "command_id"));
+      const std::string state = text(r, "state");
+      if (c != capability_of.end() && state == "completed") ++mech.commands[c->second].second;
+      if (state == "refused") ++mech.refusals;
+    }
     if (kind == "decision" && has_number(r, "latency_ns")) {
       into.decision_ms.push_back(r["latency_ns"].get<double>() / kNsPerMs);
     } else if ((kind == "plan_request" || kind == "advice") && r.contains("request_id") &&

@@ -1,6 +1,8 @@
-// Decision and planner latencies read from one episode's evidence file.
+// What one episode's evidence file says beyond its outcome: decision and planner latencies, and the
+// execution mechanisms the fast brain used (decisions by kind, refusals, commands per capability).
 #pragma once
 
+#include <map>
 #include <string>
 #include <vector>
 
@@ -13,10 +15,19 @@ struct Latencies {
   void merge(const Latencies& other);
 };
 
+struct Mechanisms {
+  unsigned episodes = 0;                    ///< episodes whose evidence was read
+  std::map<std::string, unsigned> decisions;///< decision kind -> count ("request_replan" only after a
+                                            ///< failure or stagnation; "next_step" after a completion)
+  unsigned refusals = 0;                    ///< refusals at grounding or by a capability before motion
+  std::map<std::string, std::pair<unsigned, unsigned>> commands;  ///< capability -> (dispatched, completed)
+  void merge(const Mechanisms& other);
+};
+
 enum class EvidenceStatus { Read, Missing, NotRecorded };
 
-/// Adds the latencies of the evidence file at `path` to `into`. "" is NotRecorded; a file that cannot be
-/// read is Missing and adds nothing; records with absent or mistyped fields are skipped.
-EvidenceStatus collect_latencies(const std::string& path, Latencies& into);
+/// Adds what the evidence file at `path` records to `latencies` and `mechanisms`. "" is NotRecorded; a
+/// file that cannot be read is Missing and adds nothing; records with absent or mistyped fields are skipped.
+EvidenceStatus collect_evidence(const std::string& path, Latencies& latencies, Mechanisms& mechanisms);
 
 }  // namespace dh::report

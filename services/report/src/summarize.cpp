@@ -116,6 +116,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
   std::map<std::pair<std::string, std::string>, std::vector<double>> wall_s;
   std::map<std::string, std::map<PairKey, bool>> success_by_key;
   std::map<std::string, Latencies> latency_by_arm;
+  std::map<std::string, Mechanisms> mechanisms_by_arm;
   unsigned rows = 0, duplicates = 0, infrastructure = 0;
   std::map<EvidenceStatus, unsigned> evidence;
   json source_list = json::array();
@@ -140,12 +141,12 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
       by_task[{r.arm, r.cell, r.task}].add(r);
       wall_s[{r.arm, r.cell}].push_back(r.wall_s);
       infrastructure += r.infrastructure;
-      ++evidence[collect_latencies(r.evidence_path, latency_by_arm[r.arm])];
+      ++evidence[collect_evidence(r.evidence_path, latency_by_arm[r.arm], mechanisms_by_arm[r.arm])];
     }
   }
 
   json summary = json::array(), totals = json::array(), tasks = json::array(), wall = json::array();
-  json latency_by = json::array();
+  json latency_by = json::array(), mechanisms = json::array();
   Latencies all_latencies;
   for (const std::string& arm : arms.names) {
     for (const std::string& cell : cells.names) {
@@ -175,6 +176,12 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
                           {"decision", percentiles_json(l.decision_ms)},
                           {"planner", percentiles_json(l.planner_ms)}});
     all_latencies.merge(l);
+    const Mechanisms& m = mechanisms_by_arm.at(arm);
+    json commands = json::array();
+    for (const auto& [capability, n] : m.commands)
+      commands.push_back({{"capability", capability}, {"dispatched", n.first}, {"completed", n.second}});
+    mechanisms.push_back({{"arm", arm}, {"episodes", m.episodes}, {"decisions", m.decisions},
+                          {"refusals", m.refusals}, {"commands", commands}});
   }
 
   return {{"title", options.title},
@@ -196,6 +203,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
             {"planner", percentiles_json(all_latencies.planner_ms)},
             {"unanswered_plan_requests", all_latencies.unanswered},
             {"by_arm", latency_by}}},
+          {"mechanisms", mechanisms},
           {"evidence",
            {{"read", evidence[EvidenceStatus::Read]},
             {"missing", evidence[EvidenceStatus::Missing]},

@@ -59,6 +59,10 @@ struct ReportFiles {
 ///   wall_clock [{arm, cell, episodes, mean_s, p50_s, p90_s, total_s}]
 ///   latency    {decision: L, planner: L, unanswered_plan_requests, by_arm: [{arm, decision, planner}]},
 ///               L = {count, p50_ms, p90_ms, p99_ms}
+///   mechanisms [{arm, episodes, decisions: {kind: count}, refusals, commands: [{capability, dispatched,
+///               completed}]}] from the evidence files; decision kinds are the fast brain's (substitute,
+///               insert_recovery, resume, retry, hand_to_vla, request_replan after a failure, next_step
+///               after a completion, next_in_sequence, stop_success, give_up)
 ///   evidence   {read, missing, not_recorded}, and evidence_missing (= evidence.missing)
 /// A value without data (no episodes, no latencies) is null.
 nlohmann::json summarize(const std::vector<Source>& sources, const ReportOptions& options);
