@@ -3,8 +3,11 @@
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
+#include <cstdlib>
+#include <filesystem>
 #include <vector>
 
+#include "dh/common/evidence.hpp"
 #include "dh/gov/decide.hpp"
 #include "dh/gov/grounding.hpp"
 
@@ -73,5 +76,36 @@ static void BM_Ground(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(ground({a, registry, obs, 260, masked, "ep/c0", 10}));
 }
 BENCHMARK(BM_Ground)->DH_PERCENTILES;
+
+// The decision routine on states recorded in campaign evidence (every "decision" record's "state"),
+// replayed in order. DH_BENCH_EVIDENCE names the folder (default runs/benchmark, which
+// scripts/benchmark_campaign fills); without recorded states the benchmark reports an error.
+static void BM_DecideRecordedStates(benchmark::State& state) {
+  static const std::vector<DecisionState> states = [] {
+    std::vector<DecisionState> out;
+    const char* env = std::getenv("DH_BENCH_EVIDENCE");
+    const std::filesystem::path root = env ? env : "runs/benchmark";
+    std::error_code ec;
+    for (auto it = std::filesystem::recursive_directory_iterator(root, ec);
+         !ec && it != std::filesystem::recursive_directory_iterator() && out.size() < 200000; it.increment(ec)) {
+      if (it->path().extension() != ".jsonl") continue;
+      for (const auto& r : read_evidence(it->path()))
+        if (r.value("kind", "") == "decision" && r.contains("state")) out.push_back(state_from_json(r["state"]));
+    }
+    return out;
+  }();
+  if (states.empty()) {
+    state.SkipWithError("no recorded decision states (set DH_BENCH_EVIDENCE to a folder of evidence files)");
+    return;
+  }
+  const DecisionLimits limits;
+  std::size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(decide(states[i], limits));
+    if (++i == states.size()) i = 0;
+  }
+  state.counters["states"] = static_cast<double>(states.size());
+}
+BENCHMARK(BM_DecideRecordedStates)->DH_PERCENTILES;
 
 BENCHMARK_MAIN();

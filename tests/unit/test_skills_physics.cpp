@@ -134,6 +134,18 @@ TEST_F(SkillsPhysics, TurnKnobTurnsTheStoveOn) {
   EXPECT_NE(bad->find("neither"), std::string::npos);
 }
 
+TEST_F(SkillsPhysics, SwingDoorClosesTheMicrowaveByItsHandle) {
+  const TaskDef& t = task("long", 9);
+  int ok = 0;
+  for (int seed = 1; seed <= 3; ++seed) {
+    cap::SwingDoorSkill skill;
+    const auto r = test::run_skill(cell(t), t, seed, skill, {{"door", "microwave_door"}, {"state", "closed"}});
+    ok += r.status == cap::SkillStatus::Completed && r.last.entity("microwave_door")->joint >= -0.005;
+    if (r.status != cap::SkillStatus::Completed) ADD_FAILURE() << "seed " << seed << " " << r.stage << ": " << r.reason;
+  }
+  EXPECT_EQ(ok, 3);
+}
+
 TEST_F(SkillsPhysics, KeyframeReturnGoesBackToARecordedPose) {
   const TaskDef& t = task("goal", 8);
   cell(t).reset(1, t.goal);

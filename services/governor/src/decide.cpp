@@ -120,4 +120,35 @@ Decision decide(const DecisionState& s, const DecisionLimits& limits) {
   return {DecisionKind::GiveUp, "no command and nothing to decide"};
 }
 
+nlohmann::json to_json(const DecisionState& s) {
+  return {{"mode", static_cast<int>(s.mode)}, {"latch_enabled", s.latch_enabled}, {"latched", s.latched},
+          {"phase", static_cast<int>(s.phase)}, {"step", s.step}, {"budget_steps", s.budget_steps},
+          {"progress", s.progress}, {"stagnant", s.stagnant_decisions}, {"failures", s.failures_of_step},
+          {"replans", s.replans_used}, {"was_recovery", s.was_recovery}, {"recoveries_left", s.recoveries_left},
+          {"other_instance", s.other_instance_alive}, {"substitute", s.substitute_available},
+          {"recovery", s.recovery_available}, {"vla", s.vla_available}, {"sequence_left", s.sequence_left}};
+}
+
+DecisionState state_from_json(const nlohmann::json& j) {
+  DecisionState s;
+  s.mode = static_cast<ExecutorMode>(j.at("mode").get<int>());
+  s.latch_enabled = j.at("latch_enabled");
+  s.latched = j.at("latched");
+  s.phase = static_cast<CommandPhase>(j.at("phase").get<int>());
+  s.step = j.at("step");
+  s.budget_steps = j.at("budget_steps");
+  s.progress = j.at("progress");
+  s.stagnant_decisions = j.at("stagnant");
+  s.failures_of_step = j.at("failures");
+  s.replans_used = j.at("replans");
+  s.was_recovery = j.at("was_recovery");
+  s.recoveries_left = j.at("recoveries_left");
+  s.other_instance_alive = j.at("other_instance");
+  s.substitute_available = j.at("substitute");
+  s.recovery_available = j.at("recovery");
+  s.vla_available = j.at("vla");
+  s.sequence_left = j.at("sequence_left");
+  return s;
+}
+
 }  // namespace dh::gov

@@ -285,7 +285,7 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
                     {"decision", to_string(d.kind)}, {"reason", d.reason}, {"latched", s.latched},
                     {"progress", s.progress}, {"stagnant", s.stagnant_decisions},
                     {"failures", s.failures_of_step}, {"capability", cap},
-                    {"command_id", running_ ? running_->command_id : ""},
+                    {"command_id", running_ ? running_->command_id : ""}, {"state", to_json(s)},
                     // From the governor taking the triggering event to this decision.
                     {"latency_ns", std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - now).count()}});
   Effects fx;

@@ -97,7 +97,7 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
     case Stage::Release:
       if (m_.done()) {
         stage_ = Stage::Retreat;
-        m_.go(obs, geo::vec(obs.ee_p) + retreat_, q_, steps(d_.retreat));
+        m_.go(obs, geo::vec(obs.ee_p) + retreat_, geo::quat(obs.ee_q), steps(d_.retreat));
       }
       break;
     case Stage::Retreat:
@@ -118,7 +118,7 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
         m_.hold(obs, steps(d_.release));
       } else {
         stage_ = Stage::Retreat;
-        m_.go(obs, geo::vec(obs.ee_p) + retreat_, q_, steps(d_.retreat));
+        m_.go(obs, geo::vec(obs.ee_p) + retreat_, geo::quat(obs.ee_q), steps(d_.retreat));
       }
     }
   }
@@ -317,8 +317,10 @@ void SwingDoorSkill::start(const Bindings& args, const Observation& obs, const S
   phi0_ = std::atan2(v.y(), v.x());
   sweep_ = (open_ ? p_.open_angle : p_.closed_angle) - d.joint;
   z_ = d.p[2];
-  // The jaw closes across the handle, along the door.
-  const Eigen::Vector2d along = v.normalized();
+  // The jaw closes across the handle, along the door's face (not along hinge-to-handle, which the
+  // standoff tilts by a few degrees: enough for the 20 cm hand to touch the door).
+  const Eigen::Vector3d face = geo::quat(d.q) * Eigen::Vector3d(0, -1, 0);
+  const Eigen::Vector2d along(face.x(), face.y());
   const Eigen::Quaterniond q = jaw_along(obs, along);
   yaw0_ = geo::tool_yaw(q);
   begin(obs, Eigen::Vector3d(d.p[0], d.p[1], z_), q, p_.grasp_opening, {0, 0, p_.approach_height},

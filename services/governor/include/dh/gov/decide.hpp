@@ -6,6 +6,8 @@
 #include <cstdint>
 #include <string>
 
+#include <nlohmann/json.hpp>
+
 namespace dh::gov {
 
 /// Verdict latch: v_k = v_{k-1} OR any verdict event since the previous decision (Eq. 3).
@@ -68,5 +70,10 @@ struct Decision {
 };
 
 Decision decide(const DecisionState& s, const DecisionLimits& limits);
+
+/// The state as recorded in a decision's evidence ("state"), and back: recorded decisions can be replayed
+/// (bench_decide does). from_json throws nlohmann::json::exception on a record without the fields.
+nlohmann::json to_json(const DecisionState& s);
+DecisionState state_from_json(const nlohmann::json& j);
 
 }  // namespace dh::gov
