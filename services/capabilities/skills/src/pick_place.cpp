@@ -9,7 +9,8 @@
 namespace dh::cap {
 
 namespace {
-constexpr double kPadBelowTcp = 0.01;  // m the finger pads reach below the tool centre point
+constexpr double kPadBelowTcp = 0.01;   // m the finger pads reach below the tool centre point
+constexpr double kHandAboveTcp = 0.101; // m the hand's body reaches above the tool centre point
 
 
 bool inside_xy(const EntityState& e, const Eigen::Vector2d& xy, double margin) {
@@ -17,7 +18,35 @@ bool inside_xy(const EntityState& e, const Eigen::Vector2d& xy, double margin) {
 }
 }  // namespace
 
+std::optional<Cavity> find_cavity(const Observation& obs, const std::string& target, const std::string& object) {
+  const EntityState* t = obs.entity(target);
+  if (!t || t->kind != "region") return std::nullopt;
+  for (const auto& c : obs.entities) {
+    if (c.kind == "region" || c.kind == "drawer" || c.kind == "knob" || c.kind == "door" || c.name == object) continue;
+    if (!inside_xy(c, {t->p[0], t->p[1]}, 0) || top_of(c) <= top_of(*t) + 0.005 || c.p[2] > t->p[2]) continue;
+    // Closed over the top: a fixture with a door (a microwave), not an open container (a caddy, a basket).
+    const bool has_door = std::any_of(obs.entities.begin(), obs.entities.end(), [&](const EntityState& d) {
+      return d.kind == "door" && d.name.rfind(c.name + "_", 0) == 0;
+    });
+    if (!has_door) continue;
+    Cavity k;
+    k.fixture = c.name;
+    k.out = front_of(c);
+    k.floor = t->p[2] - t->half_extents[2];
+    k.ceiling = top_of(c);
+    // From the region's centre to the fixture's front face, along the way out.
+    k.depth = (Eigen::Vector2d(c.p[0], c.p[1]) - Eigen::Vector2d(t->p[0], t->p[1])).dot(k.out) + c.half_extents[0];
+    return k;
+  }
+  return std::nullopt;
+}
+
 bool has_rim(const EntityState& e) { return e.kind == "bowl" || e.kind == "plate" || e.kind == "mug"; }
+
+double PickPlaceSkill::grasp_above_bottom(const EntityState& o) const {
+  if (has_rim(o)) return 2 * o.half_extents[2] - std::min(p_.rim_grasp_depth, 2 * o.half_extents[2] - kPadBelowTcp - 0.011);
+  return std::max(o.half_extents[2], 2 * o.half_extents[2] - 0.03);
+}
 
 double rim_radius(const EntityState& e) {
   // A mug's x extent includes its handle; its rim is the y extent. Walls are 6-8 mm thick.
@@ -28,6 +57,7 @@ ParamTable PickPlaceParams::table() {
   return ParamTable("pick_place", {{"approach_height", &approach_height}, {"corridor_height", &corridor_height},
                                    {"corridor_clearance", &corridor_clearance}, {"rim_grasp_depth", &rim_grasp_depth},
                                    {"place_clearance", &place_clearance}, {"max_speed", &max_speed},
+                                   {"cavity_clearance", &cavity_clearance}, {"cavity_ceiling", &cavity_ceiling},
                                    {"retreat_height", &retreat_height}, {"approach_steps", &approach_steps},
                                    {"descent_steps", &descent_steps}, {"close_steps", &close_steps},
                                    {"lift_steps", &lift_steps}, {"carry_min_steps", &carry_min_steps},
@@ -53,6 +83,13 @@ std::optional<std::string> PickPlaceSkill::check(const Bindings& args, const Obs
     return "'" + object + "' is a " + o->kind + ", not an object a jaw can carry";
   if (!has_rim(*o) && 2 * std::min(o->half_extents[0], o->half_extents[1]) > kMaxJaw - 0.002)
     return "object '" + object + "' is wider than the jaw opens";
+  if (const auto cav = find_cavity(obs, target, object)) {
+    // Into a cavity the hand goes in level under its ceiling: it must fit above the object's grasp.
+    const double tcp = cav->floor + p_.cavity_clearance + grasp_above_bottom(*o);
+    if (tcp + kHandAboveTcp > cav->ceiling - p_.cavity_ceiling)
+      return "the hand does not fit into '" + cav->fixture + "' holding '" + object + "': it would reach " +
+             std::to_string(tcp + kHandAboveTcp) + " m under a ceiling at " + std::to_string(cav->ceiling - p_.cavity_ceiling) + " m";
+  }
   if (budget_steps < cost_steps())
     return "budget of " + std::to_string(budget_steps) + " steps cannot pay for pick_place's cost of " +
            std::to_string(cost_steps()) + " steps";
@@ -62,6 +99,7 @@ std::optional<std::string> PickPlaceSkill::check(const Bindings& args, const Obs
 void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const SkillContext&) {
   object_ = arg(args, "object");
   target_ = arg(args, "target");
+  cavity_ = find_cavity(obs, target_, object_);
   total_steps_ = 0;
   const EntityState& o = *obs.entity(object_);
   const Eigen::Vector3d c = geo::vec(o.p);
@@ -72,14 +110,15 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
     // Pinch the rim at the point nearest the tool; the jaw closes across the wall (radially). A mug's
     // handle (+x of its body) is avoided by at least 60°.
     double phi = std::atan2(ee.y() - c.y(), ee.x() - c.x());
+    // Into a cavity the hand follows the object in: take it on the side that faces out.
+    if (cavity_) phi = std::atan2(cavity_->out.y(), cavity_->out.x());
     if (o.kind == "mug") {
       const double handle = geo::tool_yaw(geo::quat(o.q));
       const double d = geo::wrap(phi - handle);
       if (std::abs(d) < std::numbers::pi / 3) phi = handle + (d >= 0 ? 1 : -1) * std::numbers::pi / 3;
     }
-    const double depth = std::min(p_.rim_grasp_depth, 2 * o.half_extents[2] - kPadBelowTcp - 0.011);
     const double r = rim_radius(o);
-    grasp_ = {c.x() + r * std::cos(phi), c.y() + r * std::sin(phi), top_of(o) - depth};
+    grasp_ = {c.x() + r * std::cos(phi), c.y() + r * std::sin(phi), o.p[2] + grasp_above_bottom(o)};
     yaw = phi + std::numbers::pi / 2;
   } else {
     // Close across the narrow side of a box, at half its height (a cylinder: any side).
@@ -88,7 +127,7 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
     yaw = narrow_x ? obj_yaw + std::numbers::pi / 2 : obj_yaw;
     // A round body (a bottle) is held across any diameter: keep the wrist where it is.
     if (std::abs(o.half_extents[0] - o.half_extents[1]) < 1e-3) yaw = ee_yaw;
-    grasp_ = {c.x(), c.y(), o.p[2] + std::max(o.half_extents[2], 2 * o.half_extents[2] - 0.03)};
+    grasp_ = {c.x(), c.y(), o.p[2] + grasp_above_bottom(o)};
   }
   // The jaw is symmetric: of yaw and yaw+π take the one closer to the tool's current yaw.
   if (std::abs(geo::wrap(yaw - ee_yaw)) > std::numbers::pi / 2) yaw += std::numbers::pi;
@@ -104,6 +143,8 @@ const char* PickPlaceSkill::stage_name(Stage s) {
     case Stage::Lift: return "lift";
     case Stage::Carry: return "carry";
     case Stage::Lower: return "lower";
+    case Stage::Insert: return "insert";
+    case Stage::Withdraw: return "withdraw";
     case Stage::Release: return "release";
     case Stage::Retreat: return "retreat";
     case Stage::Done: return "done";
@@ -195,12 +236,15 @@ void PickPlaceSkill::enter(Stage s, const Observation& obs) {
       grasp_offset_ = {ee.x() - o.p[0], ee.y() - o.p[1]};
       grasp_height_ = ee.z() - o.p[2];
       place_ = place_xy(obs);
-      const double z = corridor_z(obs, place_ + grasp_offset_);
+      cavity_radius_ = std::max(o.half_extents[0], o.half_extents[1]);
+      const double z = corridor_z(obs, (cavity_ ? entry_xy() : place_) + grasp_offset_);
       m_.go(obs, {ee.x(), ee.y(), z + grasp_height_}, grasp_q_, steps(p_.lift_steps * std::max(1.0, z / p_.corridor_height)));
       break;
     }
     case Stage::Carry: {
-      const Eigen::Vector3d to(place_.x() + grasp_offset_.x(), place_.y() + grasp_offset_.y(), ee.z());
+      // Into a cavity: to the point in front of its opening the object will slide in from.
+      const Eigen::Vector2d over = cavity_ ? entry_xy() : place_;
+      const Eigen::Vector3d to(over.x() + grasp_offset_.x(), over.y() + grasp_offset_.y(), ee.z());
       const double dist = (to - ee).norm();
       m_.go(obs, to, grasp_q_,
             std::clamp(static_cast<int>(std::ceil(dist / (p_.max_speed * 0.05) * 1.9)), steps(p_.carry_min_steps),
@@ -208,11 +252,26 @@ void PickPlaceSkill::enter(Stage s, const Observation& obs) {
       break;
     }
     case Stage::Lower: {
+      if (cavity_) {
+        const Eigen::Vector2d e = entry_xy();
+        m_.go(obs, {e.x() + grasp_offset_.x(), e.y() + grasp_offset_.y(), cavity_->floor + p_.cavity_clearance + grasp_height_},
+              grasp_q_, steps(p_.lower_steps * 2));
+        break;
+      }
       const EntityState& t = *obs.entity(target_);
       // A deep region (a basket's or drawer's inside) is filled from its floor; a thin one is a surface.
       const double surface = t.kind == "region" && t.half_extents[2] > 0.02 ? t.p[2] - t.half_extents[2] : top_of(t);
       m_.go(obs, {place_.x() + grasp_offset_.x(), place_.y() + grasp_offset_.y(), surface + p_.place_clearance + grasp_height_},
             grasp_q_, steps(p_.lower_steps));
+      break;
+    }
+    case Stage::Insert:
+      m_.go(obs, {place_.x() + grasp_offset_.x(), place_.y() + grasp_offset_.y(), ee.z()}, grasp_q_,
+            steps(p_.lower_steps * 2));
+      break;
+    case Stage::Withdraw: {
+      const Eigen::Vector2d e = entry_xy();
+      m_.go(obs, {e.x() + grasp_offset_.x(), e.y() + grasp_offset_.y(), ee.z()}, eq, steps(p_.lower_steps * 2));
       break;
     }
     case Stage::Retreat:
@@ -221,6 +280,10 @@ void PickPlaceSkill::enter(Stage s, const Observation& obs) {
     case Stage::Done:
       break;
   }
+}
+
+Eigen::Vector2d PickPlaceSkill::entry_xy() const {
+  return place_ + cavity_->out * (cavity_->depth + cavity_radius_ + 0.03);
 }
 
 SkillStep PickPlaceSkill::next(const Observation& obs) {
@@ -266,9 +329,15 @@ SkillStep PickPlaceSkill::next(const Observation& obs) {
       if (m_.done()) enter(Stage::Lower, obs);
       break;
     case Stage::Lower:
+      if (m_.done()) enter(cavity_ ? Stage::Insert : Stage::Release, obs);
+      break;
+    case Stage::Insert:
       if (m_.done()) enter(Stage::Release, obs);
       break;
     case Stage::Release:
+      if (m_.done()) enter(cavity_ ? Stage::Withdraw : Stage::Retreat, obs);
+      break;
+    case Stage::Withdraw:
       if (m_.done()) enter(Stage::Retreat, obs);
       break;
     case Stage::Retreat:
@@ -280,7 +349,7 @@ SkillStep PickPlaceSkill::next(const Observation& obs) {
   if (stage_ == Stage::Done) return completed_step();
   ++total_steps_;
   const bool closed = stage_ == Stage::Close || stage_ == Stage::Lift || stage_ == Stage::Carry ||
-                      stage_ == Stage::Lower;
+                      stage_ == Stage::Lower || stage_ == Stage::Insert;
   out.action = m_.advance(obs, closed ? kGripClose : kGripOpen);
   out.stage = stage_name(stage_);
   out.progress = std::min(1.0, static_cast<double>(total_steps_) / cost_steps());

@@ -48,7 +48,7 @@ struct DoorParams {
   double hinge_radius = 0.3;      ///< m from the hinge line to the handle, along the door
   double handle_standoff = 0.032; ///< m from the door's face to the handle
   double open_angle = -1.5;       ///< rad aimed at for open
-  double closed_angle = 0.0;      ///< rad aimed at for closed
+  double closed_angle = 0.03;     ///< rad aimed at for closed (a little past shut: the limit stops it)
   double open_max = -1.3;         ///< rad from which the door counts open
   double closed_min = -0.005;     ///< rad from which the door counts closed
   double grasp_opening = 0.04;

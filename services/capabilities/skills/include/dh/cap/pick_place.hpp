@@ -2,7 +2,8 @@
 // corridor that clears everything on the way, lower, release, retreat (about 230 steps; the paper's
 // Table 8). Rims (bowls, plates, mugs) are pinched at the point nearest the tool, boxes and bottles across
 // their narrow side. The place point is the target's centre, or a free slot of a receptacle that holds
-// something already, so two objects in one basket each get a place.
+// something already, so two objects in one basket each get a place. Into a cavity (a region with a
+// ceiling: a microwave) the object goes in level through the opening and the hand backs out the same way.
 #pragma once
 
 #include "dh/cap/motion.hpp"
@@ -18,12 +19,23 @@ struct PickPlaceParams {
   double rim_grasp_depth = 0.022;  ///< m below a rim where the jaw closes
   double place_clearance = 0.012;  ///< m between object bottom and target surface at release
   double max_speed = 0.35;         ///< m/s of the tool at the fastest
+  double cavity_clearance = 0.006; ///< m between object bottom and a cavity's floor at release
+  double cavity_ceiling = 0.02;    ///< m of a cavity's ceiling below its fixture's top (assumed thickness)
   double retreat_height = 0.1;
   double approach_steps = 30, descent_steps = 30, close_steps = 10, lift_steps = 23, carry_min_steps = 60,
          carry_max_steps = 80, lower_steps = 15, release_steps = 10, retreat_steps = 23;
 
   ParamTable table();
 };
+
+/// A target region inside a fixture that stands over it and has a door (a microwave's inside): it is
+/// filled level, through the fixture's front. (Open containers, a caddy or a basket, are filled from above.)
+struct Cavity {
+  std::string fixture;
+  Eigen::Vector2d out{-1, 0};  ///< the way out through the opening
+  double floor = 0, ceiling = 0, depth = 0;  ///< heights (m); region centre to the front face (m)
+};
+std::optional<Cavity> find_cavity(const Observation& obs, const std::string& target, const std::string& object);
 
 class PickPlaceSkill : public Skill {
  public:
@@ -35,10 +47,12 @@ class PickPlaceSkill : public Skill {
   const PickPlaceParams& params() const { return p_; }
 
  private:
-  enum class Stage { Approach, Descent, Close, Lift, Carry, Lower, Release, Retreat, Done };
+  enum class Stage { Approach, Descent, Close, Lift, Carry, Lower, Insert, Release, Withdraw, Retreat, Done };
   void enter(Stage s, const Observation& obs);
   static const char* stage_name(Stage s);
   Eigen::Vector2d place_xy(const Observation& obs) const;
+  Eigen::Vector2d entry_xy() const;  ///< in front of a cavity's opening, where the object slides in from
+  double grasp_above_bottom(const EntityState& o) const;
   double corridor_z(const Observation& obs, const Eigen::Vector2d& to) const;
 
   PickPlaceParams p_;
@@ -52,6 +66,8 @@ class PickPlaceSkill : public Skill {
   Eigen::Vector2d place_{0, 0};         ///< object xy at the release
   double grasp_height_ = 0;             ///< tool z minus object z, measured after the close
   double object_z0_ = 0;
+  std::optional<Cavity> cavity_;  ///< the target is the inside of a fixture with a ceiling (a microwave)
+  double cavity_radius_ = 0;
 };
 
 /// Whether the jaw takes this object by its rim (bowl, plate, mug) rather than across its body.
