@@ -13,6 +13,7 @@ GovernorConfig load_config(const std::filesystem::path& file) {
   g.limits.max_replans = c.get<int>("max_replans");
   g.limits.stagnation_decisions = c.get<unsigned>("stagnation_decisions");
   g.max_refusals = c.get<int>("max_refusals_in_row");
+  if (g.max_refusals < 1) c.fail("max_refusals_in_row", "must be at least 1 (it bounds refusals in a row)");
   g.max_recoveries = c.get<int>("max_recoveries");
   if (c.has("substitutes")) {
     const ConfigNode subs = c.child("substitutes");

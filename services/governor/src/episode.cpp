@@ -160,6 +160,8 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
 }
 
 Effects EpisodeMachine::refuse(Refusal r, const std::string& reason, Clock::time_point now) {
+  recovering_ = false;  // the planner is asked again: an interrupted step is not resumed
+  resume_.reset();
   ++refusals_total_;
   ++refusals_in_row_;
   evidence_.append("governor", "refusal",
@@ -351,6 +353,8 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
     }
     case DecisionKind::RequestReplan: {
       if (phase != CommandPhase::Completed) ++replans_;  // nominal next-step requests are not replans
+      recovering_ = false;  // a replan abandons an interrupted step
+      resume_.reset();
       const Effects stop = stop_command();
       return then(stop, request_plan(d.reason, now));
     }

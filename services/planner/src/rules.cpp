@@ -91,8 +91,10 @@ std::string part_of(const std::string& name, const std::string& kind, const std:
   }
   if (parts.empty() && !words.empty()) {
     // A region names its fixture first ("microwave_heating_region"): the fixture's only part of the kind.
-    for (const auto& p : scene)
-      if (p.kind == kind && name_words(p.name).front() == words.front()) parts.push_back(p.name);
+    for (const auto& p : scene) {
+      const auto pw = name_words(p.name);
+      if (p.kind == kind && !pw.empty() && pw.front() == words.front()) parts.push_back(p.name);
+    }
   }
   return parts.size() == 1 ? parts.front() : "";
 }

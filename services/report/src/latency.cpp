@@ -60,8 +60,8 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
       std::string d = text(r, "decision");
       if (d == "request_replan" && text(r, "phase") == "completed") d = "next_step";
       if (!d.empty() && d != "continue") ++mech.decisions[d];
-    } else if (kind == "refusal") {
-      ++mech.refusals;
+    } else if (kind == "refusal" && text(r, "refusal") != "planner_refused") {
+      ++mech.refusals;  // the planner's own refusals and timeouts are the slow brain's, not execution's
     } else if (kind == "grounding" && text(r, "result") == "grounded") {
       capability_of[text(r, "command_id")] = text(r, "capability");
       ++mech.commands[text(r, "capability")].first;

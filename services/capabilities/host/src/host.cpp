@@ -19,6 +19,7 @@
 #include <variant>
 
 #include "dh/cap/descriptor.hpp"
+#include "dh/cap/motion.hpp"
 #include "dh/common/config.hpp"
 #include "dh/common/convert.hpp"
 #include "dh/common/dds.hpp"
@@ -61,16 +62,19 @@ class Node {
         status_(p, topics::kCommandStatus, dds::Qos::Status) {}
 
   void handle(const msg::Command& c) {
-    if (c.kind() == msg::COMMAND_START) record_keyframe(c);
+    if (c.kind() == msg::COMMAND_START) {
+      record_keyframe(c);
+      // A newer command on the channel supersedes whatever this process still runs there (its CANCEL may
+      // have been overwritten on the channel's key before it was read).
+      if (auto it = running_.find(c.channel()); it != running_.end() && it->second.command.command_id() != c.command_id()) {
+        cancel(it, "superseded by " + c.command_id());
+      }
+    }
     const Served* s = find(c.instance());
     if (!s) return;
     if (c.kind() == msg::COMMAND_CANCEL) {
       auto it = running_.find(c.channel());
-      if (it != running_.end() && it->second.command.command_id() == c.command_id()) {
-        status(it->second, msg::STATE_CANCELLED, "cancelled by the governor", c.start_step() + it->second.steps_used,
-               it->second.steps_used);
-        running_.erase(it);
-      }
+      if (it != running_.end() && it->second.command.command_id() == c.command_id()) cancel(it, "cancelled by the governor");
       return;
     }
     Running r{c, s, nullptr, 0, "pending"};
@@ -96,13 +100,14 @@ class Node {
       running_.erase(it);
       return;
     }
-    if (r.steps_used >= r.command.budget_steps()) {
+    if (!r.skill) return;  // the start step's observation has not come yet
+    const SkillStep s = r.skill->next(obs);
+    if (s.status == SkillStatus::Running && r.steps_used >= r.command.budget_steps()) {
       status(r, msg::STATE_EXPIRED, "command budget of " + std::to_string(r.command.budget_steps()) + " steps spent",
-             m.step(), r.steps_used);
+             m.step(), r.steps_used, s.stage, s.progress);
       running_.erase(it);
       return;
     }
-    const SkillStep s = r.skill->next(obs);
     if (s.status != SkillStatus::Running) {
       const bool ok = s.status == SkillStatus::Completed;
       status(r, ok ? msg::STATE_COMPLETED : msg::STATE_FAILED, s.reason, m.step(), r.steps_used, s.stage, s.progress);
@@ -138,7 +143,7 @@ class Node {
 
   // Grounding at the capability on the command's first observation: θ, the skill's own check, start.
   bool begin(Running& r, const Observation& obs) {
-    if (obs.step != r.command.start_step()) return true;  // wait for the start step's observation
+    if (obs.step < r.command.start_step()) return true;  // wait for the start step's observation
     std::optional<std::string> why;
     std::unique_ptr<Skill> skill;
     try {
@@ -161,17 +166,20 @@ class Node {
     return true;
   }
 
+  void cancel(std::map<std::uint32_t, Running>::iterator it, const std::string& why) {
+    const auto o = last_obs_.find(it->first);
+    status(it->second, msg::STATE_CANCELLED, why, o != last_obs_.end() ? o->second.step() : 0, it->second.steps_used);
+    running_.erase(it);
+  }
+
   // The tool pose when a command starts on a channel with an empty hand: a pose the arm reached safely.
   void record_keyframe(const msg::Command& c) {
     auto o = last_obs_.find(c.channel());
     if (o == last_obs_.end() || o->second.episode_id() != c.episode_id()) return;
     const msg::Observation& m = o->second;
-    if (m.contact_left() && m.contact_right() && m.gripper_opening() > 0.002) return;
-    Keyframe k;
-    k.step = m.step();
-    std::copy_n(m.ee().p().begin(), 3, k.p.begin());
-    std::copy_n(m.ee().q().begin(), 4, k.q.begin());
-    keyframes_[c.channel()].push_back(k);
+    const Observation obs = convert::from_msg(m);
+    if (holding(obs)) return;
+    keyframes_[c.channel()].push_back({obs.step, obs.ee_p, obs.ee_q});
   }
 
   void status(const Running& r, msg::CommandState st, const std::string& reason, std::uint32_t step,

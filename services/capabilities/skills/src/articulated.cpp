@@ -36,12 +36,13 @@ std::optional<std::string> check_part(const Bindings& args, const Observation& o
 
 // ---------------------------------------------------------------------------------------------------------
 void ArticulatedSkill::begin(const Observation& obs, const Eigen::Vector3d& grip_tool, const Eigen::Quaterniond& q,
-                             double opening, const Eigen::Vector3d& approach, Durations d, int cost) {
+                             double opening, const Eigen::Vector3d& approach, Durations d, int cost,
+                             std::optional<Eigen::Vector3d> retreat) {
   grip_tool_ = grip_tool;
   q_ = q;
   opening_ = opening;
   approach_ = approach;
-  if (retreat_.isZero()) retreat_ = approach;
+  retreat_ = retreat.value_or(approach);
   d_ = d;
   cost_ = cost;
   total_steps_ = 0;
@@ -55,6 +56,12 @@ void ArticulatedSkill::begin(const Observation& obs, const Eigen::Vector3d& grip
 SkillStep ArticulatedSkill::next(const Observation& obs) {
   SkillStep out;
   const EntityState* part = obs.entity(part_);
+  // A part already in the asked state (moved by an earlier, interrupted command) completes at once.
+  if (stage_ == Stage::Approach && m_.elapsed() == 0 && part && !verify(*part)) {
+    SkillStep done = completed_step();
+    done.reason = "already in the asked state";
+    return done;
+  }
   auto fail = [&](const std::string& why) {
     out.status = SkillStatus::Failed;
     out.reason = why;
@@ -156,13 +163,7 @@ int SlideDrawerSkill::cost_steps() const {
 }
 
 std::optional<std::string> SlideDrawerSkill::check(const Bindings& args, const Observation& obs, int budget_steps) const {
-  if (auto why = check_part(args, obs, "drawer", "drawer", "open", "closed", cost_steps(), budget_steps, "slide_drawer"))
-    return why;
-  const EntityState& d = *obs.entity(arg(args, "drawer"));
-  const bool open = arg(args, "state") == "open";
-  if (open && d.joint >= p_.open_position - p_.done_tolerance) return "the drawer is already open";
-  if (!open && d.joint <= p_.closed_position + p_.done_tolerance) return "the drawer is already closed";
-  return std::nullopt;
+  return check_part(args, obs, "drawer", "drawer", "open", "closed", cost_steps(), budget_steps, "slide_drawer");
 }
 
 void SlideDrawerSkill::start(const Bindings& args, const Observation& obs, const SkillContext&) {
@@ -178,12 +179,13 @@ void SlideDrawerSkill::start(const Bindings& args, const Observation& obs, const
   const double offset = open_ ? -p_.hook_offset : p_.hook_offset;
   const Eigen::Vector3d tool = geo::vec(d.p) + out * offset + up * p_.grasp_drop;
   const double hover = open_ ? d.half_extents[2] + p_.bar_clearance + 0.01 - p_.grasp_drop : 0.0;
+  via_.reset();
   if (open_) via_ = tool + up * hover;
   // Back off and rise clear of the drawer's walls, so the next motion does not sweep it shut.
-  retreat_ = out * (p_.hook_offset + p_.approach_distance) + up * p_.retreat_rise;
   begin(obs, tool, jaw_along(obs, Eigen::Vector2d(-f.y(), f.x())), 0.0,
         out * (p_.hook_offset + p_.approach_distance) + up * hover,
-        {p_.approach_steps, p_.descent_steps, 0, 0, p_.retreat_steps}, cost_steps());
+        {p_.approach_steps, p_.descent_steps, 0, 0, p_.retreat_steps}, cost_steps(),
+        Eigen::Vector3d(out * (p_.hook_offset + p_.approach_distance) + up * p_.retreat_rise));
 }
 
 void SlideDrawerSkill::begin_move(const Observation& obs) {
@@ -229,12 +231,7 @@ int TurnKnobSkill::cost_steps() const {
 }
 
 std::optional<std::string> TurnKnobSkill::check(const Bindings& args, const Observation& obs, int budget_steps) const {
-  if (auto why = check_part(args, obs, "knob", "knob", "on", "off", cost_steps(), budget_steps, "turn_knob")) return why;
-  const EntityState& k = *obs.entity(arg(args, "knob"));
-  const bool on = arg(args, "state") == "on";
-  if (on && k.joint >= p_.on_min) return "the knob is already on";
-  if (!on && k.joint <= p_.off_max) return "the knob is already off";
-  return std::nullopt;
+  return check_part(args, obs, "knob", "knob", "on", "off", cost_steps(), budget_steps, "turn_knob");
 }
 
 void TurnKnobSkill::start(const Bindings& args, const Observation& obs, const SkillContext&) {
@@ -295,13 +292,7 @@ int SwingDoorSkill::cost_steps() const {
 }
 
 std::optional<std::string> SwingDoorSkill::check(const Bindings& args, const Observation& obs, int budget_steps) const {
-  if (auto why = check_part(args, obs, "door", "door", "open", "closed", cost_steps(), budget_steps, "swing_door"))
-    return why;
-  const EntityState& d = *obs.entity(arg(args, "door"));
-  const bool open = arg(args, "state") == "open";
-  if (open && d.joint <= p_.open_max) return "the door is already open";
-  if (!open && d.joint >= p_.closed_min) return "the door is already closed";
-  return std::nullopt;
+  return check_part(args, obs, "door", "door", "open", "closed", cost_steps(), budget_steps, "swing_door");
 }
 
 void SwingDoorSkill::start(const Bindings& args, const Observation& obs, const SkillContext&) {

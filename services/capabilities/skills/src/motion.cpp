@@ -52,14 +52,6 @@ Eigen::Quaterniond jaw_along(const Observation& obs, const Eigen::Vector2d& axis
   return geo::top_down(geo::wrap(yaw));
 }
 
-Eigen::Quaterniond horizontal_tool(const Eigen::Vector2d& pointing, bool jaw_vertical) {
-  const Eigen::Vector3d z = Eigen::Vector3d(pointing.x(), pointing.y(), 0).normalized();
-  const Eigen::Vector3d y = jaw_vertical ? Eigen::Vector3d(0, 0, 1) : Eigen::Vector3d(-z.y(), z.x(), 0);
-  Eigen::Matrix3d r;
-  r << y.cross(z), y, z;
-  return Eigen::Quaterniond(r);
-}
-
 Eigen::Vector2d front_of(const EntityState& part) {
   const Eigen::Vector3d f = geo::quat(part.q) * Eigen::Vector3d(-1, 0, 0);
   return Eigen::Vector2d(f.x(), f.y()).normalized();

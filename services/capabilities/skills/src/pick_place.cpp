@@ -89,6 +89,10 @@ std::optional<std::string> PickPlaceSkill::check(const Bindings& args, const Obs
     if (tcp + kHandAboveTcp > cav->ceiling - p_.cavity_ceiling)
       return "the hand does not fit into '" + cav->fixture + "' holding '" + object + "': it would reach " +
              std::to_string(tcp + kHandAboveTcp) + " m under a ceiling at " + std::to_string(cav->ceiling - p_.cavity_ceiling) + " m";
+    // Going in level and backing out again: a longer lower, the insert and the withdrawal.
+    if (budget_steps < cost_steps() + steps(5 * p_.lower_steps))
+      return "budget of " + std::to_string(budget_steps) + " steps cannot pay for placing into '" + cav->fixture +
+             "' (" + std::to_string(cost_steps() + steps(5 * p_.lower_steps)) + " steps)";
   }
   if (budget_steps < cost_steps())
     return "budget of " + std::to_string(budget_steps) + " steps cannot pay for pick_place's cost of " +

@@ -97,10 +97,11 @@ SkillStep PushSkill::next(const Observation& obs) {
   SkillStep out;
   const EntityState* o = obs.entity(object_);
   const EntityState* t = obs.entity(target_);
+  static constexpr const char* names[] = {"approach", "descent", "push", "back_off", "retreat", "done"};
   auto fail = [&](const std::string& why) {
     out.status = SkillStatus::Failed;
     out.reason = why;
-    out.stage = "push";
+    out.stage = names[static_cast<int>(stage_)];
     return out;
   };
   if (!o || !t) return fail("entity '" + (o ? target_ : object_) + "' left the observation");
@@ -168,7 +169,6 @@ SkillStep PushSkill::next(const Observation& obs) {
   }
   if (stage_ == Stage::Done) return completed_step();
   ++total_steps_;
-  static constexpr const char* names[] = {"approach", "descent", "push", "back_off", "retreat", "done"};
   out.stage = names[static_cast<int>(stage_)];
   out.action = m_.advance(obs, grip_for_opening(p_.push_opening));
   out.progress = std::min(1.0, static_cast<double>(total_steps_) / cost_steps());

@@ -12,7 +12,7 @@ namespace dh::cap {
 
 /// Runs the family `family` (the service name is dh_cap_<family>) serving `capabilities` until a
 /// shutdown signal; parses --library FILE (repeatable; default configs/library/<capability>.yaml for
-/// each), --instance-suffix, --drain-timeout-s. Returns the process exit code.
+/// each), --drain-timeout-s. Returns the process exit code.
 int run_capability_host(int argc, char** argv, const std::string& family, std::vector<CapabilityDef> capabilities);
 
 }  // namespace dh::cap

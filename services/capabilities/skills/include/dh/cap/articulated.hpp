@@ -80,9 +80,10 @@ class ArticulatedSkill : public Skill {
   };
   /// Starts the approach to the tool pose (`grip_tool`, `q`) with the fingers `opening` apart, from the
   /// point `approach` away from it (straight up: from high enough to clear what stands near); the
-  /// retreat goes the same way back.
+  /// retreat goes the same way back unless `retreat` says otherwise.
   void begin(const Observation& obs, const Eigen::Vector3d& grip_tool, const Eigen::Quaterniond& q, double opening,
-             const Eigen::Vector3d& approach, Durations d, int cost);
+             const Eigen::Vector3d& approach, Durations d, int cost,
+             std::optional<Eigen::Vector3d> retreat = std::nullopt);
   std::string part_;
   Stage stage_ = Stage::Done;
   Motion m_;
@@ -91,7 +92,7 @@ class ArticulatedSkill : public Skill {
   double opening_ = 0.05;
   Eigen::Vector3d approach_{0, 0, 0.06};
   std::optional<Eigen::Vector3d> via_;  ///< a point the descent passes before the grip (over a handle)
-  Eigen::Vector3d retreat_{0, 0, 0};     ///< the retreat's displacement (default: back the way it came)
+  Eigen::Vector3d retreat_{0, 0, 0};     ///< the retreat's displacement
   Durations d_;
   int total_steps_ = 0, cost_ = 1;
 };

@@ -45,9 +45,6 @@ inline double grip_for_opening(double width) { return std::clamp(1.0 - width / 0
 /// Tool orientation pointing down with the jaw's closing axis (tool y) along the table direction `axis`,
 /// of the two such orientations the one nearer the observed tool yaw.
 Eigen::Quaterniond jaw_along(const Observation& obs, const Eigen::Vector2d& axis);
-/// Tool orientation pointing level along the table direction `pointing`, the jaw's axis vertical (it
-/// closes from above and below) or horizontal.
-Eigen::Quaterniond horizontal_tool(const Eigen::Vector2d& pointing, bool jaw_vertical);
 /// Direction a fixture's part faces (its -x axis in the world), on the table plane.
 Eigen::Vector2d front_of(const EntityState& part);
 
