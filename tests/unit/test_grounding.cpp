@@ -103,3 +103,16 @@ TEST(CommandBudget, NeverMoreThanWhatRemains) {
   EXPECT_EQ(command_budget(221, 100), 100u);
   EXPECT_EQ(command_budget(100, 1000), 160u);
 }
+
+TEST_F(Grounding, AHandHoldingSomethingElseIsRefusedButItsOwnObjectIsFine) {
+  obs.contact_left = obs.contact_right = true;
+  obs.gripper_opening = 0.02;
+  obs.ee_p = {0, 0.15, 0.1};  // over the plate, not the bowl
+  auto g = run();
+  ASSERT_FALSE(g.command);
+  EXPECT_EQ(g.refusal, Refusal::Precondition);
+  EXPECT_NE(g.reason.find("already holds"), std::string::npos) << g.reason;
+  obs.ee_p = {0.01, -0.15, 0.04};  // the bowl (the command's object) is in the jaw: a regrasp took it
+  g = run();
+  EXPECT_TRUE(g.command) << g.reason;
+}

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "dh/cap/articulated.hpp"
+#include "dh/cap/library.hpp"
 #include "dh/cap/pick_place.hpp"
 #include "dh/cap/push.hpp"
 #include "dh/cap/recovery.hpp"
@@ -54,6 +55,22 @@ TEST_F(SkillsPhysics, TheBowlRisesOnlyBecauseTheJawHoldsIt) {
   EXPECT_EQ(r.status, cap::SkillStatus::Failed);
   EXPECT_NE(r.reason.find("grasp missed"), std::string::npos) << r.reason;
   EXPECT_NEAR(r.last.entity("bowl")->p[2], z0, 0.005);
+}
+
+TEST_F(SkillsPhysics, ARegraspTakesTheBowlAgainAndPickPlaceGoesOnFromTheLift) {
+  const TaskDef& t = task("goal", 8);
+  cap::PickPlaceSkill missing({{"rim_grasp_depth", -0.05}});
+  const auto miss = test::run_skill(cell(t), t, 3, missing, {{"object", "bowl"}, {"target", "plate"}});
+  ASSERT_NE(miss.reason.find("grasp missed"), std::string::npos) << miss.reason;
+  auto regrasp = cap::recovery_family().at(2).make({});
+  const auto taken = test::run_skill(cell(t), t, 3, *regrasp, {{"object", "bowl"}}, false);
+  ASSERT_EQ(taken.status, cap::SkillStatus::Completed) << taken.stage << ": " << taken.reason;
+  EXPECT_TRUE(taken.last.contact_left && taken.last.contact_right) << "the bowl is in the jaw";
+  cap::PickPlaceSkill resumed;
+  const auto r = test::run_skill(cell(t), t, 3, resumed, {{"object", "bowl"}, {"target", "plate"}}, false);
+  EXPECT_EQ(r.status, cap::SkillStatus::Completed) << r.stage << ": " << r.reason;
+  EXPECT_TRUE(r.goal);
+  EXPECT_LT(r.steps, taken.steps + 160) << "no second approach: it went on from the lift";
 }
 
 TEST_F(SkillsPhysics, ASeedFixesTheInitialStateExactly) {

@@ -207,6 +207,7 @@ Effects EpisodeMachine::finish_command(const CommandStatus& st, Clock::time_poin
   }
   else if (st.state == CommandState::Expired) phase = CommandPhase::Expired;
   if (phase != CommandPhase::Completed && !recovering_) count_failure();
+  if (phase != CommandPhase::Completed) last_failure_ = st.reason;
   return decide_now(phase, std::string("command ") + to_string(st.state), now);
 }
 
@@ -251,7 +252,23 @@ std::optional<std::string> EpisodeMachine::substitute() const {
 
 std::string EpisodeMachine::recovery_for() const {
   const bool holding = last_obs_.contact_left && last_obs_.contact_right && last_obs_.gripper_opening > 0.002;
+  const bool one_finger = last_obs_.contact_left != last_obs_.contact_right;
+  const bool grasp_lost = last_failure_.find("grasp missed") != std::string::npos ||
+                          last_failure_.find("slipped") != std::string::npos ||
+                          last_failure_.find("dropped") != std::string::npos;
+  const bool has_object = !recovery_object().empty();
+  // A misaligned contact is re-seated, a missed or lost grasp taken again (the interrupted pick and place
+  // then goes on from the lift); otherwise let go of what is held, or go back to a safe pose.
+  if (has_object && one_finger && eligible("reseat")) return "reseat";
+  if (has_object && grasp_lost && !holding && eligible("regrasp")) return "regrasp";
   return holding ? "release_retreat" : "keyframe_return";
+}
+
+std::string EpisodeMachine::recovery_object() const {
+  if (!last_advice_) return "";
+  for (const auto& [role, entity] : last_advice_->args)
+    if (role == "object") return entity;
+  return "";
 }
 
 Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now) {
@@ -340,6 +357,7 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
       recovering_ = true;
       Advice r = fast(Advice{});
       r.capability = recovery_for();
+      if (r.capability == "regrasp" || r.capability == "reseat") r.args = {{"object", recovery_object()}};
       return then(stop, ground_and_dispatch(r, now));
     }
     case DecisionKind::NextInSequence: {

@@ -20,7 +20,11 @@ std::vector<CapabilityDef> slide_drawer_family() { return {def<SlideDrawerSkill>
 std::vector<CapabilityDef> turn_knob_family() { return {def<TurnKnobSkill>("turn_knob")}; }
 std::vector<CapabilityDef> swing_door_family() { return {def<SwingDoorSkill>("swing_door")}; }
 std::vector<CapabilityDef> recovery_family() {
-  return {def<KeyframeReturnSkill>("keyframe_return"), def<ReleaseRetreatSkill>("release_retreat")};
+  auto grasp = [](const char* name) {
+    return CapabilityDef{name, [](const Theta& t) -> std::unique_ptr<Skill> { return std::make_unique<PickPlaceSkill>(t, true); }};
+  };
+  return {def<KeyframeReturnSkill>("keyframe_return"), def<ReleaseRetreatSkill>("release_retreat"), grasp("regrasp"),
+          grasp("reseat")};
 }
 
 std::vector<CapabilityDef> all_capabilities() {

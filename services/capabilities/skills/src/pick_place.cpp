@@ -65,18 +65,34 @@ ParamTable PickPlaceParams::table() {
                                    {"release_steps", &release_steps}, {"retreat_steps", &retreat_steps}});
 }
 
-PickPlaceSkill::PickPlaceSkill(const Theta& theta) { p_.table().load(theta); }
+PickPlaceSkill::PickPlaceSkill(const Theta& theta, bool grasp_only) : grasp_only_(grasp_only) { p_.table().load(theta); }
 
 int PickPlaceSkill::cost_steps() const {
+  if (grasp_only_) return steps(p_.approach_steps + p_.descent_steps + p_.close_steps);
   return steps(p_.approach_steps + p_.descent_steps + p_.close_steps + p_.lift_steps + p_.carry_max_steps +
                p_.lower_steps + p_.release_steps + p_.retreat_steps);
 }
 
+namespace {
+// The object is in the jaw: both fingers touch, the jaw is not shut, and the object sits at the tool.
+bool in_jaw(const Observation& obs, const EntityState& o) {
+  const double dx = obs.ee_p[0] - o.p[0], dy = obs.ee_p[1] - o.p[1];
+  return holding(obs) && std::hypot(dx, dy) < std::max(o.half_extents[0], o.half_extents[1]) + 0.01 &&
+         obs.ee_p[2] > o.p[2];
+}
+}  // namespace
+
 std::optional<std::string> PickPlaceSkill::check(const Bindings& args, const Observation& obs, int budget_steps) const {
   const std::string object = arg(args, "object"), target = arg(args, "target");
   const EntityState* o = obs.entity(object);
-  const EntityState* t = obs.entity(target);
   if (!o) return "object '" + object + "' is not in the scene";
+  if (grasp_only_) {
+    if (in_jaw(obs, *o)) return "'" + object + "' is in the jaw already";
+    if (budget_steps < cost_steps())
+      return "budget of " + std::to_string(budget_steps) + " steps cannot pay for a grasp of " + std::to_string(cost_steps());
+    return std::nullopt;
+  }
+  const EntityState* t = obs.entity(target);
   if (!t) return "target '" + target + "' is not in the scene";
   if (object == target) return "object and target are the same entity '" + object + "'";
   if (o->kind == "region" || o->kind == "drawer" || o->kind == "knob" || o->kind == "door")
@@ -103,7 +119,7 @@ std::optional<std::string> PickPlaceSkill::check(const Bindings& args, const Obs
 void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const SkillContext&) {
   object_ = arg(args, "object");
   target_ = arg(args, "target");
-  cavity_ = find_cavity(obs, target_, object_);
+  cavity_ = grasp_only_ ? std::nullopt : find_cavity(obs, target_, object_);
   total_steps_ = 0;
   const EntityState& o = *obs.entity(object_);
   const Eigen::Vector3d c = geo::vec(o.p);
@@ -136,7 +152,8 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
   // The jaw is symmetric: of yaw and yaw+π take the one closer to the tool's current yaw.
   if (std::abs(geo::wrap(yaw - ee_yaw)) > std::numbers::pi / 2) yaw += std::numbers::pi;
   grasp_q_ = geo::top_down(geo::wrap(yaw));
-  enter(Stage::Approach, obs);
+  // Already in the jaw (a regrasp just took it): go on from the lift.
+  enter(!grasp_only_ && in_jaw(obs, o) ? Stage::Lift : Stage::Approach, obs);
 }
 
 const char* PickPlaceSkill::stage_name(Stage s) {
@@ -294,7 +311,7 @@ SkillStep PickPlaceSkill::next(const Observation& obs) {
   SkillStep out;
   out.stage = stage_name(stage_);
   const EntityState* o = obs.entity(object_);
-  if (!o || !obs.entity(target_)) {
+  if (!o || (!grasp_only_ && !obs.entity(target_))) {
     out.status = SkillStatus::Failed;
     out.reason = "entity '" + (o ? target_ : object_) + "' left the observation";
     return out;
@@ -317,6 +334,7 @@ SkillStep PickPlaceSkill::next(const Observation& obs) {
     case Stage::Close:
       if (m_.done()) {
         if (obs.gripper_opening < 0.002) return fail("grasp missed: the jaw closed on nothing");
+        if (grasp_only_) return completed_step();
         enter(Stage::Lift, obs);
       }
       break;

@@ -96,7 +96,11 @@ class EpisodeMachine {
   std::string step_key() const;  ///< current capability and arguments
   bool eligible(const std::string& capability) const;
   std::optional<std::string> substitute() const;  ///< an eligible capability not yet tried for this step
-  std::string recovery_for() const;               ///< release_retreat with something in hand, else keyframe_return
+  /// reseat after a one-finger contact, regrasp after a missed or lost grasp, release_retreat with
+  /// something in hand, else keyframe_return
+  std::string recovery_for() const;
+  std::string recovery_object() const;            ///< the interrupted step's object argument, or ""
+  std::string last_failure_;                      ///< the reason of the last command that did not complete
   Effects end(bool success, const std::string& outcome, const std::string& reason);
   Effects stop_command();  ///< cancel + revoking lease for the running command, if any
   /// `next` after stopping: the stop's cancel and revocation ride along unless `next` sets its own.

@@ -12,7 +12,7 @@ std::vector<CapabilityDef> push_family();        ///< push
 std::vector<CapabilityDef> slide_drawer_family();      ///< slide_drawer
 std::vector<CapabilityDef> turn_knob_family();        ///< turn_knob
 std::vector<CapabilityDef> swing_door_family();        ///< swing_door
-std::vector<CapabilityDef> recovery_family();    ///< keyframe_return, release_retreat
+std::vector<CapabilityDef> recovery_family();    ///< keyframe_return, release_retreat, regrasp, reseat
 /// Every capability of every family (in-process runs and tests).
 std::vector<CapabilityDef> all_capabilities();
 

@@ -4,6 +4,7 @@
 // their narrow side. The place point is the target's centre, or a free slot of a receptacle that holds
 // something already, so two objects in one basket each get a place. Into a cavity (a region with a
 // ceiling: a microwave) the object goes in level through the opening and the hand backs out the same way.
+// Started with the object already in the jaw (after a regrasp), it goes on from the lift.
 #pragma once
 
 #include "dh/cap/motion.hpp"
@@ -39,7 +40,9 @@ std::optional<Cavity> find_cavity(const Observation& obs, const std::string& tar
 
 class PickPlaceSkill : public Skill {
  public:
-  explicit PickPlaceSkill(const Theta& theta = {});
+  /// `grasp_only`: the recovery skills regrasp and reseat — approach, descend and close on the object
+  /// (argument `object` only), completing once it is held.
+  explicit PickPlaceSkill(const Theta& theta = {}, bool grasp_only = false);
   std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
   void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
   SkillStep next(const Observation& obs) override;
@@ -67,6 +70,7 @@ class PickPlaceSkill : public Skill {
   double grasp_height_ = 0;             ///< tool z minus object z, measured after the close
   double object_z0_ = 0;
   std::optional<Cavity> cavity_;  ///< the target is the inside of a fixture with a ceiling (a microwave)
+  bool grasp_only_ = false;
   double cavity_radius_ = 0;
 };
 

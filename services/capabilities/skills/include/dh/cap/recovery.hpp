@@ -1,7 +1,9 @@
 // Recovery skills the fast brain inserts after a failure, before it retries or substitutes:
 //  - keyframe_return: rise clear, then return to the latest tool pose recorded earlier in the episode
 //    (at a command's start, with an empty hand) that lies away from here, jaw open;
-//  - release_retreat: open the jaw where the tool is, then rise straight up.
+//  - release_retreat: open the jaw where the tool is, then rise straight up;
+//  - regrasp and reseat (pick_place's grasp stages, dh/cap/pick_place.hpp): take the object again after a
+//    missed or lost grasp (from 5 cm above), or re-seat the hand after a one-finger contact (from 1.5 cm).
 #pragma once
 
 #include "dh/cap/motion.hpp"
