@@ -251,7 +251,7 @@ std::optional<std::string> EpisodeMachine::substitute() const {
 }
 
 std::string EpisodeMachine::recovery_for() const {
-  const bool holding = last_obs_.contact_left && last_obs_.contact_right && last_obs_.gripper_opening > 0.002;
+  const bool holding = last_obs_.holding();
   const bool one_finger = last_obs_.contact_left != last_obs_.contact_right;
   const bool grasp_lost = last_failure_.find("grasp missed") != std::string::npos ||
                           last_failure_.find("slipped") != std::string::npos ||

@@ -36,13 +36,11 @@ const std::string* arg(const Advice& a, const std::string& role) {
 // Declared preconditions the governor can check from the observation alone.
 std::optional<std::string> precondition_fails(const std::string& pre, const Advice& a, const Observation& obs) {
   if (pre == "gripper_empty") {
-    if (!(obs.contact_left && obs.contact_right && obs.gripper_opening > 0.002)) return std::nullopt;
+    if (!obs.holding()) return std::nullopt;
     // Holding the command's own object (a regrasp took it) is fine: the skill goes on from there.
     const std::string* object = arg(a, "object");
     const EntityState* o = object ? obs.entity(*object) : nullptr;
-    if (o && std::hypot(obs.ee_p[0] - o->p[0], obs.ee_p[1] - o->p[1]) < std::max(o->half_extents[0], o->half_extents[1]) + 0.01 &&
-        obs.ee_p[2] > o->p[2])
-      return std::nullopt;
+    if (o && obs.in_jaw(*o)) return std::nullopt;
     return std::string("the gripper already holds something");
   }
   if (pre == "distinct_entities") {

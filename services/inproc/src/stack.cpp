@@ -82,7 +82,7 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
     if (fx.end) end = fx.end;
     if (fx.command) {
       const gov::Command& c = *fx.command;
-      if (!(obs.contact_left && obs.contact_right && obs.gripper_opening > 0.002))
+      if (!obs.holding())
         keyframes.push_back({obs.step, obs.ee_p, obs.ee_q});
       gov::CommandStatus st{c.command_id, c.instance, gov::CommandState::Accepted, "", "", obs.step, 0, 0};
       std::unique_ptr<cap::Skill> skill;

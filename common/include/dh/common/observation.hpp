@@ -1,7 +1,9 @@
 // What the robot seam observes at one control step, as plain data for logic libraries (no DDS).
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -27,6 +29,14 @@ struct Observation {
   std::array<double, 7> q{}, dq{};
   std::vector<EntityState> entities;
   bool goal_holds = false;  ///< the benchmark predicate at this step
+
+  /// The jaw holds something: both fingers touch and the jaw is not shut on itself.
+  bool holding() const { return contact_left && contact_right && gripper_opening > 0.002; }
+  /// `o` is what the jaw holds: holding, with `o` at the tool (within its half size and 1 cm) and below it.
+  bool in_jaw(const EntityState& o) const {
+    return holding() && std::hypot(ee_p[0] - o.p[0], ee_p[1] - o.p[1]) < std::max(o.half_extents[0], o.half_extents[1]) + 0.01 &&
+           ee_p[2] > o.p[2];
+  }
 
   const EntityState* entity(const std::string& name) const {
     for (const auto& e : entities)

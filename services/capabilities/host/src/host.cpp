@@ -178,7 +178,7 @@ class Node {
     if (o == last_obs_.end() || o->second.episode_id() != c.episode_id()) return;
     const msg::Observation& m = o->second;
     const Observation obs = convert::from_msg(m);
-    if (holding(obs)) return;
+    if (obs.holding()) return;
     keyframes_[c.channel()].push_back({obs.step, obs.ee_p, obs.ee_q});
   }
 

@@ -90,8 +90,5 @@ double path_height(const Observation& obs, const Eigen::Vector2d& from, const Ei
   return z;
 }
 
-bool holding(const Observation& obs) {
-  return obs.contact_left && obs.contact_right && obs.gripper_opening > 0.002;
-}
 
 }  // namespace dh::cap

@@ -73,21 +73,13 @@ int PickPlaceSkill::cost_steps() const {
                p_.lower_steps + p_.release_steps + p_.retreat_steps);
 }
 
-namespace {
-// The object is in the jaw: both fingers touch, the jaw is not shut, and the object sits at the tool.
-bool in_jaw(const Observation& obs, const EntityState& o) {
-  const double dx = obs.ee_p[0] - o.p[0], dy = obs.ee_p[1] - o.p[1];
-  return holding(obs) && std::hypot(dx, dy) < std::max(o.half_extents[0], o.half_extents[1]) + 0.01 &&
-         obs.ee_p[2] > o.p[2];
-}
-}  // namespace
 
 std::optional<std::string> PickPlaceSkill::check(const Bindings& args, const Observation& obs, int budget_steps) const {
   const std::string object = arg(args, "object"), target = arg(args, "target");
   const EntityState* o = obs.entity(object);
   if (!o) return "object '" + object + "' is not in the scene";
   if (grasp_only_) {
-    if (in_jaw(obs, *o)) return "'" + object + "' is in the jaw already";
+    if (obs.in_jaw(*o)) return "'" + object + "' is in the jaw already";
     if (budget_steps < cost_steps())
       return "budget of " + std::to_string(budget_steps) + " steps cannot pay for a grasp of " + std::to_string(cost_steps());
     return std::nullopt;
@@ -153,7 +145,7 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
   if (std::abs(geo::wrap(yaw - ee_yaw)) > std::numbers::pi / 2) yaw += std::numbers::pi;
   grasp_q_ = geo::top_down(geo::wrap(yaw));
   // Already in the jaw (a regrasp just took it): go on from the lift.
-  enter(!grasp_only_ && in_jaw(obs, o) ? Stage::Lift : Stage::Approach, obs);
+  enter(!grasp_only_ && obs.in_jaw(o) ? Stage::Lift : Stage::Approach, obs);
 }
 
 const char* PickPlaceSkill::stage_name(Stage s) {

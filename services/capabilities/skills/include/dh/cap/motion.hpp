@@ -59,7 +59,5 @@ double clear_height(const Observation& obs, const Eigen::Vector3d& at, double re
 /// walls' level) whose footprint it passes within `reach` of, except those named in `skip`.
 double path_height(const Observation& obs, const Eigen::Vector2d& from, const Eigen::Vector2d& to, double reach,
                    double clearance, double floor, const std::vector<std::string>& skip);
-/// Whether the jaw holds something: both fingers in contact and not closed on itself.
-bool holding(const Observation& obs);
 
 }  // namespace dh::cap
