@@ -12,8 +12,8 @@ std::map<std::string, ArmSpec> load_arms(const std::filesystem::path& governor_y
     const ConfigNode a = arms.child(name);
     ArmSpec spec{name, a.get<std::string>("mode"), a.get_or<std::vector<std::string>>("masked_capabilities", {}),
                  a.get_or<bool>("latch", true)};
-    if (spec.mode != "full" && spec.mode != "static" && spec.mode != "seq")
-      a.fail("mode", "expected full, static or seq, got '" + spec.mode + "'");
+    if (spec.mode != "full" && spec.mode != "static" && spec.mode != "seq" && spec.mode != "bare")
+      a.fail("mode", "expected full, static, seq or bare, got '" + spec.mode + "'");
     out.emplace(name, std::move(spec));
   }
   if (out.empty()) root.fail("arms", "name at least one arm, e.g. full: {mode: full}");

@@ -11,6 +11,7 @@ template <> const char* config_type_name<unsigned>() { return "a non-negative in
 template <> const char* config_type_name<std::uint64_t>() { return "a non-negative integer"; }
 template <> const char* config_type_name<bool>() { return "true or false"; }
 template <> const char* config_type_name<std::vector<double>>() { return "a list of numbers"; }
+template <> const char* config_type_name<std::vector<int>>() { return "a list of integers"; }
 template <> const char* config_type_name<std::vector<std::string>>() { return "a list of strings"; }
 
 ConfigNode ConfigNode::load_file(const std::filesystem::path& path) {

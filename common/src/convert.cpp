@@ -36,6 +36,7 @@ std::vector<msg::EntityPose> to_msg(const std::vector<EntityState>& entities) {
 
 Observation from_msg(const msg::Observation& m) {
   Observation o;
+  o.channel = m.channel();
   o.step = m.step();
   o.budget_steps = m.budget_steps();
   std::copy_n(m.ee().p().begin(), 3, o.ee_p.begin());

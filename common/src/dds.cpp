@@ -70,6 +70,16 @@ QosPair qos_for(Qos kind) {
       r.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
       depth = 1;
       break;
+    case Qos::Camera:
+      // Only the newest image of each camera matters; a late joiner (a capability swapped in) gets it at
+      // once. A 224x224 RGB8 sample (150 KB) is sent in fragments of the smallest transport message
+      // (UDPv4: 64 KB); a lost fragment is repaired at the next heartbeat, so beat faster than the 3 s
+      // default.
+      w.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      r.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      w.reliable_writer_qos().times.heartbeatPeriod = seconds(0.1);
+      depth = 1;
+      break;
   }
   w.history().depth = depth;
   r.history().depth = depth;

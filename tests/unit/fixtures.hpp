@@ -32,4 +32,16 @@ inline gov::CapabilityInfo pick_place_info(const std::string& instance = "pick_p
   return i;
 }
 
+inline gov::CapabilityInfo vla_act_info(const std::string& instance = "vla_act@a") {
+  gov::CapabilityInfo i;
+  i.capability = "vla_act";
+  i.instance = instance;
+  i.version = "0.1.0";
+  i.arguments = {"instruction:*"};
+  i.preconditions = {"task_goal_unmet"};
+  i.cost_steps = 100;
+  i.started_ns = 1;
+  return i;
+}
+
 }  // namespace dh::test

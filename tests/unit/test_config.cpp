@@ -116,7 +116,7 @@ TEST(Evidence, AppendsFlushedRecordsAndSkipsATornLine) {
 
 TEST(Arms, TheShippedArmsLoadAndBadOnesAreNamed) {
   const auto arms = load_arms(paths::config_dir() / "governor.yaml");
-  for (const char* name : {"full", "static", "seq", "no-analytic", "no-recovery", "no-vla", "no-latch"})
+  for (const char* name : {"full", "static", "seq", "no-analytic", "no-recovery", "no-vla", "no-latch", "bare"})
     EXPECT_TRUE(arms.count(name)) << name;
   EXPECT_EQ(arms.at("static").mode, "static");
   EXPECT_EQ(arms.at("no-analytic").masked,
@@ -124,12 +124,12 @@ TEST(Arms, TheShippedArmsLoadAndBadOnesAreNamed) {
   EXPECT_FALSE(arms.at("no-latch").latch);
   EXPECT_TRUE(arms.at("full").latch);
   auto e = error_of([&] { find_arm(arms, "wizard"); });
-  EXPECT_NE(e.find("unknown arm 'wizard' (arms: full, no-analytic, no-latch, no-recovery, no-vla, seq, static"),
+  EXPECT_NE(e.find("unknown arm 'wizard' (arms: bare, full, no-analytic, no-latch, no-recovery, no-vla, seq, static"),
             std::string::npos) << e;
   TempDir t;
   const auto f = t.write("governor.yaml", "arms:\n  fast: {mode: reckless}\n");
   e = error_of([&] { load_arms(f); });
-  EXPECT_NE(e.find("governor.yaml: key 'arms.fast.mode': expected full, static or seq, got 'reckless'"), std::string::npos)
+  EXPECT_NE(e.find("governor.yaml: key 'arms.fast.mode': expected full, static, seq or bare, got 'reckless'"), std::string::npos)
       << e;
   e = error_of([&] { load_arms(t.write("g2.yaml", "decision_period_steps: 10\n")); });
   EXPECT_NE(e.find("key 'arms'"), std::string::npos) << e;

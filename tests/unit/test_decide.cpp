@@ -167,3 +167,27 @@ TEST(Decide, WithoutTheLatchAHeldVerdictDoesNotEndTheEpisode) {
   s.latch_enabled = false;
   EXPECT_EQ(decide(s, {}).kind, DecisionKind::Continue);
 }
+
+TEST(Decide, BarePolicyRunsUntilLatchOrBudgetAndGetsTheRestAfterAnEarlyEnd) {
+  DecisionState s = running();
+  s.mode = ExecutorMode::Bare;
+  s.stagnant_decisions = 100;  // a policy is never judged by progress
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::Continue);
+  s.phase = CommandPhase::Failed;
+  s.failures_of_step = 1;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::Retry);
+  s.failures_of_step = 2;  // a policy that keeps failing (its server is down) is not retried for ever
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::GiveUp);
+  s.phase = CommandPhase::Lost;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::GiveUp);
+  s.other_instance_alive = true;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::Retry);
+  s.phase = CommandPhase::Refused;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::GiveUp);
+  s.phase = CommandPhase::Running;
+  s.latched = true;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::StopSuccess);
+  s.latched = false;
+  s.step = s.budget_steps;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::GiveUp);
+}

@@ -132,3 +132,60 @@ TEST_F(Machine, ACompletionReportedBeforeItsObservationWaitsForIt) {
   ASSERT_TRUE(fx.end);
   EXPECT_TRUE(fx.end->success);
 }
+
+TEST_F(Machine, TheBareArmHandsTheWholeEpisodeToThePolicyWithoutAPlanner) {
+  registry.announce(test::vla_act_info());
+  config.mode = ExecutorMode::Bare;
+  m = std::make_unique<EpisodeMachine>(EpisodeSpec{0, "ep", "put the bowl on the plate", "bare", 300}, config, registry,
+                                       *evidence, t0);
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  EXPECT_FALSE(fx.plan_request);
+  ASSERT_TRUE(fx.command);
+  EXPECT_EQ(fx.command->capability, "vla_act");
+  EXPECT_EQ(fx.command->args, (Bindings{{"instruction", "put the bowl on the plate"}}));
+  EXPECT_EQ(fx.command->budget_steps, 300u) << "the bare policy gets the whole episode";
+  // The policy's process fails at step 40: it is handed the rest, still without a planner.
+  m->on_status({"ep/c0", "vla_act@a", CommandState::Accepted, "", "", 0, 0, 0}, t0);
+  for (std::uint32_t t = 1; t <= 40; ++t) m->on_observation(test::scene_observation(t), t0);
+  fx = m->on_status({"ep/c0", "vla_act@a", CommandState::Failed, "policy: server gone", "infer", 40, 40, 0.3}, t0);
+  ASSERT_TRUE(fx.command);
+  EXPECT_FALSE(fx.plan_request);
+  EXPECT_EQ(fx.command->budget_steps, 260u);
+}
+
+TEST_F(Machine, AStepWithNoAnalyticRouteLeftIsHandedToThePolicyWithTheInstruction) {
+  registry.announce(test::vla_act_info());
+  config.masked = {"pick_place"};
+  m = std::make_unique<EpisodeMachine>(EpisodeSpec{0, "ep", "put the bowl on the plate", "no-analytic", 300}, config,
+                                       registry, *evidence, t0);
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  ASSERT_TRUE(fx.plan_request);
+  EXPECT_EQ(fx.plan_request->capabilities, std::vector<std::string>{"vla_act"});
+  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  ASSERT_TRUE(fx.command) << "the masked pick_place is refused and the segment handed over";
+  EXPECT_EQ(fx.command->capability, "vla_act");
+  EXPECT_EQ(fx.command->args, (Bindings{{"instruction", "put the bowl on the plate"}}));
+  EXPECT_EQ(fx.command->budget_steps, 160u) << "ceil(1.5 x 100) + 10";
+}
+
+TEST_F(Machine, TheBareArmWaitsBrieflyForThePolicysAnnouncement) {
+  config.mode = ExecutorMode::Bare;
+  m = std::make_unique<EpisodeMachine>(EpisodeSpec{0, "ep", "put the bowl on the plate", "bare", 300}, config, registry,
+                                       *evidence, t0);
+  EXPECT_FALSE(m->on_observation(test::scene_observation(0), t0).command) << "vla_act is not announced yet";
+  EXPECT_FALSE(m->on_tick(t0 + 20ms).end);
+  registry.announce(test::vla_act_info());
+  const Effects fx = m->on_tick(t0 + 100ms);
+  ASSERT_TRUE(fx.command) << "the episode goes on once the policy is there";
+  EXPECT_EQ(fx.command->capability, "vla_act");
+
+  // Without an announcement within the acknowledgement timeout the episode ends with the reason.
+  Registry empty;
+  EpisodeMachine lonely(EpisodeSpec{1, "ep2", "put the bowl on the plate", "bare", 300}, config, empty, *evidence, t0);
+  lonely.on_observation(test::scene_observation(0), t0);
+  Effects end;
+  for (auto t = t0; !end.end && t < t0 + config.ack_timeout + 1s; t += 50ms) end = lonely.on_tick(t);
+  ASSERT_TRUE(end.end);
+  EXPECT_EQ(end.end->outcome, "gave_up");
+  EXPECT_NE(end.end->reason.find("vla_act"), std::string::npos) << end.end->reason;
+}

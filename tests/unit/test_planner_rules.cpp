@@ -135,6 +135,11 @@ TEST(Rules, WhatCannotBeFormedIsARefusalWithItsReason) {
   a = plan_rules(none);
   EXPECT_TRUE(a.refused);
   EXPECT_NE(a.reason.find("no eligible capability"), std::string::npos);
+  none.capabilities = {"vla_act", "regrasp"};
+  a = plan_rules(none);
+  EXPECT_FALSE(a.refused) << "without pick_place the learned policy is handed the instruction";
+  EXPECT_EQ(a.capability, "vla_act");
+  EXPECT_EQ(a.args, (Args{{"instruction", "put the bowl on the plate"}}));
 }
 
 TEST(Rules, EveryBenchmarkInstructionBecomesAPlanOnItsScene) {

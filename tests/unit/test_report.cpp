@@ -69,14 +69,20 @@ void write_evidence(const fs::path& path) {
   plan("advice", "e/p1", t0 + 2'250'000'000);
   plan("plan_request", "e/p2", t0 + 3'000'000'000);
   // Figure 3 in miniature: the push is refused, a pick and place substituted and completed.
+  // Then the segment is handed to the policy until the episode ends.
   for (const json& r : {json{{"kind", "grounding"}, {"result", "grounded"}, {"command_id", "e/c0"}, {"capability", "push"}},
+                        json{{"kind", "dispatch"}, {"command_id", "e/c0"}, {"step", 0}},
                         json{{"kind", "command_status"}, {"command_id", "e/c0"}, {"state", "refused"}},
                         json{{"kind", "decision"}, {"decision", "substitute"}, {"phase", "refused"}},
                         json{{"kind", "grounding"}, {"result", "grounded"}, {"command_id", "e/c1"}, {"capability", "pick_place"}},
+                        json{{"kind", "dispatch"}, {"command_id", "e/c1"}, {"step", 2}},
                         json{{"kind", "command_status"}, {"command_id", "e/c1"}, {"state", "completed"}},
                         json{{"kind", "decision"}, {"decision", "request_replan"}, {"phase", "completed"}},
                         json{{"kind", "decision"}, {"decision", "request_replan"}, {"phase", "failed"}},
-                        json{{"kind", "refusal"}, {"refusal", "budget"}}})
+                        json{{"kind", "refusal"}, {"refusal", "budget"}},
+                        json{{"kind", "grounding"}, {"result", "grounded"}, {"command_id", "e/c2"}, {"capability", "vla_act"}},
+                        json{{"kind", "dispatch"}, {"command_id", "e/c2"}, {"step", 150}},
+                        json{{"kind", "episode_end"}, {"step", 200}}})
     out << r.dump() << "\n";
   out << R"({"kind":"decision","latency_ns":9)";  // torn: the writer died mid-record
 }
@@ -266,9 +272,13 @@ TEST(Summarize, MechanismsFromEvidence) {
   EXPECT_EQ(m["decisions"]["next_step"], 1) << "a replan request after a completion is the next step";
   EXPECT_EQ(m["decisions"]["request_replan"], 1);
   EXPECT_EQ(m["refusals"], 2) << "the capability's refusal and the grounding refusal";
-  EXPECT_EQ(m["commands"], json::parse(R"([{"capability":"pick_place","completed":1,"dispatched":1},
-                                           {"capability":"push","completed":0,"dispatched":1}])"));
+  EXPECT_EQ(m["commands"], json::parse(R"([{"capability":"pick_place","completed":1,"dispatched":1,"steps":148},
+                                           {"capability":"push","completed":0,"dispatched":1,"steps":2},
+                                           {"capability":"vla_act","completed":0,"dispatched":1,"steps":50}])"));
+  EXPECT_EQ(m["steps"], 200);
+  EXPECT_DOUBLE_EQ(m["policy_step_share"].get<double>(), 0.25);
   EXPECT_EQ(s["mechanisms"][1]["episodes"], 0);
+  EXPECT_TRUE(s["mechanisms"][1]["policy_step_share"].is_null());
 }
 
 TEST(Summarize, ARepeatedKeyIsCountedAsADuplicateAndNowhereElse) {
@@ -350,4 +360,23 @@ TEST(Render, TinyPValuesAreWrittenInScientificNotation) {
   const ReportFiles files = render({s}, o);
   EXPECT_NE(read(files.markdown).find("| 2.00e-18 |"), std::string::npos);
   EXPECT_NE(read(files.markdown).find("Plots skipped: not requested."), std::string::npos);
+}
+
+TEST(Summarize, ThePolicySectionReadsTheTrainingRecordAndNamesAMissingOne) {
+  TempDir dir;
+  ReportOptions o = options(dir.path());
+  o.policy_dir = dir.path() / "policy";
+  json s = summarize(campaign(dir.path()), o);
+  EXPECT_NE(s["policy"]["error"].get<std::string>().find("dh train-policy"), std::string::npos);
+  fs::create_directories(o.policy_dir);
+  std::ofstream(o.policy_dir / "train.json")
+      << R"({"weights":"vla_mlp.dhp","version":"mlp-abc","sha256":"abc","loss_curve":"loss.csv",
+             "training":{"epochs":2,"seed":1},"train_seconds":3.5})";
+  std::ofstream(o.policy_dir / "loss.csv") << "epoch,train_mse,validation_mse\n1,0.5,0.6\n2,0.25,0.3\n";
+  s = summarize(campaign(dir.path()), o);
+  EXPECT_EQ(s["policy"]["version"], "mlp-abc");
+  ASSERT_EQ(s["policy"]["curve"].size(), 2u);
+  EXPECT_DOUBLE_EQ(s["policy"]["curve"][1]["validation"].get<double>(), 0.3);
+  o.policy_dir.clear();
+  EXPECT_TRUE(summarize(campaign(dir.path()), o)["policy"].is_null());
 }

@@ -67,15 +67,16 @@ Client::News Client::take_news() {
   return n;
 }
 
-std::optional<std::uint32_t> ensure_deployment(Client& client, std::optional<std::uint32_t> want,
-                                               const std::string& launch_file, std::chrono::milliseconds ready,
-                                               bool quiet, std::unique_ptr<Deployment>& local) {
-  auto ch = client.wait_ready(kReadyCapability, want, ready);
+std::optional<std::uint32_t> ensure_deployment(Client& client, const std::string& capability,
+                                               std::optional<std::uint32_t> want, const std::string& launch_file,
+                                               std::chrono::milliseconds ready, bool quiet,
+                                               std::unique_ptr<Deployment>& local) {
+  auto ch = client.wait_ready(capability, want, ready);
   if (ch) return ch;
   const auto file = launch_file.empty() ? paths::home() / "deploy" / "local.yaml" : std::filesystem::path(launch_file);
   if (!quiet) std::cerr << "no deployment answered; starting " << file.string() << "\n";
   local = std::make_unique<Deployment>(load_launch_file(file), paths::bin_dir(), paths::runs_dir() / "logs");
-  ch = client.wait_ready(kReadyCapability, want, std::chrono::seconds(20));
+  ch = client.wait_ready(capability, want, std::chrono::seconds(20));
   if (!ch) {
     std::cerr << "error: the deployment " << file.string() << " did not become ready in 20 s; see logs in "
               << local->log_dir().string() << "\n";

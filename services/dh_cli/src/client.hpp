@@ -49,14 +49,21 @@ class Client {
   dds::Reader<msg::EpisodeResultPubSubType> results_;
 };
 
-/// The first capability the embedded planner needs; a deployment is ready when it is announced.
-inline constexpr const char* kReadyCapability = "pick_place";
+/// The capability a deployment must announce to be ready for `arms`: vla_act when every arm is the bare
+/// policy, else pick_place (the first one the embedded planner needs).
+inline std::string ready_capability(const std::vector<std::string>& arms) {
+  for (const auto& a : arms)
+    if (a != "bare") return "pick_place";
+  return "vla_act";
+}
 
-/// Waits `ready` for a live deployment with an idle channel (`want`, or any); when none answers, starts
+/// Waits `ready` for a live deployment with an idle channel (`want`, or any) that announces `capability`;
+/// when none answers, starts
 /// `launch_file` (default deploy/local.yaml) and waits up to 20 s. Returns the channel or nullopt (with an
 /// error on stderr naming the logs); `local` holds a deployment this call started.
-std::optional<std::uint32_t> ensure_deployment(Client& client, std::optional<std::uint32_t> want,
-                                               const std::string& launch_file, std::chrono::milliseconds ready,
-                                               bool quiet, std::unique_ptr<Deployment>& local);
+std::optional<std::uint32_t> ensure_deployment(Client& client, const std::string& capability,
+                                               std::optional<std::uint32_t> want, const std::string& launch_file,
+                                               std::chrono::milliseconds ready, bool quiet,
+                                               std::unique_ptr<Deployment>& local);
 
 }  // namespace dh::cli

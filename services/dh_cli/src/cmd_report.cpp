@@ -20,6 +20,7 @@ int cmd_report(const ReportArgs& a) {
   options.bootstrap_resamples = a.resamples;
   options.bootstrap_seed = a.bootstrap_seed;
   options.plots = a.plots;
+  options.policy_dir = a.policy_dir;
   if (a.json && a.out.empty()) {
     std::cout << report::summarize(sources, options).dump() << "\n";
     return 0;

@@ -25,7 +25,7 @@ int cmd_run(const RunArgs& a) {
   dds::Participant participant("dh_cli");
   Client client(participant);
   std::unique_ptr<Deployment> local;
-  const auto ch = ensure_deployment(client, a.channel, a.launch_file, std::chrono::milliseconds(a.ready_ms), a.json, local);
+  const auto ch = ensure_deployment(client, ready_capability({a.arm}), a.channel, a.launch_file, std::chrono::milliseconds(a.ready_ms), a.json, local);
   if (!ch) return 1;
   msg::EpisodeRequest r;
   r.channel(*ch);
@@ -68,7 +68,8 @@ int cmd_launch(const std::string& file) {
   Deployment d(load_launch_file(path), paths::bin_dir(), paths::runs_dir() / "logs");
   std::cerr << "deployment " << path.string() << " running (logs in " << d.log_dir().string() << "); Ctrl-C stops it\n";
   while (!shutdown_requested()) {
-    for (const auto& name : d.exited()) std::cerr << "service '" << name << "' exited\n";
+    for (const auto& name : d.exited())
+      std::cerr << "service '" << name << "' exited; why: " << (d.log_dir() / (name + ".log")).string() << "\n";
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
   return 0;

@@ -37,7 +37,7 @@ int cmd_campaign(const CampaignArgs& a);
 
 struct ReportArgs {
   std::vector<std::string> dbs;
-  std::string out, title = "DynaHarness campaign report";
+  std::string out, title = "DynaHarness campaign report", policy_dir;
   unsigned resamples = 20000;
   std::uint64_t bootstrap_seed = 20260926;
   bool plots = true, json = false;
@@ -50,6 +50,15 @@ struct SwapArgs {
   bool json = false;
 };
 int cmd_swap(const SwapArgs& a);
+
+struct TrainPolicyArgs {
+  std::string config, out;
+  std::optional<std::uint64_t> seed;
+  std::optional<unsigned> epochs;
+  bool reuse_demos = false;
+  std::vector<std::string> add_demos;
+};
+int cmd_train_policy(const TrainPolicyArgs& a);
 
 int cmd_stats_wilson(unsigned k, unsigned n, bool json);
 int cmd_stats_sign(unsigned wins, unsigned losses, bool json);

@@ -8,6 +8,7 @@
 //   dh stats wilson K N | dh stats sign W L [--json]
 //   dh seeds --fresh N --salt S              a fresh block of seeds nobody tuned on
 //   dh swap CAPABILITY [--library FILE]      start a new instance, then drain and stop the old ones
+//   dh train-policy [--config FILE]          demonstrations, then the embedded policy's weight file
 //   dh launch [FILE]                         runs a deployment in the foreground until Ctrl-C
 // Exit codes: 0 done (an episode that fails is a result), 1 infrastructure failure or interrupted
 // campaign, 2 bad input (unknown cell/task/arm, bad config, malformed option, foreign database).
@@ -67,6 +68,7 @@ int main(int argc, char** argv) {
   report->add_option("--resamples", rep.resamples, "cell-bootstrap resamples (default 20000)");
   report->add_option("--bootstrap-seed", rep.bootstrap_seed, "seed of the cell bootstrap (default 20260926)");
   report->add_flag("--no-plots", no_plots, "skip the gnuplot PNGs");
+  report->add_option("--policy", rep.policy_dir, "a dh train-policy output folder: describe the policy and its loss curve");
   report->add_flag("--json", rep.json, "print the report's JSON object on stdout");
 
   auto* stats = app.add_subcommand("stats", "the report's statistics by hand");
@@ -97,6 +99,17 @@ int main(int argc, char** argv) {
   swap->add_option("--drain-wait-s", swap_args.drain_wait_s, "how long to wait for old instances to drain and exit");
   swap->add_flag("--json", swap_args.json, "one JSON object on stdout");
 
+  TrainPolicyArgs train_args;
+  auto* train = app.add_subcommand("train-policy", "collect demonstrations and train the embedded vla_act policy");
+  train->add_option("--config", train_args.config, "policy YAML (default configs/policy.yaml)");
+  train->add_option("--out", train_args.out, "weight file (default DH_RUNS_DIR/<output of the config>)");
+  train->add_option("--seed", train_args.seed,
+                    "seed of the training and of the demonstrations' action noise (default: the config's)");
+  train->add_option("--epochs", train_args.epochs, "epochs (default: the config's)");
+  train->add_flag("--reuse-demos", train_args.reuse_demos,
+                  "train on the demonstrations saved beside the weight file (demos.bin) instead of collecting");
+  train->add_option("--add-demos", train_args.add_demos, "also train on this demonstration file (repeatable)");
+
   std::string deploy;
   auto* launch = app.add_subcommand("launch", "run a deployment until Ctrl-C");
   launch->add_option("file", deploy, "launch YAML (default deploy/local.yaml)");
@@ -112,6 +125,7 @@ int main(int argc, char** argv) {
     if (*seeds) return cmd_seeds(fresh, salt, json);
     if (*swap) return cmd_swap(swap_args);
     if (*launch) return cmd_launch(deploy);
+    if (*train) return cmd_train_policy(train_args);
   } catch (const dh::ConfigError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;

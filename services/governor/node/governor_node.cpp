@@ -9,10 +9,12 @@
 // Writes  rt/dh/planner/request (Planner), rt/dh/command (Command), rt/dh/lease (Lease, deadline 1 s),
 //         rt/dh/episode/result  (Episode)
 // Evidence: one JSON-lines file per episode under --runs-dir/evidence/.
-// Parameters: --config FILE (default configs/governor.yaml), --runs-dir DIR (default DH_RUNS_DIR or ./runs).
+// Parameters: --config FILE (default configs/governor.yaml), --runs-dir DIR (default DH_RUNS_DIR or ./runs),
+// --planner-timeout-ms N (overrides the YAML's planner_timeout_ms).
 #include <CLI/CLI.hpp>
 
 #include <map>
+#include <optional>
 #include <variant>
 
 #include "dh/common/arms.hpp"
@@ -261,13 +263,18 @@ int run(int argc, char** argv) {
   std::string config, runs;
   app.add_option("--config", config, "governor YAML (default: configs/governor.yaml)");
   app.add_option("--runs-dir", runs, "where evidence goes (default: DH_RUNS_DIR or ./runs)");
+  std::optional<unsigned> planner_timeout_ms;
+  app.add_option("--planner-timeout-ms", planner_timeout_ms,
+                 "overrides planner_timeout_ms of the YAML (a model server's planner needs more than its own timeout)");
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("dh_governor");
   return run_service(*log, [&] {
     if (config.empty()) config = (paths::config_dir() / "governor.yaml").string();
     const std::filesystem::path runs_dir = runs.empty() ? paths::runs_dir() : std::filesystem::path(runs);
     dds::Participant participant("dh_governor");
-    Governor gov(participant, gov::load_config(config), load_arms(config), std::filesystem::absolute(runs_dir), log);
+    gov::GovernorConfig gc = gov::load_config(config);
+    if (planner_timeout_ms) gc.planner_timeout = std::chrono::milliseconds(*planner_timeout_ms);
+    Governor gov(participant, gc, load_arms(config), std::filesystem::absolute(runs_dir), log);
     EventQueue<Event> q;
     auto push = [&q](auto m) { q.push(std::move(m)); };
     dds::Reader<msg::EpisodeRequestPubSubType> r1(participant, topics::kEpisodeRequest, dds::Qos::Episode,

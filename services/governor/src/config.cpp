@@ -30,6 +30,7 @@ GovernorConfig load_config(const std::filesystem::path& file) {
 GovernorConfig for_arm(GovernorConfig g, const ArmSpec& arm) {
   g.mode = arm.mode == "static" ? ExecutorMode::Static
            : arm.mode == "seq"  ? ExecutorMode::Seq
+           : arm.mode == "bare" ? ExecutorMode::Bare
                                 : ExecutorMode::Full;
   g.masked = {arm.masked.begin(), arm.masked.end()};
   g.latch = arm.latch;

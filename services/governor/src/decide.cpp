@@ -59,6 +59,26 @@ Decision fixed_fallback(const DecisionState& s, const DecisionLimits& limits, co
   return {DecisionKind::GiveUp, what + "; no replan left"};
 }
 
+// The bare policy owns the episode: it runs until the verdict latches or the budget ends; a command that
+// ended early (the policy failed, its instance was replaced) is handed the rest again, within the retries.
+Decision decide_bare(const DecisionState& s, const DecisionLimits& limits) {
+  switch (s.phase) {
+    case CommandPhase::Running: return {DecisionKind::Continue, "bare policy running"};
+    case CommandPhase::Refused: return {DecisionKind::GiveUp, "the policy refused the episode; nothing else may act"};
+    case CommandPhase::Lost:
+      if (!s.other_instance_alive) return {DecisionKind::GiveUp, "the policy's instance is lost and no other is alive"};
+      return {DecisionKind::Retry, "policy instance lost; hand the rest to the newest live instance"};
+    case CommandPhase::Completed:
+    case CommandPhase::Failed:
+    case CommandPhase::Expired:
+      if (s.failures_of_step > limits.max_retries)
+        return {DecisionKind::GiveUp, std::string("policy command ") + to_string(s.phase) + " again; retries spent"};
+      return {DecisionKind::Retry, std::string("policy command ") + to_string(s.phase) + "; hand it the rest of the episode"};
+    case CommandPhase::None: break;
+  }
+  return {DecisionKind::GiveUp, "no command and nothing to decide"};
+}
+
 Decision after_failure(const DecisionState& s, const DecisionLimits& limits) {
   const std::string what = std::string("command ") + to_string(s.phase);
   const bool retry_left = s.failures_of_step <= limits.max_retries;
@@ -89,6 +109,7 @@ Decision after_failure(const DecisionState& s, const DecisionLimits& limits) {
 Decision decide(const DecisionState& s, const DecisionLimits& limits) {
   if (s.latch_enabled && s.latched) return {DecisionKind::StopSuccess, "task verdict latched"};
   if (s.step >= s.budget_steps) return {DecisionKind::GiveUp, "episode budget exhausted"};
+  if (s.mode == ExecutorMode::Bare) return decide_bare(s, limits);
   switch (s.phase) {
     case CommandPhase::Running:
       if (s.stagnant_decisions < limits.stagnation_decisions) return {DecisionKind::Continue, "command running"};

@@ -30,6 +30,7 @@ EpisodeMachine::EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, c
     : spec_(std::move(spec)), config_(config), registry_(registry), evidence_(evidence) {
   deadline_ = now + config_.first_observation_timeout;
   deadline_what_ = "first observation from the simulator channel";
+  capability_wait_until_ = now + config_.ack_timeout;
   evidence_.append("governor", "episode_start",
                    {{"episode_id", spec_.episode_id}, {"channel", spec_.channel},
                     {"instruction", spec_.instruction}, {"arm", spec_.arm},
@@ -54,6 +55,15 @@ Effects EpisodeMachine::on_observation(const Observation& obs, Clock::time_point
   have_obs_ = true;
   if (phase_ == Phase::WaitingFirstObservation) {
     evidence_.append("governor", "observation", obs_summary(obs));
+    if (config_.mode == ExecutorMode::Bare) {
+      Advice a;
+      a.capability = "vla_act";
+      a.args = {{"instruction", spec_.instruction}};
+      a.rationale = "bare arm: the policy owns the episode";
+      a.backend = "none";
+      last_advice_ = a;
+      return ground_and_dispatch(a, now);
+    }
     return request_plan("episode start", now);
   }
   if (phase_ != Phase::Running) return {};
@@ -115,10 +125,26 @@ Effects EpisodeMachine::on_advice(const Advice& advice, Clock::time_point now) {
 Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_point now) {
   const std::uint32_t remaining = spec_.budget_steps > last_obs_.step ? spec_.budget_steps - last_obs_.step : 0;
   const std::string command_id = spec_.episode_id + "/c" + std::to_string(commands_);
-  const GroundingResult g = ground({advice, registry_, last_obs_, remaining, config_.masked, command_id,
+  GroundingResult g = ground({advice, registry_, last_obs_, remaining, config_.masked, command_id,
                                     config_.decision_period});
   if (!advice.refused) tried_[history::signature(advice.args)].insert(advice.capability);
   if (!g.command) {
+    // An episode can reach this governor before the policy's announcement does (they travel on different
+    // topics); the bare arm, which has nothing else to run, waits for it a little.
+    if (config_.mode == ExecutorMode::Bare && now < capability_wait_until_ &&
+        (g.refusal == Refusal::UnknownCapability || g.refusal == Refusal::CapabilityNotAlive)) {
+      if (phase_ != Phase::AwaitingCapability)
+        evidence_.append("governor", "awaiting_capability", {{"step", last_obs_.step}, {"reason", g.reason}});
+      phase_ = Phase::AwaitingCapability;
+      deadline_ = std::min(capability_wait_until_, now + std::chrono::milliseconds(50));
+      deadline_what_ = "announcement of '" + advice.capability + "'";
+      return {};
+    }
+    if (config_.mode == ExecutorMode::Bare) {
+      evidence_.append("governor", "refusal", {{"step", last_obs_.step}, {"refusal", to_string(g.refusal)},
+                                               {"reason", g.reason}, {"capability", advice.capability}});
+      return end(false, "gave_up", "bare arm: nothing but the policy may act, and " + g.reason);
+    }
     if (g.refusal == Refusal::PlannerRefused || g.refusal == Refusal::Budget) return refuse(g.refusal, g.reason, now);
     // The advised capability cannot serve this step here: the executor decides what instead.
     ++refusals_total_;
@@ -134,6 +160,7 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
   }
   ++commands_;
   refusals_in_row_ = 0;
+  if (config_.mode == ExecutorMode::Bare) g.command->budget_steps = remaining;  // the rest of the episode
   const Command& c = *g.command;
   evidence_.append("governor", "grounding",
                    {{"step", last_obs_.step}, {"result", "grounded"}, {"command_id", c.command_id},
@@ -346,7 +373,9 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
     case DecisionKind::HandToVla: {
       const Effects stop = stop_command();
       Advice a = fast(*last_advice_);
+      tried_[sig].insert("vla_act");  // this step is handed over once
       a.capability = "vla_act";
+      a.args = {{"instruction", spec_.instruction}};  // the policy was trained on whole instructions
       last_advice_ = a;
       return then(stop, ground_and_dispatch(a, now));
     }
@@ -417,11 +446,14 @@ Effects EpisodeMachine::end(bool success, const std::string& outcome_in, const s
 
 Effects EpisodeMachine::on_tick(Clock::time_point now) {
   if (phase_ == Phase::Ended || now < deadline_) return {};
+  if (phase_ == Phase::AwaitingCapability) return ground_and_dispatch(*last_advice_, now);  // refused once the wait is over
   const std::string what = deadline_what_;
   evidence_.append("governor", "deadline_missed", {{"step", last_obs_.step}, {"waiting_for", what}});
   switch (phase_) {
     case Phase::WaitingFirstObservation:
       return end(false, "infrastructure", "no " + what);
+    case Phase::AwaitingCapability:
+      break;  // handled above
     case Phase::Planning:
       pending_request_.clear();
       return refuse(Refusal::PlannerRefused, "planner timeout: no " + what, now);

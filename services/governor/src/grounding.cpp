@@ -69,7 +69,8 @@ GroundingResult ground(const GroundingInput& in) {
   if (!info)
     return refuse(Refusal::CapabilityNotAlive,
                   "every instance of '" + a.capability + "' lost its liveliness lease");
-  // Declared roles: "object" takes a scene entity, "state:open|closed" one of the listed symbols.
+  // Declared roles: "object" takes a scene entity, "state:open|closed" one of the listed symbols,
+  // "instruction:*" any non-empty text.
   for (const auto& decl : info->arguments) {
     const auto colon = decl.find(':');
     const std::string role = decl.substr(0, colon);
@@ -78,6 +79,10 @@ GroundingResult ground(const GroundingInput& in) {
     if (colon == std::string::npos) {
       if (!in.obs.entity(*value))
         return refuse(Refusal::UnresolvedEntity, "argument " + role + "='" + *value + "' names no entity in the scene");
+      continue;
+    }
+    if (decl.substr(colon + 1) == "*") {  // free text, e.g. vla_act's instruction
+      if (value->empty()) return refuse(Refusal::MissingArgument, "argument " + role + " of '" + a.capability + "' is empty");
       continue;
     }
     const std::string choices = "|" + decl.substr(colon + 1) + "|";

@@ -12,20 +12,23 @@ namespace dh::inproc {
 
 Stack::Stack(const std::filesystem::path& config_dir)
     : config_(gov::load_config(config_dir / "governor.yaml")), arms_(load_arms(config_dir / "governor.yaml")) {
-  for (auto& def : cap::all_capabilities()) {
-    const cap::Descriptor d = cap::load_descriptor(config_dir / "library" / (def.name + ".yaml"), def);
-    gov::CapabilityInfo info;
-    info.capability = d.capability;
-    info.instance = d.capability + "@inproc";
-    info.version = d.version;
-    info.arguments = d.arguments;
-    info.preconditions = d.preconditions;
-    info.parameters = d.parameters;
-    info.cost_steps = static_cast<std::uint32_t>(d.cost_steps);
-    info.started_ns = 1;
-    registry_.announce(info);
-    defs_.emplace(def.name, std::move(def));
-  }
+  for (auto& def : cap::all_capabilities()) add_capability(std::move(def), config_dir / "library");
+}
+
+void Stack::add_capability(cap::CapabilityDef def, const std::filesystem::path& descriptor) {
+  const auto file = std::filesystem::is_directory(descriptor) ? descriptor / (def.name + ".yaml") : descriptor;
+  const cap::Descriptor d = cap::load_descriptor(file, def);
+  gov::CapabilityInfo info;
+  info.capability = d.capability;
+  info.instance = d.capability + "@inproc";
+  info.version = d.version;
+  info.arguments = d.arguments;
+  info.preconditions = d.preconditions;
+  info.parameters = d.parameters;
+  info.cost_steps = static_cast<std::uint32_t>(d.cost_steps);
+  info.started_ns = 1;
+  registry_.announce(info);
+  defs_.insert_or_assign(def.name, std::move(def));
 }
 
 void Stack::set_parameters(const std::string& capability, const cap::Theta& theta) {
@@ -43,7 +46,7 @@ sim::Workcell& Stack::cell_for(const TaskDef& task) {
 }
 
 EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::string& arm,
-                          const std::filesystem::path& evidence_path) {
+                          const std::filesystem::path& evidence_path, const StepTap& tap) {
   sim::Workcell& cell = cell_for(task);
   cell.reset(seed, task.goal);
   std::filesystem::remove(evidence_path);
@@ -132,7 +135,10 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
       apply(machine.on_status(st, gov::Clock::now()));
       continue;
     }
-    for (const auto& e : cell.step(s.action))
+    if (tap.on_action) tap.on_action(obs, running->command.capability, s.action);
+    std::array<double, 7> applied = s.action;
+    if (tap.perturb) tap.perturb(applied);
+    for (const auto& e : cell.step(applied))
       machine.on_seam_event(step, running->command.command_id,
                             e.kind == sim::StepEvent::SafetyHold ? "SEAM_SAFETY_HOLD" : "SEAM_ACTION_CLAMPED", e.reason);
     ++step;

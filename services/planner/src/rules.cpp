@@ -310,9 +310,17 @@ PlannerAdvice plan_rules(const PlanContext& ctx) {
   PlannerAdvice a;
   a.capability = open.front().capability;
   a.args = open.front().args;
-  if (!eligible(ctx, a.capability))
-    return refusal(a.capability + " is needed for step " + history::signature(a.args) +
-                   " but no eligible capability provides it");
+  if (!eligible(ctx, a.capability)) {
+    if (!eligible(ctx, "vla_act"))
+      return refusal(a.capability + " is needed for step " + history::signature(a.args) +
+                     " but no eligible capability provides it");
+    // No analytic route: the learned policy is handed the instruction (it was trained on whole ones).
+    a.rationale = a.capability + " is not eligible for step " + history::signature(a.args) +
+                  ": hand the instruction to vla_act";
+    a.capability = "vla_act";
+    a.args = {{"instruction", ctx.instruction}};
+    return a;
+  }
   a.rationale = "step " + std::to_string(steps.size() - open.size() + 1) + " of " + std::to_string(steps.size()) +
                 ": " + a.capability + " " + history::signature(a.args);
   a.rest.assign(open.begin() + 1, open.end());

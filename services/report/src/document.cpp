@@ -183,10 +183,41 @@ void mechanisms(const json& s, Document& doc) {
     t.rows.push_back(std::move(row));
   }
   doc.push_back(std::move(t));
-  Table c{{"Arm", "Capability", "Dispatched", "Completed"}, {}};
+  Table c{{"Arm", "Capability", "Dispatched", "Completed", "Steps in control"}, {}};
   for (const json& m : s["mechanisms"])
     for (const json& k : m["commands"])
-      c.rows.push_back({m["arm"], k["capability"], count(k["dispatched"]), count(k["completed"])});
+      c.rows.push_back({m["arm"], k["capability"], count(k["dispatched"]), count(k["completed"]), count(k["steps"])});
+  doc.push_back(std::move(c));
+  doc.push_back(Paragraph{
+      "Share of control steps under the policy (vla_act), from each dispatch to the next dispatch or the "
+      "episode's end:"});
+  Table p{{"Arm", "Steps", "Under vla_act"}, {}};
+  for (const json& m : s["mechanisms"])
+    p.rows.push_back({m["arm"], count(m["steps"]), percent(m["policy_step_share"])});
+  doc.push_back(std::move(p));
+}
+
+void policy(const json& s, Document& doc) {
+  const json& p = s["policy"];
+  if (p.is_null()) return;
+  doc.push_back(Heading{2, "Embedded policy (vla_act)"});
+  if (p.contains("error")) {
+    doc.push_back(Paragraph{p["error"].get<std::string>()});
+    return;
+  }
+  const json& t = p["training"];
+  const json& d = t.value("demonstrations", json::object());
+  doc.push_back(Paragraph{fmt::format(
+      "Weights {} ({}), SHA-256 {}. Behaviour cloning of the analytic capabilities: {} demonstrations ({} steps), "
+      "MLP hidden {}, {} actions per inference, {} epochs, seed {}, {} training and {} held-out samples; "
+      "trained in {:.0f} s.",
+      p.value("weights", ""), p.value("version", ""), p.value("sha256", ""), d.value("demonstrations", 0),
+      d.value("steps", 0), t.value("hidden", json::array()).dump(), t.value("chunk", 0), t.value("epochs", 0),
+      t.value("seed", 0),
+      t.value("train_samples", 0), t.value("validation_samples", 0), p.value("train_seconds", 0.0))});
+  Table c{{"Epoch", "Train MSE", "Held-out MSE"}, {}};
+  for (const json& e : p["curve"])
+    c.rows.push_back({std::to_string(e["epoch"].get<int>()), fixed(e["train"], 5), fixed(e["validation"], 5)});
   doc.push_back(std::move(c));
 }
 
@@ -202,6 +233,7 @@ Document build_document(const json& summary, const PlotResult& plots) {
   wall_clock(summary, plots, doc);
   latency(summary, doc);
   mechanisms(summary, doc);
+  policy(summary, doc);
   return doc;
 }
 

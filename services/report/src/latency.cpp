@@ -1,5 +1,7 @@
 #include "latency.hpp"
 
+#include <optional>
+
 #include "dh/common/evidence.hpp"
 
 #include <cstdint>
@@ -34,6 +36,7 @@ void Mechanisms::merge(const Mechanisms& other) {
     commands[c].first += n.first;
     commands[c].second += n.second;
   }
+  for (const auto& [c, n] : other.steps) steps[c] += n;
 }
 
 EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechanisms& mech) {
@@ -48,6 +51,7 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
   }
   std::map<std::string, std::int64_t> open_requests;  // request_id (dumped) → t_wall_ns of the request
   std::map<std::string, std::string> capability_of;   // command_id → capability
+  std::optional<std::pair<std::string, long>> under;  // the capability in control and since which step
   ++mech.episodes;
   auto text = [](const nlohmann::json& r, const char* key) {
     const auto it = r.find(key);
@@ -65,6 +69,12 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
     } else if (kind == "grounding" && text(r, "result") == "grounded") {
       capability_of[text(r, "command_id")] = text(r, "capability");
       ++mech.commands[text(r, "capability")].first;
+    } else if ((kind == "dispatch" || kind == "episode_end") && r.contains("step") && r["step"].is_number()) {
+      const long step = r["step"].get<long>();
+      if (under && step > under->second) mech.steps[under->first] += static_cast<unsigned long>(step - under->second);
+      under.reset();
+      const auto c = capability_of.find(text(r, "command_id"));
+      if (kind == "dispatch" && c != capability_of.end()) under = {{c->second, step}};
     } else if (kind == "command_status") {
       const auto c = capability_of.find(text(r, "command_id"));
       const std::string state = text(r, "state");

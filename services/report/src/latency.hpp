@@ -21,6 +21,8 @@ struct Mechanisms {
                                             ///< failure or stagnation; "next_step" after a completion)
   unsigned refusals = 0;                    ///< refusals at grounding or by a capability before motion
   std::map<std::string, std::pair<unsigned, unsigned>> commands;  ///< capability -> (dispatched, completed)
+  /// capability -> control steps under its commands: from a dispatch to the next dispatch or the end.
+  std::map<std::string, unsigned long> steps;
   void merge(const Mechanisms& other);
 };
 

@@ -4,6 +4,8 @@
 #include "latency.hpp"
 
 #include <algorithm>
+#include <fstream>
+#include <sstream>
 #include <cmath>
 #include <map>
 #include <numeric>
@@ -97,6 +99,36 @@ json percentiles_json(const std::vector<double>& ms) {
   return {{"count", ms.size()}, {"p50_ms", q(0.5)}, {"p90_ms", q(0.9)}, {"p99_ms", q(0.99)}};
 }
 
+json policy_json(const std::filesystem::path& dir) {
+  const auto manifest = dir / "train.json";
+  std::ifstream in(manifest);
+  if (!in) return {{"error", "no " + manifest.string() + ": run `dh train-policy` or pass its output folder"}};
+  json p;
+  try {
+    p = json::parse(in);
+  } catch (const json::exception& e) {
+    return {{"error", manifest.string() + " is not JSON: " + e.what()}};
+  }
+  json curve = json::array();
+  std::ifstream csv(dir / p.value("loss_curve", "loss.csv"));
+  std::string line;
+  std::getline(csv, line);  // header
+  while (std::getline(csv, line)) {
+    std::istringstream row(line);
+    std::string epoch, train, validation;
+    if (!std::getline(row, epoch, ',') || !std::getline(row, train, ',') || !std::getline(row, validation)) continue;
+    try {
+      const double v = std::stod(validation);  // "nan" without held-out data
+      curve.push_back({{"epoch", std::stoi(epoch)}, {"train", std::stod(train)},
+                       {"validation", std::isnan(v) ? json(nullptr) : json(v)}});
+    } catch (const std::logic_error&) {  // a torn last line: the curve up to it
+    }
+  }
+  return {{"version", p.value("version", "")}, {"sha256", p.value("sha256", "")}, {"weights", p.value("weights", "")},
+          {"training", p.value("training", json::object())}, {"train_seconds", p.value("train_seconds", 0.0)},
+          {"curve", curve}};
+}
+
 json wall_clock_json(const std::vector<double>& wall_s) {
   const double total = std::accumulate(wall_s.begin(), wall_s.end(), 0.0);
   return {{"episodes", wall_s.size()},
@@ -178,10 +210,18 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
     all_latencies.merge(l);
     const Mechanisms& m = mechanisms_by_arm.at(arm);
     json commands = json::array();
-    for (const auto& [capability, n] : m.commands)
-      commands.push_back({{"capability", capability}, {"dispatched", n.first}, {"completed", n.second}});
+    unsigned long all_steps = 0;
+    for (const auto& [capability, n] : m.steps) all_steps += n;
+    for (const auto& [capability, n] : m.commands) {
+      const auto st = m.steps.find(capability);
+      commands.push_back({{"capability", capability}, {"dispatched", n.first}, {"completed", n.second},
+                          {"steps", st == m.steps.end() ? 0ul : st->second}});
+    }
+    const auto policy = m.steps.find("vla_act");
+    const double share = all_steps ? static_cast<double>(policy == m.steps.end() ? 0ul : policy->second) / all_steps : NAN;
     mechanisms.push_back({{"arm", arm}, {"episodes", m.episodes}, {"decisions", m.decisions},
-                          {"refusals", m.refusals}, {"commands", commands}});
+                          {"refusals", m.refusals}, {"commands", commands}, {"steps", all_steps},
+                          {"policy_step_share", number_or_null(share)}});
   }
 
   return {{"title", options.title},
@@ -208,7 +248,8 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
            {{"read", evidence[EvidenceStatus::Read]},
             {"missing", evidence[EvidenceStatus::Missing]},
             {"not_recorded", evidence[EvidenceStatus::NotRecorded]}}},
-          {"evidence_missing", evidence[EvidenceStatus::Missing]}};
+          {"evidence_missing", evidence[EvidenceStatus::Missing]},
+          {"policy", options.policy_dir.empty() ? json(nullptr) : policy_json(options.policy_dir)}};
 }
 
 }  // namespace dh::report

@@ -8,12 +8,17 @@
 //         rt/dh/verdict         (Verdict)   every change of the task predicate
 //         rt/dh/seam/event      (Status)    rejected actions and safety corrections, with reasons
 //         rt/dh/sim/channel     (Episode)   idle/running per channel, so clients find a free one
+//         rt/dh/camera          (Camera)    with --cameras: each camera's RGB8 image at episode start and
+//                                           every --camera-every steps, before that step's observation
 // Parameters: --channels K, --first-channel C, --lease-grace-ms (how long an action waits for a
 // lease renewal before it is rejected), --abandon-after-s (a running episode that has had no applied
 // action, lease or request for this long is abandoned: its governor is gone; the channel goes idle and
-// says why), --name.
+// says why), --name, --cameras agentview,wrist (default none: nothing is rendered), --camera-every N
+// (steps, default 5), --camera-size S (S x S pixels, default 224). Each channel renders on its own
+// thread with its own OpenGL context (EGL surfaceless); without one the worker does not start.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <map>
 #include <memory>
@@ -28,11 +33,13 @@
 #include "dh/common/service.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/common/topics.hpp"
+#include "dh/msg/cameraPubSubTypes.h"
 #include "dh/msg/command.h"
 #include "dh/msg/commandPubSubTypes.h"
 #include "dh/msg/episode.h"
 #include "dh/msg/episodePubSubTypes.h"
 #include "dh/msg/robotPubSubTypes.h"
+#include "dh/sim/camera.hpp"
 #include "dh/sim/seam.hpp"
 #include "dh/sim/workcell.hpp"
 
@@ -49,29 +56,53 @@ struct Writers {
   dds::Writer<msg::VerdictPubSubType> verdict;
   dds::Writer<msg::SeamEventPubSubType> seam;
   dds::Writer<msg::ChannelStatusPubSubType> channel;
-  explicit Writers(dds::Participant& p)
+  std::unique_ptr<dds::Writer<msg::CameraImagePubSubType>> camera;  ///< only with --cameras
+  Writers(dds::Participant& p, bool cameras)
       : obs(p, topics::kObservation, dds::Qos::Observation),
         verdict(p, topics::kVerdict, dds::Qos::Verdict),
         seam(p, topics::kSeamEvent, dds::Qos::Status),
-        channel(p, topics::kChannelStatus, dds::Qos::Episode) {}
+        channel(p, topics::kChannelStatus, dds::Qos::Episode) {
+    if (cameras)
+      camera = std::make_unique<dds::Writer<msg::CameraImagePubSubType>>(p, topics::kCamera, dds::Qos::Camera);
+  }
+};
+
+/// A channel's cameras: its own OpenGL context (made current on the channel's thread) and what to render.
+struct Rendering {
+  std::unique_ptr<sim::GlContext> gl;  ///< null: no cameras
+  std::vector<std::string> cameras;
+  unsigned every = 5;
+  int size = sim::kDefaultCameraSize;
 };
 
 class Channel {
  public:
   Channel(std::uint32_t id, std::string worker, const std::map<std::string, SuiteDef>& suites, Writers& w,
-          std::chrono::milliseconds grace, std::chrono::seconds abandon_after, std::shared_ptr<spdlog::logger> log)
+          std::chrono::milliseconds grace, std::chrono::seconds abandon_after, Rendering rendering,
+          std::shared_ptr<spdlog::logger> log)
       : id_(id), worker_(std::move(worker)), suites_(suites), w_(w), grace_(grace), abandon_after_(abandon_after),
-        log_(std::move(log)) {}
+        render_(std::move(rendering)), log_(std::move(log)) {}
 
   EventQueue<Event>& queue() { return queue_; }
 
   void run() {
+    if (render_.gl) {
+      try {
+        render_.gl->make_current();
+      } catch (const std::exception& e) {
+        log_->error("channel={} cannot render its cameras: {}", id_, e.what());
+        request_shutdown();
+        return;
+      }
+    }
     announce(msg::CHANNEL_IDLE);
     while (!shutdown_requested()) {
       if (auto e = queue_.pop(std::chrono::milliseconds(20))) std::visit([&](auto& ev) { handle(ev); }, *e);
       try_pending();
       abandon_if_orphaned();
     }
+    rig_.reset();  // GPU state goes on this thread, while its context is current
+    if (render_.gl) render_.gl->release();
   }
 
  private:
@@ -104,6 +135,13 @@ class Channel {
       physics_s_ = std::chrono::duration<double>(Clock::now() - t0).count();
       cell_ = cell.get();
       goal_text_ = goal_text(task.goal);
+      if (render_.gl && (!rig_ || rig_->model() != cell_->model())) {
+        rig_.reset();  // one scene's GPU state at a time (a few MB each)
+        const auto r0 = Clock::now();
+        rig_ = std::make_unique<sim::CameraRig>(*cell_, render_.cameras, render_.size, render_.size);
+        log_->debug("channel={} camera rig for {} in {:.1f} ms", id_, sim::task_scene_key(task),
+                    std::chrono::duration<double, std::milli>(Clock::now() - r0).count());
+      }
     } catch (const std::exception& e) {
       log_->error("channel={} episode={} cannot start: {}", id_, r.episode_id(), e.what());
       finish(r.episode_id(), e.what());
@@ -115,6 +153,8 @@ class Channel {
     lease_ = {};
     pending_.reset();
     predicate_ = false;
+    render_s_ = 0;
+    images_ = 0;
     last_sign_of_life_ = Clock::now();
     log_->info("channel={} episode={} suite={} task={} seed={} started", id_, episode_, r.suite(), r.task(), r.seed());
     announce(msg::CHANNEL_RUNNING);
@@ -158,6 +198,9 @@ class Channel {
     if (r.episode_id() != episode_) return;
     log_->info("channel={} episode={} ended success={} steps={} physics_s={:.3f}", id_, episode_, r.success(),
                r.steps(), physics_s_);
+    if (images_)
+      log_->info("channel={} episode={} {} camera images, {:.1f} ms each (render and publish)", id_, episode_,
+                 images_, 1e3 * render_s_ / images_);
     finish(episode_, "");
   }
 
@@ -175,6 +218,7 @@ class Channel {
 
   // A live governor ends an episode before this: its longest wait without leases is 4 refused plans
   // of 10 s each (configs/governor.yaml), well under the 60 s default. So a dead governor is the cause.
+  // (A model-server planner waits longer: deploy/local_openai.yaml raises --abandon-after-s with it.)
   void abandon_if_orphaned() {
     if (episode_.empty() || Clock::now() - last_sign_of_life_ < abandon_after_) return;
     const std::string why = "no lease, request or applied action for " + std::to_string(abandon_after_.count()) +
@@ -224,7 +268,27 @@ class Channel {
     publish_observation();
   }
 
+  /// Every camera's image of the current state, before the observation of the same step.
+  void publish_images() {
+    const auto t0 = Clock::now();
+    for (std::size_t i = 0; i < rig_->cameras().size(); ++i) {
+      rig_->render(i, image_);
+      image_msg_.channel(id_);
+      image_msg_.camera(rig_->cameras()[i]);
+      image_msg_.episode_id(episode_);
+      image_msg_.step(step_);
+      image_msg_.width(static_cast<std::uint32_t>(image_.width));
+      image_msg_.height(static_cast<std::uint32_t>(image_.height));
+      image_msg_.encoding("rgb8");
+      image_msg_.data().swap(image_.rgb);  // no copy; render() refills the other buffer next time
+      w_.camera->write(image_msg_);
+      ++images_;
+    }
+    render_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
+  }
+
   void publish_observation() {
+    if (rig_ && step_ % render_.every == 0) publish_images();
     Observation o = cell_->observe();
     o.step = step_;
     o.budget_steps = budget_;
@@ -258,6 +322,12 @@ class Channel {
   Writers& w_;
   std::chrono::milliseconds grace_;
   std::chrono::seconds abandon_after_;
+  Rendering render_;
+  std::unique_ptr<sim::CameraRig> rig_;  ///< the current cell's cameras (with --cameras)
+  sim::Image image_;
+  msg::CameraImage image_msg_;
+  double render_s_ = 0;  ///< wall time rendering and publishing images in the running episode
+  std::uint32_t images_ = 0;
   Clock::time_point last_sign_of_life_;
   std::shared_ptr<spdlog::logger> log_;
   EventQueue<Event> queue_;
@@ -278,22 +348,50 @@ int run(int argc, char** argv) {
   CLI::App app{"dh_sim_worker: MuJoCo workcell channels behind the robot seam"};
   unsigned channels = 1, first = 0, grace_ms = 1000, abandon_after_s = 60;
   std::string name = "sim_worker";
+  std::vector<std::string> cameras;
+  unsigned camera_every = 5;
+  int camera_size = sim::kDefaultCameraSize;
   app.add_option("--channels", channels, "number of channels (workcells) in this process")->check(CLI::Range(1, 64));
   app.add_option("--first-channel", first, "id of the first channel");
   app.add_option("--lease-grace-ms", grace_ms, "wall time an action waits for a lease renewal");
   app.add_option("--abandon-after-s", abandon_after_s, "end a running episode nothing has advanced for this long")
       ->check(CLI::PositiveNumber);
   app.add_option("--name", name, "worker name in channel announcements");
+  app.add_option("--cameras", cameras, "cameras to publish on rt/dh/camera: agentview,wrist (default: none)")
+      ->delimiter(',')
+      ->check(CLI::IsMember(sim::workcell_cameras()));
+  app.add_option("--camera-every", camera_every, "images every N control steps and at episode start")
+      ->check(CLI::Range(1u, 1000000u));
+  app.add_option("--camera-size", camera_size, "image width and height (px)")->check(CLI::Range(16, 480));
   CLI11_PARSE(app, argc, argv);
+  std::sort(cameras.begin(), cameras.end());
+  cameras.erase(std::unique(cameras.begin(), cameras.end()), cameras.end());
   auto log = make_logger("dh_sim_worker");
   return run_service(*log, [&] {
     const auto suites = load_suites(paths::config_dir());
+    // Rendering is checked before anything starts, so a machine without it fails here, not mid-episode.
+    std::vector<std::unique_ptr<sim::GlContext>> contexts;
+    if (!cameras.empty()) {
+      std::string list;
+      for (const auto& c : cameras) list += (list.empty() ? "" : ",") + c;
+      try {
+        for (unsigned i = 0; i < channels; ++i) contexts.push_back(std::make_unique<sim::GlContext>());
+        const std::string renderer = sim::check_rendering(*contexts.front(), camera_size, camera_size);
+        log->info("cameras {} at {}x{} px every {} steps on {}; {}", list, camera_size, camera_size,
+                  camera_every, topics::kCamera, renderer);
+      } catch (const sim::RenderError& e) {
+        throw std::runtime_error("--cameras " + list + " cannot be rendered: " + e.what());
+      }
+    }
     dds::Participant participant("dh_sim_worker");
-    Writers writers(participant);
+    Writers writers(participant, !cameras.empty());
     std::vector<std::unique_ptr<Channel>> chans;
-    for (unsigned i = 0; i < channels; ++i)
-      chans.push_back(std::make_unique<Channel>(first + i, name, suites, writers, std::chrono::milliseconds(grace_ms),
-                                                 std::chrono::seconds(abandon_after_s), log));
+    for (unsigned i = 0; i < channels; ++i) {
+      Rendering rendering{contexts.empty() ? nullptr : std::move(contexts[i]), cameras, camera_every, camera_size};
+      chans.push_back(std::make_unique<Channel>(first + i, name, suites, writers,
+                                                std::chrono::milliseconds(grace_ms),
+                                                std::chrono::seconds(abandon_after_s), std::move(rendering), log));
+    }
     auto route = [&](std::uint32_t ch) -> Channel* {
       return ch >= first && ch < first + channels ? chans[ch - first].get() : nullptr;
     };

@@ -70,6 +70,11 @@ void emit_link(const urdf::ModelInterface& model, const urdf::Link& link, double
                       link.name + "_col" + std::to_string(i++));
   for (const auto& v : link.visual_array)
     if (v->geometry) out += geom_xml(*v->geometry, v->origin, false, 0, "");
+  // The hand (the TCP's parent) carries the wrist camera, like LIBERO's robot0_eye_in_hand: beside the
+  // hand (+x, across the jaw), looking along the tool axis (+z) with the jaw horizontal and the fingertips
+  // at the bottom of the image. A camera has no mass and no contacts.
+  for (const auto& child : link.child_links)
+    if (child->name == "tcp") out += "<camera name=\"wrist\" pos=\"0.05 0 0.02\" xyaxes=\"0 1 0 1 0 0\" fovy=\"75\"/>\n";
   for (const auto& child : link.child_links) {
     const auto& j = *child->parent_joint;
     out += "<body name=\"" + child->name + "\" " + pose_attrs(j.parent_to_joint_origin_transform) +

@@ -135,6 +135,15 @@ std::string entity_xml(const EntitySpec& e, const Placement& p) {
   return x;
 }
 
+/// LIBERO's `agentview`: fixed in front of the table (+x, facing the robot), high enough to see over
+/// the fixtures, aimed between the robot's base and the table centre. No body: no effect on physics.
+std::string agentview_camera_xml(const SceneSpec& scene) {
+  const double pos[3] = {scene.table_size[0] / 2 + 0.3, 0, 0.85};
+  const double target[3] = {0.4 * scene.robot_base[0], 0, 0};
+  return "<camera name=\"agentview\" pos=\"" + vec(pos, 3) + "\" xyaxes=\"" + mjcf::look_at(pos, target) +
+         "\" fovy=\"50\"/>\n";
+}
+
 }  // namespace
 
 std::string part_body(const std::string& entity, const std::string& part) { return entity + "_" + part; }
@@ -238,7 +247,9 @@ std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& pla
   // Elliptic cones with a high impratio keep a pinched object from creeping out of the jaw.
   x += "<option timestep=\"0.002\" integrator=\"Euler\" cone=\"elliptic\" impratio=\"10\" jacobian=\"sparse\"/>\n";
   x += "<size njmax=\"1000\" nconmax=\"250\"/>\n";
-  x += "<visual><global offwidth=\"640\" offheight=\"480\"/></visual>\n";
+  // Rendering only (camera.hpp): the offscreen buffer bounds the image size; on llvmpipe a 1024² shadow
+  // map without multisampling renders a 224² image 3-4x faster than MuJoCo's 4096² and 4 samples.
+  x += "<visual><global offwidth=\"640\" offheight=\"480\"/><quality shadowsize=\"1024\" offsamples=\"0\"/></visual>\n";
   x += "<worldbody>\n";
   x += "<light pos=\"0 0 2\" dir=\"0 0 -1\" directional=\"true\"/>\n";
   x += "<geom name=\"floor\" type=\"plane\" size=\"3 3 0.1\" pos=\"0 0 -0.75\" rgba=\"0.3 0.3 0.3 1\"/>\n";
@@ -251,6 +262,7 @@ std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& pla
          " 0.005\" pos=\"" + num(r.xy[0]) + " " + num(r.xy[1]) + " -0.005\" rgba=\"0.2 0.8 0.2 0\" group=\"3\"/>\n";
   x += "<geom name=\"pedestal\" type=\"cylinder\" size=\"0.1 0.375\" pos=\"" + num(scene.robot_base[0]) + " " +
        num(scene.robot_base[1]) + " " + num(scene.robot_base[2] - 0.375) + "\" rgba=\"0.2 0.2 0.2 1\"/>\n";
+  x += agentview_camera_xml(scene);
   x += robot.body;
   for (std::size_t i = 0; i < scene.entities.size(); ++i) x += entity_xml(scene.entities[i], placements.at(i));
   x += "</worldbody>\n";

@@ -11,7 +11,7 @@ namespace dh {
 
 struct ArmSpec {
   std::string name;
-  std::string mode;                 ///< full | static | seq
+  std::string mode;                 ///< full | static | seq | bare
   std::vector<std::string> masked;  ///< capabilities switched off in this arm
   bool latch = true;                ///< end on the latched verdict (false: the final state decides)
 };

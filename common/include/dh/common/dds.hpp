@@ -37,6 +37,7 @@ enum class Qos {
   Verdict,     ///< reliable, keep-all
   Planner,     ///< reliable, keep-last 8
   Episode,     ///< reliable, transient-local, keep-last 1 per channel
+  Camera,      ///< reliable, transient-local, keep-last 1 per channel and camera (150 KB samples)
 };
 
 struct QosPair {

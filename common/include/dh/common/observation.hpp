@@ -20,6 +20,7 @@ struct EntityState {
 };
 
 struct Observation {
+  std::uint32_t channel = 0;  ///< the simulator (or cell) channel it came from
   std::uint32_t step = 0;
   std::uint32_t budget_steps = 0;
   std::array<double, 3> ee_p{};

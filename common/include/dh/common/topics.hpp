@@ -16,5 +16,6 @@ inline constexpr const char* kAdvice = "rt/dh/planner/advice";
 inline constexpr const char* kEpisodeRequest = "rt/dh/episode/request";
 inline constexpr const char* kEpisodeResult = "rt/dh/episode/result";
 inline constexpr const char* kChannelStatus = "rt/dh/sim/channel";
+inline constexpr const char* kCamera = "rt/dh/camera";
 
 }  // namespace dh::topics

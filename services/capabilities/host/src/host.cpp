@@ -225,6 +225,12 @@ msg::CapabilityAnnounce announcement(const Descriptor& d, const std::string& ins
 }  // namespace
 
 int run_capability_host(int argc, char** argv, const std::string& family, std::vector<CapabilityDef> capabilities) {
+  return run_capability_host(argc, argv, family, [](CLI::App&) {}, [&] { return std::move(capabilities); });
+}
+
+int run_capability_host(int argc, char** argv, const std::string& family,
+                        const std::function<void(CLI::App&)>& add_options,
+                        const std::function<std::vector<CapabilityDef>()>& make) {
   const std::string service = "dh_cap_" + family;
   CLI::App app{service + ": capability family '" + family + "'"};
   std::vector<std::string> libraries;
@@ -232,13 +238,14 @@ int run_capability_host(int argc, char** argv, const std::string& family, std::v
   app.add_option("--library", libraries,
                  "capability descriptor YAML, one per capability served (default: configs/library/<capability>.yaml)");
   app.add_option("--drain-timeout-s", drain_timeout_s, "on a stop, how long running commands may take to finish");
+  add_options(app);
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger(service);
   return run_service(*log, [&] {
     char host[256] = "";
     gethostname(host, sizeof host - 1);
     std::vector<Served> served;
-    for (const auto& def : capabilities) {
+    for (const auto& def : make()) {
       std::filesystem::path file = default_descriptor_file(def.name);
       for (const auto& l : libraries)
         if (ConfigNode::load_file(l).get<std::string>("capability") == def.name) file = l;

@@ -26,8 +26,9 @@ class VerdictLatch {
 };
 
 /// full: dynamic decisions; static: nominal one-step replanning after successes, fixed retries and plan
-/// re-execution after failures; seq: one up-front plan run in order with fixed retries.
-enum class ExecutorMode { Full, Static, Seq };
+/// re-execution after failures; seq: one up-front plan run in order with fixed retries; bare: no planner
+/// and no analytic route: vla_act is handed the whole episode (the bare-policy baseline).
+enum class ExecutorMode { Full, Static, Seq, Bare };
 
 /// How the command the decision is about stands. Refused: the capability (or grounding) refused before
 /// any motion, so repeating it cannot help; Failed/Expired: it moved and did not complete.

@@ -86,7 +86,8 @@ class EpisodeMachine {
   std::uint32_t decisions() const { return decisions_; }
 
  private:
-  enum class Phase { WaitingFirstObservation, Planning, Running, Ended };
+  /// AwaitingCapability: the bare arm's policy has not been announced to this governor yet.
+  enum class Phase { WaitingFirstObservation, Planning, AwaitingCapability, Running, Ended };
   Effects request_plan(const std::string& why, Clock::time_point now);
   Effects ground_and_dispatch(const Advice& advice, Clock::time_point now);
   Effects refuse(Refusal r, const std::string& reason, Clock::time_point now);
@@ -114,6 +115,7 @@ class EpisodeMachine {
   EvidenceWriter& evidence_;
   Phase phase_ = Phase::WaitingFirstObservation;
   Clock::time_point deadline_;
+  Clock::time_point capability_wait_until_;  ///< the bare arm waits this long for vla_act's announcement
   std::string deadline_what_;
 
   Observation last_obs_;

@@ -4,7 +4,9 @@
 // skills and rules quickly and for in-process tests; campaign figures come from `dh campaign` over DDS.
 #pragma once
 
+#include <array>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -19,6 +21,14 @@
 
 namespace dh::inproc {
 
+/// Taps into the control loop: `on_action` sees each observation with the action the running capability
+/// gave for it (demonstration recording); `perturb` may change the action the workcell then applies
+/// (noise injection), after it was seen.
+struct StepTap {
+  std::function<void(const Observation&, const std::string& capability, const std::array<double, 7>&)> on_action;
+  std::function<void(std::array<double, 7>&)> perturb;
+};
+
 struct EpisodeOutcome {
   bool success = false;
   std::string outcome, reason;
@@ -32,7 +42,9 @@ class Stack {
   explicit Stack(const std::filesystem::path& config_dir);
   /// Runs one episode of `task` with `seed` under `arm`; evidence goes to `evidence` (JSON lines).
   EpisodeOutcome run(const TaskDef& task, std::uint64_t seed, const std::string& arm,
-                     const std::filesystem::path& evidence);
+                     const std::filesystem::path& evidence, const StepTap& tap = {});
+  /// Serves one more capability (described by `descriptor`), e.g. vla_act with a loaded policy.
+  void add_capability(cap::CapabilityDef def, const std::filesystem::path& descriptor);
   /// Replaces a capability's θ (as `dh swap --library` would with a new descriptor).
   void set_parameters(const std::string& capability, const cap::Theta& theta);
 

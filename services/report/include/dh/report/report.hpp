@@ -37,6 +37,9 @@ struct ReportOptions {
   unsigned bootstrap_resamples = 20000;
   std::uint64_t bootstrap_seed = 20260926;
   bool plots = true;
+  /// A `dh train-policy` output folder (train.json, loss.csv): the report then describes the embedded
+  /// policy and its loss curve. Empty: no policy section.
+  std::filesystem::path policy_dir;
 };
 
 struct ReportFiles {
@@ -60,10 +63,14 @@ struct ReportFiles {
 ///   latency    {decision: L, planner: L, unanswered_plan_requests, by_arm: [{arm, decision, planner}]},
 ///               L = {count, p50_ms, p90_ms, p99_ms}
 ///   mechanisms [{arm, episodes, decisions: {kind: count}, refusals, commands: [{capability, dispatched,
-///               completed}]}] from the evidence files; decision kinds are the fast brain's (substitute,
+///               completed, steps}], steps, policy_step_share}] from the evidence files (a command's
+///               steps run from its dispatch to the next dispatch or the episode's end; the share is
+///               vla_act's steps over all, null without steps); decision kinds are the fast brain's (substitute,
 ///               insert_recovery, resume, retry, hand_to_vla, request_replan after a failure, next_step
 ///               after a completion, next_in_sequence, stop_success, give_up)
 ///   evidence   {read, missing, not_recorded}, and evidence_missing (= evidence.missing)
+///   policy     (with options.policy_dir) {version, sha256, weights, training, curve: [{epoch, train,
+///               validation}]} or {error} when the folder holds no readable training record
 /// A value without data (no episodes, no latencies) is null.
 nlohmann::json summarize(const std::vector<Source>& sources, const ReportOptions& options);
 

@@ -35,7 +35,8 @@ struct MjcfFragments {
 };
 
 /// MJCF elements for the robot placed at `base_pos`. Arm links are visual only (contype 0); the hand
-/// and fingers collide. `finger_friction` is the sliding friction of the finger pads.
+/// and fingers collide. `finger_friction` is the sliding friction of the finger pads. The hand carries
+/// the camera "wrist" (camera.hpp).
 MjcfFragments robot_mjcf(const RobotSpec& spec, const double base_pos[3], double finger_friction);
 
 }  // namespace dh::sim

@@ -75,7 +75,8 @@ std::string task_scene_key(const TaskDef& task);
 /// footprints apart; throws std::runtime_error when no placement without overlap is found.
 std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t seed);
 
-/// The complete MJCF document of the workcell with entities at `placements`.
+/// The complete MJCF document of the workcell with entities at `placements`, with the cameras
+/// "agentview" and "wrist" (camera.hpp), which do not touch the physics.
 std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& placements);
 
 /// MJCF names: a part body is "<entity>_<part>", its joint "<entity>_<part>_joint", an asset site

@@ -60,6 +60,9 @@ class Workcell {
   const SafetyLimits& limits() const { return limits_; }
   /// Full physics state (qpos, qvel, act, time) for evidence and probes.
   std::vector<double> state() const;
+  /// The compiled model and its state, read by the camera renderer (camera.hpp).
+  const mjModel_* model() const { return m_; }
+  const mjData_* data() const { return d_; }
 
  private:
   struct Ids;
