@@ -27,7 +27,7 @@ class Out {
 
 class In {
  public:
-  In(std::ifstream& i, std::string what) : i_(i), what_(std::move(what)) {}
+  In(std::ifstream& i, std::string what, std::uintmax_t size) : i_(i), what_(std::move(what)), size_(size) {}
   template <class T>
   T pod() {
     T v{};
@@ -37,7 +37,10 @@ class In {
   template <class T>
   std::vector<T> array() {
     const auto n = pod<std::uint64_t>();
-    if (n > (std::uint64_t{1} << 32)) throw PolicyFileError(what_ + ": corrupt (an array of " + std::to_string(n) + " items)");
+    const auto at = static_cast<std::uintmax_t>(i_.tellg());
+    if (n > (size_ - at) / sizeof(T))  // more than the rest of the file holds: corrupt, not a huge allocation
+      throw PolicyFileError(what_ + ": truncated or corrupt (an array of " + std::to_string(n) + " items where " +
+                            std::to_string(size_ - at) + " bytes are left); collect the demonstrations again");
     std::vector<T> v(n);
     read(v.data(), n * sizeof(T));
     return v;
@@ -55,6 +58,7 @@ class In {
   }
   std::ifstream& i_;
   std::string what_;
+  std::uintmax_t size_;
 };
 }  // namespace
 
@@ -93,8 +97,10 @@ std::vector<Demo> load_demos(const std::filesystem::path& file) {
   if (line != "DHDEMOS " + std::to_string(kDemoFormat))
     throw PolicyFileError(what + ": not a demonstration file of format " + std::to_string(kDemoFormat) +
                           " (first line '" + line.substr(0, 40) + "'); collect them again");
-  In in(i, what);
-  std::vector<Demo> demos(in.pod<std::uint64_t>());
+  In in(i, what, std::filesystem::file_size(file));
+  const auto count = in.pod<std::uint64_t>();
+  if (count > std::filesystem::file_size(file)) throw PolicyFileError(what + ": corrupt (demonstration count)");
+  std::vector<Demo> demos(count);
   for (auto& d : demos) {
     d.key = in.text();
     d.instruction = in.text();

@@ -106,6 +106,8 @@ PolicyModel load_policy(const std::filesystem::path& file) {
     m.checksum = h.at("payload_sha256").get<std::string>();
     const auto sizes = h.at("layer_sizes").get<std::vector<int>>();
     const auto bytes = h.at("payload_bytes").get<std::size_t>();
+    if (bytes > std::filesystem::file_size(file))
+      throw PolicyFileError(what + ": payload is truncated (the header announces " + std::to_string(bytes) + " bytes)");
     if (h.at("action_dims").get<int>() != kActionDims || sizes.size() < 2 || sizes.front() != m.spec.size() ||
         sizes.back() != m.chunk * kActionDims)
       throw PolicyFileError(what + ": layer sizes do not match the feature and action sizes in its header");
