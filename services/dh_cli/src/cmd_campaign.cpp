@@ -105,7 +105,9 @@ int cmd_campaign(const CampaignArgs& a) {
     dds::Participant participant("dh_campaign");
     Client client(participant);
     std::unique_ptr<Deployment> local;
-    if (!ensure_deployment(client, ready_capability(campaign::parse_list(a.arms, "--arms")), std::nullopt, a.launch_file, std::chrono::milliseconds(a.ready_ms), a.json, local))
+    const std::string ready = ready_capability(campaign::parse_list(a.arms, "--arms"));
+    if (!ensure_deployment(client, ready, std::nullopt, a.launch_file, std::chrono::milliseconds(a.ready_ms), a.json,
+                           local))
       return 1;
     campaign::SchedulerOptions options;
     options.run_tag = run_tag();

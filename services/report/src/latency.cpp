@@ -1,11 +1,10 @@
 #include "latency.hpp"
 
-#include <optional>
-
 #include "dh/common/evidence.hpp"
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <map>
 #include <stdexcept>
 

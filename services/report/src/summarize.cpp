@@ -4,11 +4,11 @@
 #include "latency.hpp"
 
 #include <algorithm>
-#include <fstream>
-#include <sstream>
 #include <cmath>
+#include <fstream>
 #include <map>
 #include <numeric>
+#include <sstream>
 #include <tuple>
 
 namespace dh::report {
