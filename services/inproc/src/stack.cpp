@@ -15,9 +15,8 @@ Stack::Stack(const std::filesystem::path& config_dir)
   for (auto& def : cap::all_capabilities()) add_capability(std::move(def), config_dir / "library");
 }
 
-void Stack::add_capability(cap::CapabilityDef def, const std::filesystem::path& descriptor) {
-  const auto file = std::filesystem::is_directory(descriptor) ? descriptor / (def.name + ".yaml") : descriptor;
-  const cap::Descriptor d = cap::load_descriptor(file, def);
+void Stack::add_capability(cap::CapabilityDef def, const std::filesystem::path& library_dir) {
+  const cap::Descriptor d = cap::load_descriptor(library_dir / (def.name + ".yaml"), def);
   gov::CapabilityInfo info;
   info.capability = d.capability;
   info.instance = d.capability + "@inproc";

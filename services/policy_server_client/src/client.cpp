@@ -141,6 +141,15 @@ struct OpState {
   tcp::resolver::results_type resolved;
 };
 
+/// The completion handler of an operation that only reports its error code (and maybe a byte count or
+/// an endpoint, ignored) into `st`.
+auto completion(std::shared_ptr<OpState> st) {
+  return [st = std::move(st)](beast::error_code ec, auto&&...) {
+    st->ec = ec;
+    st->done = true;
+  };
+}
+
 }  // namespace
 
 struct PolicyServerClient::Impl {
@@ -202,10 +211,7 @@ struct PolicyServerClient::Impl {
     buffer.clear();
     return await(
         [this](std::shared_ptr<OpState> st) {
-          ws->async_read(buffer, [st](beast::error_code ec, std::size_t) {
-            st->ec = ec;
-            st->done = true;
-          });
+          ws->async_read(buffer, completion(st));
         },
         deadline);
   }
@@ -266,11 +272,7 @@ struct PolicyServerClient::Impl {
     ws = std::make_unique<websocket::stream<tcp::socket>>(ioc);
     const auto c = await(
         [this, &endpoints](std::shared_ptr<OpState> st) {
-          asio::async_connect(beast::get_lowest_layer(*ws), endpoints,
-                              [st](beast::error_code e, const tcp::endpoint&) {
-                                st->ec = e;
-                                st->done = true;
-                              });
+          asio::async_connect(beast::get_lowest_layer(*ws), endpoints, completion(st));
         },
         deadline);
     if (!c) {
@@ -298,10 +300,7 @@ struct PolicyServerClient::Impl {
     const std::string host_header = url.text.substr(5, url.text.size() - 5 - (url.target.size()));
     const auto h = await(
         [this, &response, &host_header](std::shared_ptr<OpState> st) {
-          ws->async_handshake(response, host_header, url.target, [st](beast::error_code e) {
-            st->ec = e;
-            st->done = true;
-          });
+          ws->async_handshake(response, host_header, url.target, completion(st));
         },
         deadline);
     if (!h) {
@@ -360,10 +359,7 @@ struct PolicyServerClient::Impl {
       ws->binary(true);
       const auto w = await(
           [this, &request](std::shared_ptr<OpState> st) {
-            ws->async_write(asio::buffer(request), [st](beast::error_code e, std::size_t) {
-              st->ec = e;
-              st->done = true;
-            });
+            ws->async_write(asio::buffer(request), completion(st));
           },
           deadline);
       if (!w) {
@@ -417,10 +413,7 @@ struct PolicyServerClient::Impl {
     const auto deadline = Clock::now() + std::min<Clock::duration>(timeout, kCloseWait);
     await(
         [this](std::shared_ptr<OpState> st) {
-          ws->async_close(websocket::close_code::normal, [st](beast::error_code e) {
-            st->ec = e;
-            st->done = true;
-          });
+          ws->async_close(websocket::close_code::normal, completion(st));
         },
         deadline);
     drop();

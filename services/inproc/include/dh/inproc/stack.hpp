@@ -43,8 +43,8 @@ class Stack {
   /// Runs one episode of `task` with `seed` under `arm`; evidence goes to `evidence` (JSON lines).
   EpisodeOutcome run(const TaskDef& task, std::uint64_t seed, const std::string& arm,
                      const std::filesystem::path& evidence, const StepTap& tap = {});
-  /// Serves one more capability (described by `descriptor`), e.g. vla_act with a loaded policy.
-  void add_capability(cap::CapabilityDef def, const std::filesystem::path& descriptor);
+  /// Serves one more capability, described by `library_dir`/<name>.yaml, e.g. vla_act with a loaded policy.
+  void add_capability(cap::CapabilityDef def, const std::filesystem::path& library_dir);
   /// Replaces a capability's θ (as `dh swap --library` would with a new descriptor).
   void set_parameters(const std::string& capability, const cap::Theta& theta);
 
