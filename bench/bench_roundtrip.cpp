@@ -41,7 +41,7 @@ int run(int episodes) {
   bool idle = false;
   std::string episode;
   std::int64_t step = -1;
-  dds::Reader<msg::ChannelStatusPubSubType> ch(p, topics::kChannelStatus, dds::Qos::Episode,
+  dds::Reader<msg::ChannelStatusPubSubType> ch(p, topics::kChannelStatus, dds::Qos::ChannelStatus,
       {[&](const msg::ChannelStatus& s, const auto&) { std::lock_guard l(m); idle |= s.state() == msg::CHANNEL_IDLE; cv.notify_all(); }, {}, {}});
   dds::Reader<msg::ObservationPubSubType> obs(p, topics::kObservation, dds::Qos::Observation,
       {[&](const msg::Observation& o, const auto&) { std::lock_guard l(m); if (o.episode_id() == episode) step = o.step(); cv.notify_all(); }, {}, {}});

@@ -70,6 +70,16 @@ QosPair qos_for(Qos kind) {
       r.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
       depth = 1;
       break;
+    case Qos::ChannelStatus:
+      w.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      r.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
+      w.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
+      r.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
+      w.liveliness().lease_duration = seconds(kChannelLivelinessSec);
+      r.liveliness().lease_duration = seconds(kChannelLivelinessSec);
+      w.liveliness().announcement_period = seconds(kChannelLivelinessSec / 4);
+      depth = 1;
+      break;
     case Qos::Camera:
       // Only the newest image of each camera matters; a late joiner (a capability swapped in) gets it at
       // once. A 224x224 RGB8 sample (150 KB) is sent in fragments of the smallest transport message

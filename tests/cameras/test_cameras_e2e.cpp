@@ -34,7 +34,7 @@ class Driver {
  public:
   explicit Driver(unsigned channels)
       : channels_(channels),
-        status_(p_, topics::kChannelStatus, dds::Qos::Episode,
+        status_(p_, topics::kChannelStatus, dds::Qos::ChannelStatus,
                 {[this](const msg::ChannelStatus& s, const auto&) {
                    std::lock_guard l(m_);
                    idle_[s.channel()] = s.state() == msg::CHANNEL_IDLE;

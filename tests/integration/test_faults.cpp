@@ -50,7 +50,7 @@ TEST(Faults, KilledCapabilityIsRecordedWithinItsLeaseAndTheEpisodeEnds) {
   std::optional<msg::EpisodeResult> result;
   dds::Reader<msg::CapabilityAnnouncePubSubType> ann(p, topics::kAnnounce, dds::Qos::Announce,
       {[&](const auto&, const auto&) { std::lock_guard l(m); announced = true; cv.notify_all(); }, {}, {}});
-  dds::Reader<msg::ChannelStatusPubSubType> ch(p, topics::kChannelStatus, dds::Qos::Episode,
+  dds::Reader<msg::ChannelStatusPubSubType> ch(p, topics::kChannelStatus, dds::Qos::ChannelStatus,
       {[&](const msg::ChannelStatus& s, const auto&) { std::lock_guard l(m); idle |= s.state() == msg::CHANNEL_IDLE; cv.notify_all(); }, {}, {}});
   dds::Reader<msg::ObservationPubSubType> obs(p, topics::kObservation, dds::Qos::Observation,
       {[&](const msg::Observation& o, const auto&) { std::lock_guard l(m); step = o.step(); cv.notify_all(); }, {}, {}});
@@ -108,7 +108,7 @@ TEST(Faults, AKilledGovernorLeavesTheArmHeldAndTheOrphanedEpisodeAbandoned) {
   std::map<std::string, msg::EpisodeResult> results;
   dds::Reader<msg::CapabilityAnnouncePubSubType> ann(p, topics::kAnnounce, dds::Qos::Announce,
       {[&](const auto&, const auto&) { std::lock_guard l(m); announced = true; cv.notify_all(); }, {}, {}});
-  dds::Reader<msg::ChannelStatusPubSubType> ch(p, topics::kChannelStatus, dds::Qos::Episode,
+  dds::Reader<msg::ChannelStatusPubSubType> ch(p, topics::kChannelStatus, dds::Qos::ChannelStatus,
       {[&](const msg::ChannelStatus& s, const auto&) { std::lock_guard l(m); status = s; cv.notify_all(); }, {}, {}});
   dds::Reader<msg::ObservationPubSubType> obs(p, topics::kObservation, dds::Qos::Observation,
       {[&](const msg::Observation& o, const auto&) { std::lock_guard l(m); step = o.step(); cv.notify_all(); }, {}, {}});
@@ -155,7 +155,7 @@ TEST(Faults, TheSeamRejectsActionsUnderAnExpiredLease) {
   bool idle = false;
   std::int64_t step = -1;
   std::vector<msg::SeamEvent> events;
-  dds::Reader<msg::ChannelStatusPubSubType> ch(p, topics::kChannelStatus, dds::Qos::Episode,
+  dds::Reader<msg::ChannelStatusPubSubType> ch(p, topics::kChannelStatus, dds::Qos::ChannelStatus,
       {[&](const msg::ChannelStatus& s, const auto&) { std::lock_guard l(m); idle |= s.state() == msg::CHANNEL_IDLE; cv.notify_all(); }, {}, {}});
   dds::Reader<msg::ObservationPubSubType> obs(p, topics::kObservation, dds::Qos::Observation,
       {[&](const msg::Observation& o, const auto&) { std::lock_guard l(m); if (o.episode_id() == "lease-test") step = o.step(); cv.notify_all(); }, {}, {}});

@@ -201,6 +201,46 @@ TEST_F(CampaignDbTest, AnotherSchemaVersionIsRefused) {
   EXPECT_TRUE(contains(msg, "version 99")) << msg;
 }
 
+TEST_F(CampaignDbTest, LostAttemptsAreKeptApartFromTheEpisodeRows) {
+  auto db = CampaignDb::open(dir / "c.db");
+  EpisodeRecord lost = sample();
+  lost.episode_id = "attempt-1";
+  lost.infrastructure = true;
+  lost.outcome = "infrastructure";
+  lost.reason = "worker sim2 lost";
+  EXPECT_TRUE(db.record_loss(lost));
+  EXPECT_FALSE(db.record_loss(lost)) << "one attempt is stored once";
+  EXPECT_EQ(db.count(), 0u) << "a lost attempt is not the episode's row";
+  EpisodeRecord rerun = sample();
+  rerun.episode_id = "attempt-2";
+  EXPECT_TRUE(db.record(rerun));
+  const auto losses = CampaignDb::open(dir / "c.db").losses();
+  ASSERT_EQ(losses.size(), 1u);
+  expect_same(losses[0], lost);
+  EXPECT_EQ(db.rows().size(), 1u);
+}
+
+TEST_F(CampaignDbTest, AVersionOneFileGainsTheLossesTableAndKeepsItsRows) {
+  const fs::path path = dir / "v1.db";
+  {
+    auto db = CampaignDb::open(path);
+    EXPECT_TRUE(db.record(sample()));
+    db.set_meta("schema_version", "1");
+  }
+  sqlite3* raw = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &raw), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(raw, "DROP TABLE infrastructure_losses", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(raw);
+  EXPECT_TRUE(CampaignDb::read_rows(path).size() == 1u) << "read-only: readable as it is";
+  auto db = CampaignDb::open(path);
+  EXPECT_EQ(db.meta("schema_version"), std::to_string(CampaignDb::kSchemaVersion));
+  EXPECT_EQ(db.count(), 1u);
+  EpisodeRecord lost = sample();
+  lost.episode_id = "attempt-1";
+  EXPECT_TRUE(db.record_loss(lost));
+  EXPECT_EQ(db.losses().size(), 1u);
+}
+
 TEST_F(CampaignDbTest, ReadingAMissingFileNamesThePathAndCreatesNothing) {
   const fs::path path = dir / "missing.db";
   const auto msg = error_of<CampaignError>([&] { CampaignDb::read_rows(path); });

@@ -14,8 +14,9 @@ std::vector<EpisodeKey> keys(unsigned n) {
   return k;
 }
 
-Scheduler make(unsigned n) {
+Scheduler make(unsigned n, unsigned reruns = 0) {
   SchedulerOptions o;
+  o.reruns = reruns;
   o.run_tag = "r1";
   o.start_allowance = 10s;
   o.per_step_allowance = 100ms;  // budget 300 → deadline 40 s
@@ -167,6 +168,87 @@ TEST(Scheduler, AMissingPhysicsReportLeavesPhysicsUnknownAfterTheWait) {
   ASSERT_EQ(recs.size(), 1u);
   EXPECT_EQ(recs[0].physics_s, 0.0);
   EXPECT_TRUE(s.done());
+}
+
+TEST(Scheduler, ALostWorkerLosesWhatItsChannelsRanAtOnceAndTheyServeAgainOnlyAfterAnnouncingThemselves) {
+  auto s = make(4);
+  const auto t0 = Clock::now();
+  s.channel_status(0, "sim1", true, "", 0, "", t0);
+  s.channel_status(11, "sim2", true, "", 0, "", t0);
+  s.channel_status(12, "sim2", true, "", 0, "", t0);
+  const auto d = s.assign(t0);
+  ASSERT_EQ(d.size(), 3u);
+  s.worker_lost("sim2", t0 + 1s);
+  EXPECT_EQ(s.running(), 1u) << "sim1's episode runs on";
+  const auto recs = s.take_finished(t0 + 1s);
+  ASSERT_EQ(recs.size(), 2u);
+  for (const auto& r : recs) {
+    EXPECT_TRUE(r.infrastructure);
+    EXPECT_EQ(r.worker, "sim2");
+    EXPECT_NE(r.reason.find("worker sim2 lost on channel 1"), std::string::npos) << r.reason;
+  }
+  EXPECT_TRUE(s.assign(t0 + 1s).empty()) << "sim2's channels are not used while it is gone";
+  s.channel_status(11, "sim2", true, "", 0, "", t0 + 5s);
+  const auto again = s.assign(t0 + 5s);
+  ASSERT_EQ(again.size(), 1u) << "a channel that announces itself again serves again";
+  EXPECT_EQ(again[0].channel, 11u);
+}
+
+TEST(Scheduler, UnderTheRerunRuleALostAttemptIsKeptAndTheEpisodeRunsAgainFirst) {
+  auto s = make(3, 1);
+  const auto t0 = Clock::now();
+  s.channel_status(0, "sim1", true, "", 0, "", t0);
+  s.channel_status(11, "sim2", true, "", 0, "", t0);
+  const auto d = s.assign(t0);
+  ASSERT_EQ(d.size(), 2u);
+  ASSERT_EQ(d[1].channel, 11u);
+  s.worker_lost("sim2", t0 + 1s);
+  EXPECT_TRUE(s.take_finished(t0 + 1s).empty()) << "a lost attempt under the rule is no record";
+  const auto losses = s.take_losses();
+  ASSERT_EQ(losses.size(), 1u);
+  EXPECT_EQ(losses[0].seed, 2u);
+  EXPECT_EQ(losses[0].episode_id, d[1].episode_id);
+  EXPECT_TRUE(losses[0].infrastructure);
+  EXPECT_TRUE(s.take_losses().empty());
+  EXPECT_EQ(s.pending(), 2u);
+
+  // sim1 finishes; the lost seed 2 goes before seed 3, with a new episode id.
+  s.result({d[0].episode_id, true, 100, "success", "", ""}, t0 + 2s);
+  s.channel_status(0, "sim1", true, d[0].episode_id, 0.2, "", t0 + 2s);
+  const auto next = s.assign(t0 + 2s);
+  ASSERT_EQ(next.size(), 1u);
+  EXPECT_EQ(next[0].key.seed, 2u);
+  EXPECT_NE(next[0].episode_id, d[1].episode_id);
+
+  // Lost again (no result in time): the rule allows one rerun, so this attempt is the episode's record.
+  s.expire(t0 + 60s);
+  EXPECT_TRUE(s.take_losses().empty());
+  const auto recs = s.take_finished(t0 + 60s);
+  ASSERT_EQ(recs.size(), 2u);
+  EXPECT_EQ(recs[1].seed, 2u);
+  EXPECT_TRUE(recs[1].infrastructure);
+  // A late result of the first attempt changes nothing.
+  s.result({d[1].episode_id, true, 100, "success", "", ""}, t0 + 61s);
+  EXPECT_TRUE(s.take_finished(t0 + 70s).empty());
+}
+
+TEST(Scheduler, UnderTheRerunRuleAnInfrastructureResultRunsAgainButAnAgentFailureDoesNot) {
+  auto s = make(2, 1);
+  const auto t0 = Clock::now();
+  s.channel_status(0, "w", true, "", 0, "", t0);
+  auto d = s.assign(t0);
+  s.result({d[0].episode_id, false, 0, "rejected", "governor busy", ""}, t0);
+  EXPECT_EQ(s.take_losses().size(), 1u);
+  s.channel_status(0, "w", true, d[0].episode_id, 0, "", t0);
+  d = s.assign(t0);
+  ASSERT_EQ(d.size(), 1u);
+  EXPECT_EQ(d[0].key.seed, 1u);
+  s.result({d[0].episode_id, false, 300, "budget_exhausted", "", ""}, t0 + 1s);
+  EXPECT_TRUE(s.take_losses().empty()) << "a failure of the agent is a result, not a loss";
+  s.channel_status(0, "w", true, d[0].episode_id, 0.5, "", t0 + 1s);
+  const auto recs = s.take_finished(t0 + 1s);
+  ASSERT_EQ(recs.size(), 1u);
+  EXPECT_FALSE(recs[0].infrastructure);
 }
 
 }  // namespace

@@ -16,6 +16,16 @@ CREATE TABLE episodes (
   PRIMARY KEY (arm, cell, task, seed));
 )sql";
 
+// Version 2: attempts lost to infrastructure and run again under the plan's rerun rule (same columns).
+constexpr const char* kLossesTable = R"sql(
+CREATE TABLE infrastructure_losses (
+  arm TEXT NOT NULL, cell TEXT NOT NULL, task INTEGER NOT NULL, seed INTEGER NOT NULL,
+  success INTEGER NOT NULL, steps INTEGER NOT NULL, budget INTEGER NOT NULL,
+  wall_s REAL NOT NULL, physics_s REAL NOT NULL, outcome TEXT NOT NULL, reason TEXT NOT NULL,
+  infrastructure INTEGER NOT NULL, tick_limit INTEGER NOT NULL, evidence_path TEXT NOT NULL,
+  episode_id TEXT NOT NULL PRIMARY KEY, worker TEXT NOT NULL, channel INTEGER NOT NULL, finished_at TEXT NOT NULL);
+)sql";
+
 // Column order shared by the insert and read_row().
 constexpr const char* kColumns =
     "arm, cell, task, seed, success, steps, budget, wall_s, physics_s, outcome, reason, infrastructure, "
@@ -101,6 +111,11 @@ CampaignDb::CampaignDb(std::filesystem::path path, bool read_only) : path_(std::
                      ") VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
                      "ON CONFLICT (arm, cell, task, seed) DO NOTHING")
                         .c_str());
+  if (!read_only)
+    insert_loss_ = prepare(("INSERT INTO infrastructure_losses (" + std::string(kColumns) +
+                            ") VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
+                            "ON CONFLICT (episode_id) DO NOTHING")
+                               .c_str());
   has_ = prepare("SELECT 1 FROM episodes WHERE arm = ? AND cell = ? AND task = ? AND seed = ?");
   get_meta_ = prepare("SELECT value FROM meta WHERE key = ?");
   set_meta_ = prepare(
@@ -141,6 +156,7 @@ void CampaignDb::check_or_create_schema(bool read_only) {
   }
   if (tables.empty() && !read_only) {
     exec(kSchema);
+    exec(kLossesTable);
     exec(("INSERT INTO meta (key, value) VALUES ('schema_version', '" + std::to_string(kSchemaVersion) + "')")
              .c_str());
   } else {
@@ -153,7 +169,10 @@ void CampaignDb::check_or_create_schema(bool read_only) {
       throw CampaignError(
           path_.string() +
           ": a SQLite database but not a campaign database (no meta.schema_version); give --db another file");
-    if (version != std::to_string(kSchemaVersion))
+    if (version == "1" && !read_only) {  // version 1 lacks only the losses table
+      exec(kLossesTable);
+      exec(("UPDATE meta SET value = '" + std::to_string(kSchemaVersion) + "' WHERE key = 'schema_version'").c_str());
+    } else if (version != std::to_string(kSchemaVersion) && version != "1")
       throw CampaignError(path_.string() + ": campaign database schema version " + version +
                           ", this build reads " + std::to_string(kSchemaVersion) +
                           "; give --db a new file or read it with the dh build that wrote it");
@@ -167,9 +186,8 @@ void CampaignDb::check_or_create_schema(bool read_only) {
   exec("PRAGMA synchronous = FULL");
 }
 
-bool CampaignDb::record(const EpisodeRecord& r) {
-  sqlite3_stmt* s = insert_.get();
-  Reset reset{s};
+namespace {
+void bind_record(sqlite3_stmt* s, const EpisodeRecord& r) {
   const auto i64 = [](unsigned v) { return static_cast<std::int64_t>(v); };
   bind_arg(s, 1, r.arm);
   bind_arg(s, 2, r.cell);
@@ -189,8 +207,23 @@ bool CampaignDb::record(const EpisodeRecord& r) {
   bind_arg(s, 16, r.worker);
   bind_arg(s, 17, i64(r.channel));
   bind_arg(s, 18, r.finished_at);
+}
+}  // namespace
+
+bool CampaignDb::record(const EpisodeRecord& r) {
+  sqlite3_stmt* s = insert_.get();
+  Reset reset{s};
+  bind_record(s, r);
   // One statement outside BEGIN is one transaction of its own, committed (and synced) before step returns.
   if (sqlite3_step(s) != SQLITE_DONE) fail("cannot record episode " + to_string(key_of(r)));
+  return sqlite3_changes(db_.get()) == 1;
+}
+
+bool CampaignDb::record_loss(const EpisodeRecord& r) {
+  sqlite3_stmt* s = insert_loss_.get();
+  Reset reset{s};
+  bind_record(s, r);
+  if (sqlite3_step(s) != SQLITE_DONE) fail("cannot record the infrastructure loss of " + r.episode_id);
   return sqlite3_changes(db_.get()) == 1;
 }
 
@@ -224,6 +257,22 @@ std::vector<EpisodeRecord> CampaignDb::rows() const {
   int rc;
   while ((rc = sqlite3_step(s.get())) == SQLITE_ROW) out.push_back(read_row(s.get()));
   if (rc != SQLITE_DONE) fail("cannot read the episodes");
+  return out;
+}
+
+std::vector<EpisodeRecord> CampaignDb::losses() const {
+  bool exists = false;
+  {
+    Stmt t = prepare("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'infrastructure_losses'");
+    exists = sqlite3_step(t.get()) == SQLITE_ROW;
+  }
+  if (!exists) return {};  // a version-1 file opened read-only
+  Stmt s = prepare(
+      ("SELECT " + std::string(kColumns) + " FROM infrastructure_losses ORDER BY finished_at, episode_id").c_str());
+  std::vector<EpisodeRecord> out;
+  int rc;
+  while ((rc = sqlite3_step(s.get())) == SQLITE_ROW) out.push_back(read_row(s.get()));
+  if (rc != SQLITE_DONE) fail("cannot read the infrastructure losses");
   return out;
 }
 

@@ -79,6 +79,10 @@ void Scheduler::result(const ResultInfo& r, Clock::time_point now) {
   // "rejected": the governor refused the request itself (unknown arm, busy channel): not the agent's failure.
   rec.infrastructure = r.outcome == "infrastructure" || r.outcome == "rejected";
   rec.tick_limit = r.outcome == "budget_exhausted";
+  if (rec.infrastructure && rerun(rec)) {
+    running_.erase(it);
+    return;
+  }
   // The channel may have announced itself idle after this episode before its result reached us.
   auto& c = channels_[it->second.channel];
   if (c.idle && c.last_episode == r.episode_id) c.ours = false;
@@ -92,8 +96,41 @@ void Scheduler::lose(std::map<std::string, Running>::iterator it, const std::str
   rec.outcome = "infrastructure";
   rec.infrastructure = true;
   rec.reason = reason;
-  finishing_[it->first] = {std::move(rec), now};
+  if (!rerun(rec)) finishing_[it->first] = {std::move(rec), now};
   running_.erase(it);
+}
+
+bool Scheduler::rerun(const EpisodeRecord& rec) {
+  const EpisodeKey key{rec.arm, rec.cell, rec.task, rec.seed};
+  unsigned& n = reruns_[key];
+  if (n >= options_.reruns) return false;
+  ++n;
+  losses_.push_back(rec);
+  pending_.push_front(key);
+  return true;
+}
+
+void Scheduler::worker_lost(const std::string& worker, Clock::time_point now) {
+  for (auto& [id, c] : channels_)
+    if (c.worker == worker) {
+      c.idle = false;
+      c.ours = false;
+    }
+  for (auto it = running_.begin(); it != running_.end();) {
+    if (it->second.worker != worker) {
+      ++it;
+      continue;
+    }
+    const std::string reason = "worker " + worker + " lost on channel " + std::to_string(it->second.channel) +
+                               " (its announcements' liveliness lease expired: process dead or host cut off)";
+    lose(it++, reason, now);
+  }
+}
+
+std::vector<EpisodeRecord> Scheduler::take_losses() {
+  std::vector<EpisodeRecord> out;
+  out.swap(losses_);
+  return out;
 }
 
 void Scheduler::expire(Clock::time_point now) {

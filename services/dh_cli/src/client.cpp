@@ -13,13 +13,25 @@ using Clock = std::chrono::steady_clock;
 
 Client::Client(dds::Participant& p)
     : request_(p, topics::kEpisodeRequest, dds::Qos::Episode),
-      channels_(p, topics::kChannelStatus, dds::Qos::Episode,
-                {[this](const msg::ChannelStatus& s, const auto&) {
+      channels_(p, topics::kChannelStatus, dds::Qos::ChannelStatus,
+                {[this](const msg::ChannelStatus& s, const eprosima::fastdds::dds::SampleInfo& info) {
                    std::lock_guard l(m_);
                    idle_[s.channel()] = s.state() == msg::CHANNEL_IDLE;
+                   worker_of_writer_[info.publication_handle] = s.worker();
                    news_.channels.push_back(s);
                    cv_.notify_all();
-                 }, {}, {}}),
+                 },
+                 // A worker whose announcements stop being alive (process dead, host cut off) has lost
+                 // whatever its channels were running.
+                 [this](const eprosima::fastdds::dds::LivelinessChangedStatus& st) {
+                   if (st.alive_count_change >= 0) return;
+                   std::lock_guard l(m_);
+                   const auto it = worker_of_writer_.find(st.last_publication_handle);
+                   if (it == worker_of_writer_.end()) return;
+                   news_.lost_workers.push_back(it->second);
+                   cv_.notify_all();
+                 },
+                 {}}),
       caps_(p, topics::kAnnounce, dds::Qos::Announce,
             {[this](const msg::CapabilityAnnounce& a, const auto&) {
                std::lock_guard l(m_);

@@ -33,6 +33,7 @@ class Client {
   struct News {
     std::vector<msg::ChannelStatus> channels;
     std::vector<msg::EpisodeResult> results;
+    std::vector<std::string> lost_workers;  ///< workers whose channel announcements lost liveliness
   };
   News take_news();
 
@@ -42,6 +43,7 @@ class Client {
   std::map<std::uint32_t, bool> idle_;
   std::set<std::string> capabilities_;
   std::map<std::string, msg::EpisodeResult> results_seen_;
+  std::map<eprosima::fastdds::dds::InstanceHandle_t, std::string> worker_of_writer_;
   News news_;
   dds::Writer<msg::EpisodeRequestPubSubType> request_;
   dds::Reader<msg::ChannelStatusPubSubType> channels_;

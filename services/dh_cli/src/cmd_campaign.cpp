@@ -27,8 +27,13 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-constexpr const char* kRerunRule =
-    "none: an episode lost to infrastructure is recorded as a failure, flagged, and not rerun";
+std::string rerun_rule(unsigned reruns) {
+  if (reruns == 0) return "none: an episode lost to infrastructure is recorded as a failure, flagged, and not rerun";
+  return "infrastructure x" + std::to_string(reruns) +
+         ": an episode lost to infrastructure (no result in time, its simulator worker lost, refused by the "
+         "simulator or the governor) is run again, up to " + std::to_string(reruns) +
+         " time(s); each lost attempt is kept in infrastructure_losses, the last attempt is the episode's row";
+}
 
 campaign::Plan make_plan(const CampaignArgs& a, const std::map<std::string, SuiteDef>& suites) {
   campaign::Plan plan;
@@ -44,7 +49,7 @@ campaign::Plan make_plan(const CampaignArgs& a, const std::map<std::string, Suit
   if (a.fresh_seeds > 0) plan.seeds = campaign::fresh_seed_block(a.fresh_seeds, a.salt);
   else if (!a.seeds.empty()) plan.seeds = campaign::parse_seeds(a.seeds);
   else throw campaign::PlanError("--seeds: missing (e.g. --seeds 1-20, or --fresh-seeds 20 --salt 7)");
-  plan.rerun_rule = kRerunRule;
+  plan.rerun_rule = rerun_rule(a.reruns);
   return plan;
 }
 
@@ -97,7 +102,7 @@ int cmd_campaign(const CampaignArgs& a) {
               << plan.cells.size() << " cells x tasks x " << plan.seeds.size() << " seeds), " << done_before
               << " already recorded, " << todo.size() << " to run\n";
 
-  std::size_t ran_now = 0;
+  std::size_t ran_now = 0, reran = 0;
   bool interrupted = false;
   double run_wall_s = 0;  // first request sent → last episode recorded, this run
   Clock::time_point last_run_record{};
@@ -113,6 +118,7 @@ int cmd_campaign(const CampaignArgs& a) {
     options.run_tag = run_tag();
     options.start_allowance = std::chrono::seconds(a.start_allowance_s);
     options.per_step_allowance = std::chrono::milliseconds(a.per_step_allowance_ms);
+    options.reruns = a.reruns;
     campaign::Scheduler scheduler(todo, [&](const campaign::EpisodeKey& k) {
       return find_task(suites, k.cell, k.task).budget_steps;
     }, options);
@@ -131,6 +137,12 @@ int cmd_campaign(const CampaignArgs& a) {
       if (any) last_run_record = Clock::now();
       return any;
     };
+    auto record_losses = [&] {
+      for (const auto& rec : scheduler.take_losses()) {
+        reran += db.record_loss(rec);
+        if (!a.json) std::cerr << "\n" << rec.episode_id << " lost to infrastructure, runs again: " << rec.reason << "\n";
+      }
+    };
     while (!scheduler.done()) {
       const auto now = Clock::now();
       if (shutdown_requested()) {
@@ -145,8 +157,10 @@ int cmd_campaign(const CampaignArgs& a) {
                                  s.last_physics_s(), s.last_error(), now);
       for (const auto& r : news.results)
         scheduler.result({r.episode_id(), r.success(), r.steps(), r.outcome(), r.reason(), r.evidence_path()}, now);
+      for (const auto& w : news.lost_workers) scheduler.worker_lost(w, now);
       if (!scheduler.conflict().empty()) throw std::runtime_error(scheduler.conflict());
       scheduler.expire(now);
+      record_losses();
       // Another process writing this database may have recorded an episode meanwhile.
       const auto dispatches = scheduler.assign(now, [&](const campaign::EpisodeKey& k) {
         return db.has(k.arm, k.cell, k.task, k.seed);
@@ -193,11 +207,12 @@ int cmd_campaign(const CampaignArgs& a) {
     nlohmann::json out = summary;
     out["campaign"] = {{"db", a.db},           {"episodes", all.size()},     {"recorded_before", done_before},
                        {"ran_now", ran_now},    {"remaining", all.size() - done_before - ran_now},
-                       {"interrupted", interrupted}, {"rerun_rule", kRerunRule}, {"run_wall_s", run_wall_s}};
+                       {"interrupted", interrupted}, {"rerun_rule", plan.rerun_rule}, {"reran", reran}, {"run_wall_s", run_wall_s}};
     std::cout << out.dump() << "\n";
   } else {
     std::cout << (interrupted ? "campaign interrupted; rerun the same command to resume\n" : "campaign complete\n");
     print_summary(summary);
+    if (reran > 0) std::cout << "  " << reran << " attempt(s) lost to infrastructure were run again (rule: " << plan.rerun_rule << ")\n";
     std::cout << "database " << a.db << "  (dh report --db " << a.db << ")\n";
   }
   return interrupted ? 1 : 0;

@@ -62,17 +62,4 @@ int cmd_run(const RunArgs& a) {
   return 0;
 }
 
-int cmd_launch(const std::string& file) {
-  install_shutdown_handlers();
-  const auto path = file.empty() ? paths::home() / "deploy" / "local.yaml" : std::filesystem::path(file);
-  Deployment d(load_launch_file(path), paths::bin_dir(), paths::runs_dir() / "logs");
-  std::cerr << "deployment " << path.string() << " running (logs in " << d.log_dir().string() << "); Ctrl-C stops it\n";
-  while (!shutdown_requested()) {
-    for (const auto& name : d.exited())
-      std::cerr << "service '" << name << "' exited; why: " << (d.log_dir() / (name + ".log")).string() << "\n";
-    std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  }
-  return 0;
-}
-
 }  // namespace dh::cli

@@ -21,7 +21,10 @@ struct RunArgs {
 };
 int cmd_run(const RunArgs& a);
 
-int cmd_launch(const std::string& file);
+/// Runs a launch file's services (a multi-host file: those of `host`, with the host's DDS profile).
+int cmd_launch(const std::string& file, const std::string& host);
+/// Writes the DDS profile of `host` of a multi-host launch file and prints its path.
+int cmd_dds_profile(const std::string& file, const std::string& host);
 
 struct CampaignArgs {
   std::string arms = "full", cells = "goal", tasks, seeds, db, launch_file;
@@ -31,6 +34,7 @@ struct CampaignArgs {
   unsigned start_allowance_s = 30;
   unsigned per_step_allowance_ms = 200;
   unsigned idle_abort_s = 120;
+  unsigned reruns = 1;  ///< the rerun rule: attempts lost to infrastructure run again up to this often
   bool json = false;
 };
 int cmd_campaign(const CampaignArgs& a);

@@ -9,7 +9,8 @@
 //   dh seeds --fresh N --salt S              a fresh block of seeds nobody tuned on
 //   dh swap CAPABILITY [--library FILE]      start a new instance, then drain and stop the old ones
 //   dh train-policy [--config FILE]          demonstrations, then the embedded policy's weight file
-//   dh launch [FILE]                         runs a deployment in the foreground until Ctrl-C
+//   dh launch [FILE] [--host H]              runs a deployment (a multi-host file: host H's share) until Ctrl-C
+//   dh dds-profile FILE --host H             writes host H's DDS profile, prints its path
 // Exit codes: 0 done (an episode that fails is a result), 1 infrastructure failure or interrupted
 // campaign, 2 bad input (unknown cell/task/arm, bad config, malformed option, foreign database).
 #include <CLI/CLI.hpp>
@@ -57,6 +58,9 @@ int main(int argc, char** argv) {
   campaign->add_option("--per-step-allowance-ms", camp.per_step_allowance_ms, "wall time allowed per budget step");
   campaign->add_option("--idle-abort-s", camp.idle_abort_s,
                        "give up (resumable) when no channel has been free for this long with episodes pending");
+  campaign->add_option("--reruns", camp.reruns,
+                       "rerun rule, declared in the plan: run an episode lost to infrastructure again up to N times "
+                       "(default 1; 0 records the loss as the episode's failure)");
   campaign->add_flag("--json", camp.json, "one JSON object on stdout (summary per arm and cell)");
 
   ReportArgs rep;
@@ -110,9 +114,13 @@ int main(int argc, char** argv) {
                   "train on the demonstrations saved beside the weight file (demos.bin) instead of collecting");
   train->add_option("--add-demos", train_args.add_demos, "also train on this demonstration file (repeatable)");
 
-  std::string deploy;
+  std::string deploy, host;
   auto* launch = app.add_subcommand("launch", "run a deployment until Ctrl-C");
   launch->add_option("file", deploy, "launch YAML (default deploy/local.yaml)");
+  launch->add_option("--host", host, "multi-host launch file: run this host's services with its DDS profile");
+  auto* profile = app.add_subcommand("dds-profile", "write a host's DDS profile of a multi-host launch file, print its path");
+  profile->add_option("file", deploy, "multi-host launch YAML")->required();
+  profile->add_option("--host", host, "host name in the file")->required();
   CLI11_PARSE(app, argc, argv);
   rep.plots = !no_plots;
   try {
@@ -124,7 +132,8 @@ int main(int argc, char** argv) {
     if (*sign) return cmd_stats_sign(a, b, json);
     if (*seeds) return cmd_seeds(fresh, salt, json);
     if (*swap) return cmd_swap(swap_args);
-    if (*launch) return cmd_launch(deploy);
+    if (*launch) return cmd_launch(deploy, host);
+    if (*profile) return cmd_dds_profile(deploy, host);
     if (*train) return cmd_train_policy(train_args);
   } catch (const dh::ConfigError& e) {
     std::cerr << "error: " << e.what() << "\n";

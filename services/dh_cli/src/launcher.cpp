@@ -1,12 +1,16 @@
 #include "dh/cli/launcher.hpp"
 
+#include <arpa/inet.h>
 #include <fcntl.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cstring>
+#include <set>
 #include <stdexcept>
 #include <thread>
 
@@ -16,18 +20,83 @@ extern char** environ;
 
 namespace dh::cli {
 
-std::vector<ServiceSpec> load_launch_file(const std::filesystem::path& file) {
-  const ConfigNode root = ConfigNode::load_file(file);
+namespace {
+
+bool is_ipv4(const std::string& a) {
+  in_addr out{};
+  return inet_pton(AF_INET, a.c_str(), &out) == 1;
+}
+
+}  // namespace
+
+const HostSpec& LaunchFile::host(const std::string& name) const {
+  std::string known;
+  for (const auto& h : hosts) {
+    if (h.name == name) return h;
+    known += (known.empty() ? "" : ", ") + h.name;
+  }
+  throw ConfigError(file.string() + ": no host '" + name + "' (hosts: " + known + ")");
+}
+
+std::vector<ServiceSpec> LaunchFile::services_on(const std::string& name) const {
+  const HostSpec& h = host(name);
   std::vector<ServiceSpec> out;
+  if (discovery == Discovery::Server && server_host == h.name)
+    out.push_back({"discovery_server", "fast-discovery-server",
+                   {"-i", "0", "-l", h.address, "-p", std::to_string(server_port)}, h.name, true});
+  for (const auto& s : services)
+    if (s.host == h.name) out.push_back(s);
+  return out;
+}
+
+LaunchFile load_launch(const std::filesystem::path& file) {
+  const ConfigNode root = ConfigNode::load_file(file);
+  LaunchFile out;
+  out.file = file;
+  if (root.has("hosts")) {
+    std::set<std::string> names, addresses;
+    for (const ConfigNode& h : root.items("hosts")) {
+      HostSpec host{h.get<std::string>("name"), h.get<std::string>("address")};
+      if (!is_ipv4(host.address)) h.fail("address", "'" + host.address + "' is not an IPv4 address");
+      if (!names.insert(host.name).second) h.fail("name", "host '" + host.name + "' is named twice");
+      if (!addresses.insert(host.address).second) h.fail("address", host.address + " is given to two hosts");
+      out.hosts.push_back(std::move(host));
+    }
+    if (out.hosts.empty()) root.fail("hosts", "lists no host");
+    const std::string discovery = root.get_or<std::string>("discovery", "multicast");
+    if (discovery == "server") {
+      out.discovery = Discovery::Server;
+      const ConfigNode ds = root.child("discovery_server");
+      out.server_host = ds.get<std::string>("host");
+      if (!names.count(out.server_host)) ds.fail("host", "'" + out.server_host + "' is not one of the hosts");
+      out.server_port = ds.get_or<unsigned>("port", 11811);
+      if (out.server_port == 0 || out.server_port > 65535) ds.fail("port", "not a UDP port (1-65535)");
+    } else if (discovery != "multicast") {
+      root.fail("discovery", "'" + discovery + "' is not multicast or server");
+    }
+  }
   for (const ConfigNode& s : root.items("services")) {
     ServiceSpec spec{s.get<std::string>("name"), s.get<std::string>("exec"),
-                     s.get_or<std::vector<std::string>>("args", {})};
+                     s.get_or<std::vector<std::string>>("args", {}), s.get_or<std::string>("host", "")};
     if (spec.exec.find('/') != std::string::npos)
       s.fail("exec", "give the executable's name; it is looked up in the build's bin folder");
-    out.push_back(std::move(spec));
+    if (out.multi_host() && spec.host.empty()) s.fail("host", "missing: a multi-host file says which host runs each service");
+    if (out.multi_host() && !std::any_of(out.hosts.begin(), out.hosts.end(),
+                                         [&](const HostSpec& h) { return h.name == spec.host; }))
+      s.fail("host", "'" + spec.host + "' is not one of the hosts");
+    if (!out.multi_host() && !spec.host.empty()) s.fail("host", "this file has no hosts: section");
+    out.services.push_back(std::move(spec));
   }
-  if (out.empty()) root.fail("services", "lists no service");
+  if (out.services.empty()) root.fail("services", "lists no service");
   return out;
+}
+
+std::vector<ServiceSpec> load_launch_file(const std::filesystem::path& file) {
+  LaunchFile launch = load_launch(file);
+  if (launch.multi_host())
+    throw ConfigError(file.string() + " is a multi-host launch file: run `dh launch " + file.string() +
+                      " --host NAME` on each host");
+  return launch.services;
 }
 
 Deployment::Deployment(const std::vector<ServiceSpec>& services, const std::filesystem::path& bin_dir,
@@ -35,8 +104,8 @@ Deployment::Deployment(const std::vector<ServiceSpec>& services, const std::file
     : log_dir_(log_dir) {
   std::filesystem::create_directories(log_dir);
   for (const auto& s : services) {
-    const auto exe = bin_dir / s.exec;
-    if (!std::filesystem::exists(exe)) {
+    const auto exe = s.from_path ? std::filesystem::path(s.exec) : bin_dir / s.exec;
+    if (!s.from_path && !std::filesystem::exists(exe)) {
       stop(0);
       throw std::runtime_error("service '" + s.name + "': executable " + exe.string() + " not found (build first)");
     }
@@ -51,11 +120,12 @@ Deployment::Deployment(const std::vector<ServiceSpec>& services, const std::file
     posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
     posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
     pid_t pid = 0;
-    const int rc = posix_spawn(&pid, exe.c_str(), &fa, nullptr, argv.data(), environ);
+    const int rc = s.from_path ? posix_spawnp(&pid, exe.c_str(), &fa, nullptr, argv.data(), environ)
+                               : posix_spawn(&pid, exe.c_str(), &fa, nullptr, argv.data(), environ);
     posix_spawn_file_actions_destroy(&fa);
     if (rc != 0) {
       stop(0);
-      throw std::runtime_error("service '" + s.name + "': cannot start " + exe.string());
+      throw std::runtime_error("service '" + s.name + "': cannot start " + exe.string() + ": " + std::strerror(rc));
     }
     children_.push_back({s.name, pid});
   }

@@ -61,7 +61,7 @@ struct Writers {
       : obs(p, topics::kObservation, dds::Qos::Observation),
         verdict(p, topics::kVerdict, dds::Qos::Verdict),
         seam(p, topics::kSeamEvent, dds::Qos::Status),
-        channel(p, topics::kChannelStatus, dds::Qos::Episode) {
+        channel(p, topics::kChannelStatus, dds::Qos::ChannelStatus) {
     if (cameras)
       camera = std::make_unique<dds::Writer<msg::CameraImagePubSubType>>(p, topics::kCamera, dds::Qos::Camera);
   }

@@ -37,6 +37,8 @@ enum class Qos {
   Verdict,     ///< reliable, keep-all
   Planner,     ///< reliable, keep-last 8
   Episode,     ///< reliable, transient-local, keep-last 1 per channel
+  ChannelStatus, ///< as Episode, plus liveliness AUTOMATIC lease kChannelLivelinessSec: a dead or cut-off
+                 ///< simulator worker is noticed by campaigns
   Camera,      ///< reliable, transient-local, keep-last 1 per channel and camera (150 KB samples)
 };
 
@@ -49,6 +51,8 @@ QosPair qos_for(Qos kind);
 /// Liveliness lease of capability announcements and the lease-topic deadline, in seconds.
 inline constexpr double kLivelinessLeaseSec = 1.0;
 inline constexpr double kLeaseDeadlineSec = 1.0;
+/// Liveliness lease of a simulator worker's channel announcements, in seconds.
+inline constexpr double kChannelLivelinessSec = 2.0;
 
 /// DDS domain: DH_DOMAIN_ID, default 42.
 int domain_id();

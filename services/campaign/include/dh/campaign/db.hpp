@@ -31,7 +31,7 @@ Key key_of(const EpisodeRecord& r);
 /// (open one per thread or process: they coordinate through SQLite's locks).
 class CampaignDb {
  public:
-  static constexpr int kSchemaVersion = 1;
+  static constexpr int kSchemaVersion = 2;  ///< 2 added infrastructure_losses; 1 is upgraded on open
   static constexpr int kBusyTimeoutMs = 30'000;
 
   /// Opens `path` for reading and writing, creating its folders, the file and the schema when new.
@@ -44,6 +44,11 @@ class CampaignDb {
   /// Stores one finished episode, durable when this returns. A key already present keeps its first row:
   /// returns false and changes nothing (a resumed or duplicated run never counts an episode twice).
   bool record(const EpisodeRecord& r);
+  /// Stores an attempt lost to infrastructure that the plan's rerun rule runs again (keyed by episode id;
+  /// the episode's own row comes from its last attempt). False if that attempt is stored already.
+  bool record_loss(const EpisodeRecord& r);
+  /// Every attempt stored by record_loss, oldest first.
+  std::vector<EpisodeRecord> losses() const;
   bool has(const std::string& arm, const std::string& cell, unsigned task, unsigned seed) const;
   std::set<Key> finished() const;
   std::vector<EpisodeRecord> rows() const;  ///< ordered by arm, cell, task, seed
@@ -73,7 +78,7 @@ class CampaignDb {
 
   std::filesystem::path path_;
   std::unique_ptr<sqlite3, Close> db_;  // declared before the statements: they are finalized first
-  Stmt insert_, has_, get_meta_, set_meta_;
+  Stmt insert_, insert_loss_, has_, get_meta_, set_meta_;
 };
 
 }  // namespace dh::campaign

@@ -41,6 +41,10 @@ struct SchedulerOptions {
   std::chrono::milliseconds per_step_allowance{200};
   /// How long a finished episode waits for its channel's physics report before it is recorded without.
   std::chrono::milliseconds physics_wait{2000};
+  /// The rerun rule: an episode lost to infrastructure (no result in time, its worker lost, refused by
+  /// the simulator or the governor) is run again up to this many times; each lost attempt is handed out
+  /// by take_losses(), and the last attempt is the episode's record.
+  unsigned reruns = 0;
 };
 
 class Scheduler {
@@ -60,8 +64,13 @@ class Scheduler {
   /// Episodes whose deadline passed become infrastructure losses; their channels are not used again
   /// until they announce themselves idle after that.
   void expire(Clock::time_point now);
+  /// `worker` is gone (its announcements lost liveliness): what its channels were running is lost at
+  /// once, and they are not used again until they announce themselves again.
+  void worker_lost(const std::string& worker, Clock::time_point now);
   /// Finished episodes ready to be recorded (their physics report arrived or stopped being awaited).
   std::vector<EpisodeRecord> take_finished(Clock::time_point now);
+  /// Attempts lost to infrastructure that were put back to run again (SchedulerOptions::reruns).
+  std::vector<EpisodeRecord> take_losses();
 
   bool done() const { return pending_.empty() && running_.empty() && finishing_.empty(); }
   std::size_t pending() const { return pending_.size(); }
@@ -89,6 +98,8 @@ class Scheduler {
   };
   EpisodeRecord record_of(const Running& r, Clock::time_point now) const;
   void lose(std::map<std::string, Running>::iterator it, const std::string& reason, Clock::time_point now);
+  /// Under the rerun rule, keeps `rec` as a lost attempt and puts its episode back first in line.
+  bool rerun(const EpisodeRecord& rec);
 
   std::deque<EpisodeKey> pending_;
   std::function<unsigned(const EpisodeKey&)> budget_of_;
@@ -97,6 +108,8 @@ class Scheduler {
   std::map<std::string, Running> running_;     ///< by episode id
   std::map<std::string, Finishing> finishing_; ///< by episode id
   std::map<std::string, double> physics_;      ///< episode id → physics seconds reported by its channel
+  std::map<EpisodeKey, unsigned> reruns_;      ///< attempts put back per episode
+  std::vector<EpisodeRecord> losses_;
   std::size_t dispatched_ = 0;
   std::string conflict_;
 };

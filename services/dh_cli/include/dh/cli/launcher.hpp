@@ -1,4 +1,9 @@
 // Starts a set of services from a deploy/ YAML file (like a ROS 2 launch file) and stops them.
+//
+// A launch file lists `services:`. A multi-host file also names its `hosts:` (name and address), gives
+// every service a `host:` and says how DDS discovers peers (`discovery: multicast` on the hosts' links,
+// or `discovery: server` with a Fast DDS discovery server on `discovery_server: {host, port}`); each host
+// then runs its own share with a DDS profile made for it (dds_profile.hpp).
 #pragma once
 
 #include <sys/types.h>
@@ -11,11 +16,37 @@ namespace dh::cli {
 
 struct ServiceSpec {
   std::string name;
-  std::string exec;               ///< executable name in the bin folder
+  std::string exec;               ///< executable name in the bin folder (or on PATH when from_path)
   std::vector<std::string> args;
+  std::string host = {};          ///< multi-host files: the host that runs it
+  bool from_path = false;         ///< a system program (the discovery server), looked up on PATH
 };
 
-/// Reads `services:` from a launch file; throws ConfigError naming file and key.
+struct HostSpec {
+  std::string name;
+  std::string address;  ///< IPv4 address of the host on the deployment's network
+};
+
+enum class Discovery { Multicast, Server };
+
+struct LaunchFile {
+  std::filesystem::path file;
+  std::vector<HostSpec> hosts;  ///< empty: a single-host file on the loopback profile
+  Discovery discovery = Discovery::Multicast;
+  std::string server_host;      ///< Discovery::Server: the host running fast-discovery-server
+  unsigned server_port = 11811;
+  std::vector<ServiceSpec> services;
+
+  bool multi_host() const { return !hosts.empty(); }
+  /// Throws ConfigError listing the hosts when `name` is not one of them.
+  const HostSpec& host(const std::string& name) const;
+  /// What `host` runs, with the discovery server first when it is that host's job.
+  std::vector<ServiceSpec> services_on(const std::string& host) const;
+};
+
+/// Reads a launch file; throws ConfigError naming file and key (unknown host, duplicate address, ...).
+LaunchFile load_launch(const std::filesystem::path& file);
+/// The services of a single-host launch file; throws ConfigError for a multi-host one (it needs a host).
 std::vector<ServiceSpec> load_launch_file(const std::filesystem::path& file);
 
 class Deployment {

@@ -1,0 +1,23 @@
+// The Fast DDS XML profile of one host of a multi-host launch file: UDPv4 pinned to the host's own
+// address (nothing leaves by any other interface), shared memory between the host's own processes, and
+// discovery by multicast on that link or as a client of the deployment's discovery server.
+#pragma once
+
+#include <filesystem>
+#include <string>
+
+#include "dh/cli/launcher.hpp"
+
+namespace dh::cli {
+
+/// GUID prefix of `fast-discovery-server -i 0` (Fast DDS 2.x clients must name it).
+inline constexpr const char* kDiscoveryServerPrefix = "44.53.00.5f.45.50.52.4f.53.49.4d.41";
+
+/// The profile's XML text (participant profile `dh_participant`, as deploy/dds/loopback.xml).
+std::string host_profile_xml(const LaunchFile& launch, const std::string& host);
+
+/// Writes the profile to `dir/<launch file stem>-<host>.xml` and returns that path.
+std::filesystem::path write_host_profile(const LaunchFile& launch, const std::string& host,
+                                         const std::filesystem::path& dir);
+
+}  // namespace dh::cli

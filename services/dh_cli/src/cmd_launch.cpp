@@ -1,0 +1,64 @@
+// dh launch / dh dds-profile: run a deployment's services on this host.
+#include <cstdlib>
+#include <iostream>
+#include <thread>
+
+#include "commands.hpp"
+#include "dh/cli/dds_profile.hpp"
+#include "dh/cli/launcher.hpp"
+#include "dh/common/config.hpp"
+#include "dh/common/paths.hpp"
+#include "dh/common/shutdown.hpp"
+
+namespace dh::cli {
+
+namespace {
+
+std::filesystem::path launch_path(const std::string& file) {
+  return file.empty() ? paths::home() / "deploy" / "local.yaml" : std::filesystem::path(file);
+}
+
+/// The services this host runs; for a multi-host file also points DH_DDS_PROFILE (inherited by the
+/// services) at the host's own profile.
+std::vector<ServiceSpec> this_hosts_share(const LaunchFile& launch, const std::string& host) {
+  if (!launch.multi_host()) {
+    if (!host.empty())
+      throw ConfigError(launch.file.string() + " has no hosts: section; run it without --host");
+    return launch.services;
+  }
+  if (host.empty()) {
+    std::string names;
+    for (const auto& h : launch.hosts) names += " " + h.name;
+    throw ConfigError(launch.file.string() + " is a multi-host launch file: give --host, one of:" + names);
+  }
+  const auto profile = write_host_profile(launch, host, paths::runs_dir() / "dds");
+  setenv("DH_DDS_PROFILE", profile.c_str(), 1);
+  std::cerr << "host " << host << " (" << launch.host(host).address << "): DDS profile " << profile.string()
+            << " (export DH_DDS_PROFILE=" << profile.string() << " for dh commands on this host)\n";
+  return launch.services_on(host);
+}
+
+}  // namespace
+
+int cmd_launch(const std::string& file, const std::string& host) {
+  install_shutdown_handlers();
+  const auto path = launch_path(file);
+  const LaunchFile launch = load_launch(path);
+  Deployment d(this_hosts_share(launch, host), paths::bin_dir(), paths::runs_dir() / "logs");
+  std::cerr << "deployment " << path.string() << " running (logs in " << d.log_dir().string() << "); Ctrl-C stops it\n";
+  while (!shutdown_requested()) {
+    for (const auto& name : d.exited())
+      std::cerr << "service '" << name << "' exited; why: " << (d.log_dir() / (name + ".log")).string() << "\n";
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  }
+  return 0;
+}
+
+int cmd_dds_profile(const std::string& file, const std::string& host) {
+  const LaunchFile launch = load_launch(launch_path(file));
+  if (!launch.multi_host()) throw ConfigError(launch.file.string() + " has no hosts: section (it uses DH_DDS_PROFILE as is)");
+  std::cout << write_host_profile(launch, launch.host(host).name, paths::runs_dir() / "dds").string() << "\n";
+  return 0;
+}
+
+}  // namespace dh::cli
