@@ -1,5 +1,5 @@
 // A campaign over two simulator worker processes: killed half way, resumed without rerunning or
-// double-counting a finished episode, then reported.
+// double-counting a finished episode, then reported; and one of its workers SIGKILLed mid-campaign.
 #include <signal.h>
 #include <sys/wait.h>
 
@@ -103,4 +103,40 @@ TEST(Campaign, BadPlansAreRefusedBeforeAnythingRuns) {
   EXPECT_EQ(status, 2);
   EXPECT_NE(out.find("--seeds"), std::string::npos) << out;
   EXPECT_FALSE(std::filesystem::exists(db) && itest::rows_in(db) > 0);
+}
+
+TEST(Campaign, AKilledSimulatorWorkerLosesOnlyItsEpisodesWhichRunAgainOnTheOtherOne) {
+  itest::IsolatedEnv env;
+  const std::string dh = (paths::bin_dir() / "dh").string();
+  const auto db = env.runs / "c.db";
+  cli::Deployment deployment(cli::load_launch_file(paths::home() / "deploy" / "campaign_local.yaml"), paths::bin_dir(),
+                             env.runs / "logs");
+  const pid_t run = itest::spawn_shell("exec " + dh + " campaign --arms full --cells goal --seeds 1-4 --reruns 1 " +
+                                       "--ready-timeout-ms 20000 --db " + db.string() + " > " +
+                                       (env.runs / "campaign.log").string() + " 2>&1");
+  ASSERT_GT(run, 0);
+  const auto deadline = std::chrono::steady_clock::now() + 120s;
+  while (itest::rows_in(db) < 8 && std::chrono::steady_clock::now() < deadline) std::this_thread::sleep_for(20ms);
+  ASSERT_GE(itest::rows_in(db), 8u);
+  ASSERT_TRUE(deployment.signal("sim_worker_b", SIGKILL));
+  int status = 0;
+  waitpid(run, &status, 0);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "see " << (env.runs / "campaign.log").string();
+
+  auto store = campaign::CampaignDb::open(db);
+  const auto rows = store.rows();
+  ASSERT_EQ(rows.size(), 40u) << "every episode recorded once";
+  for (const auto& r : rows) EXPECT_FALSE(r.infrastructure) << r.episode_id << ": " << r.reason;
+  const auto losses = store.losses();
+  ASSERT_GE(losses.size(), 1u) << "local_b had episodes running when it was killed";
+  EXPECT_LE(losses.size(), 2u) << "only what local_b's two channels ran";
+  for (const auto& l : losses) {
+    EXPECT_EQ(l.worker, "local_b");
+    EXPECT_NE(l.reason.find("worker local_b lost"), std::string::npos) << l.reason;
+  }
+  // The plan declares the rule, so a resume under another rule is refused.
+  auto [out, code] = itest::run_command(dh + " campaign --arms full --cells goal --seeds 1-4 --reruns 0 --db " +
+                                        db.string() + " 2>&1");
+  EXPECT_EQ(code, 2);
+  EXPECT_NE(out.find("rerun rule"), std::string::npos) << out;
 }
