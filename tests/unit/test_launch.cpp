@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <thread>
 
 #include "dh/cli/dds_profile.hpp"
 #include "dh/cli/launcher.hpp"
@@ -148,6 +149,36 @@ TEST_F(LaunchFileTest, UnderADiscoveryServerEveryHostIsItsClient) {
   const auto& loc = *server.metatrafficUnicastLocatorList.begin();
   EXPECT_EQ(loc.port, 11900u);
   EXPECT_EQ(eprosima::fastrtps::rtps::IPLocator::ip_to_string(loc), "10.1.0.1");
+}
+
+TEST_F(LaunchFileTest, UnderSecurityEachServiceGetsItsOwnProfileOrTheFileIsRefused) {
+  const std::string yaml = "security: " + (dir / "keys").string() +
+                           "\nservices:\n  - {name: governor, exec: governor}\n  - {name: planner, exec: planner}\n";
+  EXPECT_TRUE(contains(error_of([&] { load_launch(write(yaml)); }),
+                       "no secured profile " + (dir / "keys" / "governor.xml").string() + " for service 'governor'"));
+  fs::create_directories(dir / "keys");
+  std::ofstream(dir / "keys" / "governor.xml") << "<dds/>";
+  std::ofstream(dir / "keys" / "planner.xml") << "<dds/>";
+  const LaunchFile l = load_launch(write(yaml));
+  EXPECT_EQ(l.services[0].env.at("DH_DDS_PROFILE"), (dir / "keys" / "governor.xml").string());
+  EXPECT_EQ(l.services[1].env.at("DH_DDS_PROFILE"), (dir / "keys" / "planner.xml").string());
+}
+
+TEST_F(LaunchFileTest, AServiceSeesItsOwnVariablesOverTheLaunchersEnvironment) {
+  setenv("DH_TEST_LAUNCH_VAR", "launcher", 1);
+  ServiceSpec sh{"sh", "sh", {"-c", "echo $DH_TEST_LAUNCH_VAR $DH_TEST_OTHER > " + (dir / "out.txt").string()}};
+  sh.from_path = true;
+  sh.env["DH_TEST_LAUNCH_VAR"] = "service";
+  setenv("DH_TEST_OTHER", "kept", 1);
+  {
+    Deployment d({sh}, dir, dir / "logs");
+    for (int i = 0; i < 200 && d.exited().empty(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  std::ifstream in(dir / "out.txt");
+  std::string a, b;
+  in >> a >> b;
+  EXPECT_EQ(a, "service");
+  EXPECT_EQ(b, "kept");
 }
 
 }  // namespace

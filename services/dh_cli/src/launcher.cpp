@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "dh/common/config.hpp"
+#include "dh/common/paths.hpp"
 
 extern char** environ;
 
@@ -88,6 +89,19 @@ LaunchFile load_launch(const std::filesystem::path& file) {
     out.services.push_back(std::move(spec));
   }
   if (out.services.empty()) root.fail("services", "lists no service");
+  if (root.has("security")) {
+    // Each service runs with its own secured profile (its identity and permissions), made by
+    // deploy/security/make_keys into this folder.
+    std::filesystem::path dir = root.get<std::string>("security");
+    if (dir.is_relative()) dir = paths::runs_dir() / dir;
+    for (auto& s : out.services) {
+      const auto profile = dir / (s.name + ".xml");
+      if (!std::filesystem::exists(profile))
+        root.fail("security", "no secured profile " + profile.string() + " for service '" + s.name +
+                                  "'; make the keys first: deploy/security/make_keys " + dir.string());
+      s.env["DH_DDS_PROFILE"] = profile.string();
+    }
+  }
   return out;
 }
 
@@ -120,8 +134,18 @@ Deployment::Deployment(const std::vector<ServiceSpec>& services, const std::file
     posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
     posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
     pid_t pid = 0;
-    const int rc = s.from_path ? posix_spawnp(&pid, exe.c_str(), &fa, nullptr, argv.data(), environ)
-                               : posix_spawn(&pid, exe.c_str(), &fa, nullptr, argv.data(), environ);
+    // This process's environment, with the service's own variables in place of any of the same name.
+    std::vector<std::string> env_s;
+    for (char** e = environ; *e; ++e) {
+      const std::string var(*e);
+      if (!s.env.count(var.substr(0, var.find('=')))) env_s.push_back(var);
+    }
+    for (const auto& [k, v] : s.env) env_s.push_back(k + "=" + v);
+    std::vector<char*> envp;
+    for (auto& e : env_s) envp.push_back(e.data());
+    envp.push_back(nullptr);
+    const int rc = s.from_path ? posix_spawnp(&pid, exe.c_str(), &fa, nullptr, argv.data(), envp.data())
+                               : posix_spawn(&pid, exe.c_str(), &fa, nullptr, argv.data(), envp.data());
     posix_spawn_file_actions_destroy(&fa);
     if (rc != 0) {
       stop(0);

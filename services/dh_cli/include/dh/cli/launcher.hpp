@@ -3,12 +3,14 @@
 // A launch file lists `services:`. A multi-host file also names its `hosts:` (name and address), gives
 // every service a `host:` and says how DDS discovers peers (`discovery: multicast` on the hosts' links,
 // or `discovery: server` with a Fast DDS discovery server on `discovery_server: {host, port}`); each host
-// then runs its own share with a DDS profile made for it (dds_profile.hpp).
+// then runs its own share with a DDS profile made for it (dds_profile.hpp). `security: DIR` (relative to
+// DH_RUNS_DIR) runs every service with its own DDS-Security profile DIR/<service name>.xml.
 #pragma once
 
 #include <sys/types.h>
 
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -20,6 +22,7 @@ struct ServiceSpec {
   std::vector<std::string> args;
   std::string host = {};          ///< multi-host files: the host that runs it
   bool from_path = false;         ///< a system program (the discovery server), looked up on PATH
+  std::map<std::string, std::string> env = {};  ///< variables set for this service only
 };
 
 struct HostSpec {
