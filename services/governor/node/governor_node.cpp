@@ -45,8 +45,12 @@ struct LivelinessChange {
   dds::fdds::InstanceHandle_t writer;
   bool alive;
 };
+/// A command on the command topic that this governor did not write.
+struct ForeignCommand {
+  msg::Command c;
+};
 using Event = std::variant<msg::EpisodeRequest, msg::Observation, msg::Advice, msg::CommandStatus, Announced,
-                           LivelinessChange, msg::Verdict, msg::SeamEvent>;
+                           LivelinessChange, msg::Verdict, msg::SeamEvent, ForeignCommand>;
 
 std::string file_safe(std::string s) {
   for (char& ch : s)
@@ -100,10 +104,22 @@ class Governor {
     ch.machine = std::make_unique<gov::EpisodeMachine>(spec, gov::for_arm(config_, arms_.at(arm)), registry_,
                                                        *ch.evidence, gov::Clock::now());
     log_->info("channel={} episode={} arm={} evidence={}", r.channel(), r.episode_id(), arm, path.string());
+    if (ch.early && ch.early->episode_id() == r.episode_id()) {
+      const msg::Observation first = *ch.early;
+      ch.early.reset();
+      handle(first);
+    }
   }
 
   void handle(const msg::Observation& m) {
-    if (auto* mc = machine(m.channel(), m.episode_id())) apply(m.channel(), mc->on_observation(convert::from_msg(m), gov::Clock::now()));
+    if (auto* mc = machine(m.channel(), m.episode_id())) {
+      apply(m.channel(), mc->on_observation(convert::from_msg(m), gov::Clock::now()));
+      return;
+    }
+    auto& ch = channels_[m.channel()];
+    const bool known = (ch.machine && ch.machine->spec().episode_id == m.episode_id()) ||
+                       std::find(done_.begin(), done_.end(), m.episode_id()) != done_.end();
+    if (!known) ch.early = m;
   }
   void handle(const msg::Advice& a) {
     auto* mc = machine(a.channel(), a.episode_id());
@@ -142,10 +158,27 @@ class Governor {
   }
   void handle(const msg::SeamEvent& e) {
     static const char* kinds[] = {"rejected_lease", "rejected_budget", "rejected_command", "rejected_step",
-                                  "safety_hold", "workspace_clamp", "action_clamped"};
+                                  "safety_hold",    "workspace_clamp", "action_clamped",   "rejected_channel"};
+    const auto kind = static_cast<std::size_t>(e.kind());
     if (auto* mc = machine(e.channel(), e.episode_id()))
-      mc->on_seam_event(e.step(), e.command_id(), kinds[static_cast<int>(e.kind())], e.reason());
+      mc->on_seam_event(e.step(), e.command_id(), kind < std::size(kinds) ? kinds[kind] : "unknown_kind", e.reason());
   }
+  /// Only this governor commands capabilities: a command from anyone else is recorded (capabilities may
+  /// start on it, but the seam applies no action of a command this governor did not lease).
+  void handle(const ForeignCommand& f) {
+    const auto& c = f.c;
+    const bool known = registry_.known(c.capability());
+    const std::string why = "command '" + c.command_id() + "' for capability '" + c.capability() +
+                            "' was not issued by this governor" +
+                            (known ? std::string() : "; no such capability is announced");
+    log_->warn("channel={} foreign command rejected: {}", c.channel(), why);
+    auto it = channels_.find(c.channel());
+    if (it != channels_.end() && it->second.machine && !it->second.machine->ended())
+      it->second.evidence->append("governor", "foreign_command",
+                                  {{"command_id", c.command_id()}, {"capability", c.capability()},
+                                   {"episode_id", c.episode_id()}, {"reason", why}});
+  }
+  dds::fdds::InstanceHandle_t command_writer() const { return command_.handle(); }
   void tick() {
     for (auto& [id, ch] : channels_)
       if (ch.machine && !ch.machine->ended()) apply(id, ch.machine->on_tick(gov::Clock::now()));
@@ -155,6 +188,9 @@ class Governor {
   struct ChannelState {
     std::unique_ptr<EvidenceWriter> evidence;
     std::unique_ptr<gov::EpisodeMachine> machine;
+    /// The simulator answers the same episode request with its first observation, which can reach us
+    /// before the request does; it is kept until the request comes.
+    std::optional<msg::Observation> early;
   };
 
   gov::EpisodeMachine* machine(std::uint32_t channel, const std::string& episode) {
@@ -296,6 +332,11 @@ int run(int argc, char** argv) {
         {[&](const msg::Verdict& m, const auto&) { push(m); }, {}, {}});
     dds::Reader<msg::SeamEventPubSubType> r7(participant, topics::kSeamEvent, dds::Qos::Status,
         {[&](const msg::SeamEvent& m, const auto&) { push(m); }, {}, {}});
+    const auto own_commands = gov.command_writer();
+    dds::Reader<msg::CommandPubSubType> r8(participant, topics::kCommand, dds::Qos::Command,
+        {[&](const msg::Command& m, const dds::fdds::SampleInfo& i) {
+           if (i.publication_handle != own_commands) push(ForeignCommand{m});
+         }, {}, {}});
     log->info("domain={} runs={} up", dds::domain_id(), runs_dir.string());
     auto next_tick = gov::Clock::now();
     while (!shutdown_requested()) {

@@ -22,6 +22,8 @@
 #include <atomic>
 #include <map>
 #include <memory>
+#include <mutex>
+#include <set>
 #include <thread>
 #include <variant>
 
@@ -395,12 +397,40 @@ int run(int argc, char** argv) {
     auto route = [&](std::uint32_t ch) -> Channel* {
       return ch >= first && ch < first + channels ? chans[ch - first].get() : nullptr;
     };
+    // Channels every worker announces (other workers' actions are theirs); an action or lease for a
+    // channel nobody serves is garbage: rejected and recorded on the seam topic by every worker.
+    std::mutex known_mutex;
+    std::set<std::uint32_t> known;
+    dds::Reader<msg::ChannelStatusPubSubType> status(participant, topics::kChannelStatus, dds::Qos::ChannelStatus,
+        {[&](const msg::ChannelStatus& m, const auto&) { std::lock_guard l(known_mutex); known.insert(m.channel()); }, {}, {}});
+    auto reject_unknown = [&](std::uint32_t ch, const std::string& episode, std::uint32_t step, const std::string& command,
+                              const char* what) {
+      {
+        std::lock_guard l(known_mutex);
+        if ((ch >= first && ch < first + channels) || known.count(ch)) return;
+      }
+      msg::SeamEvent e;
+      e.channel(ch);
+      e.episode_id(episode);
+      e.step(step);
+      e.command_id(command);
+      e.kind(msg::SEAM_REJECTED_CHANNEL);
+      e.reason(std::string(what) + " for channel " + std::to_string(ch) + ", which no simulator worker serves");
+      writers.seam.write(e);
+      log->warn("worker={} rejected: {}", name, e.reason());
+    };
     dds::Reader<msg::EpisodeRequestPubSubType> req(participant, topics::kEpisodeRequest, dds::Qos::Episode,
         {[&](const msg::EpisodeRequest& m, const auto&) { if (auto c = route(m.channel())) c->queue().push(m); }, {}, {}});
     dds::Reader<msg::ActionPubSubType> act(participant, topics::kAction, dds::Qos::Action,
-        {[&](const msg::Action& m, const auto&) { if (auto c = route(m.channel())) c->queue().push(m); }, {}, {}});
+        {[&](const msg::Action& m, const auto&) {
+           if (auto c = route(m.channel())) c->queue().push(m);
+           else reject_unknown(m.channel(), m.episode_id(), m.step(), m.command_id(), "action");
+         }, {}, {}});
     dds::Reader<msg::LeasePubSubType> lease(participant, topics::kLease, dds::Qos::Lease,
-        {[&](const msg::Lease& m, const auto&) { if (auto c = route(m.channel())) c->queue().push(m); }, {},
+        {[&](const msg::Lease& m, const auto&) {
+           if (auto c = route(m.channel())) c->queue().push(m);
+           else reject_unknown(m.channel(), m.episode_id(), 0, m.command_id(), "lease");
+         }, {},
          [&](const auto&) { for (auto& c : chans) c->queue().push(LeaseSilent{}); }});
     dds::Reader<msg::EpisodeResultPubSubType> res(participant, topics::kEpisodeResult, dds::Qos::Episode,
         {[&](const msg::EpisodeResult& m, const auto&) { if (auto c = route(m.channel())) c->queue().push(m); }, {}, {}});

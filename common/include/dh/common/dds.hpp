@@ -95,6 +95,8 @@ class Writer {
   Writer& operator=(const Writer&) = delete;
 
   bool write(const T& sample) { return writer_->write(const_cast<T*>(&sample)); }
+  /// This writer's handle, as readers see it in SampleInfo::publication_handle.
+  fdds::InstanceHandle_t handle() const { return writer_->get_instance_handle(); }
   /// Number of matched readers.
   std::size_t matched() const {
     fdds::PublicationMatchedStatus s;
