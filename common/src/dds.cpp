@@ -33,11 +33,10 @@ QosPair qos_for(Qos kind) {
     case Qos::Announce:
       w.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
       r.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
-      w.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
-      r.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
+      w.liveliness().kind = fdds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
+      r.liveliness().kind = fdds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
       w.liveliness().lease_duration = seconds(kLivelinessLeaseSec);
       r.liveliness().lease_duration = seconds(kLivelinessLeaseSec);
-      w.liveliness().announcement_period = seconds(kLivelinessLeaseSec / 4);
       depth = 1;
       break;
     case Qos::Lease:
@@ -73,11 +72,10 @@ QosPair qos_for(Qos kind) {
     case Qos::ChannelStatus:
       w.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
       r.durability().kind = fdds::TRANSIENT_LOCAL_DURABILITY_QOS;
-      w.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
-      r.liveliness().kind = fdds::AUTOMATIC_LIVELINESS_QOS;
+      w.liveliness().kind = fdds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
+      r.liveliness().kind = fdds::MANUAL_BY_TOPIC_LIVELINESS_QOS;
       w.liveliness().lease_duration = seconds(kChannelLivelinessSec);
       r.liveliness().lease_duration = seconds(kChannelLivelinessSec);
-      w.liveliness().announcement_period = seconds(kChannelLivelinessSec / 4);
       depth = 1;
       break;
     case Qos::Camera:
@@ -110,6 +108,24 @@ int domain_id() {
   if (*end != '\0' || id < 0 || id > 232)
     throw std::runtime_error(std::string("DH_DOMAIN_ID='") + v + "' is not a DDS domain id (0-232)");
   return static_cast<int>(id);
+}
+
+Heartbeat::Heartbeat(std::function<void()> beat, std::chrono::milliseconds period)
+    : thread_([this, beat = std::move(beat), period] {
+        std::unique_lock l(m_);
+        while (!stop_) {
+          beat();
+          cv_.wait_for(l, period, [this] { return stop_; });
+        }
+      }) {}
+
+Heartbeat::~Heartbeat() {
+  {
+    std::lock_guard l(m_);
+    stop_ = true;
+  }
+  cv_.notify_all();
+  thread_.join();
 }
 
 Participant::Participant(const std::string& name) {

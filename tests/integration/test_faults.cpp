@@ -1,5 +1,5 @@
-// Faults across real processes: a capability killed mid-command, the governor killed mid-episode, and
-// actions under an expired lease or with garbage values.
+// Faults across real processes: a capability killed mid-command, the governor killed mid-episode (and
+// started again), and actions under an expired lease or with garbage values.
 #include <signal.h>
 
 #include <algorithm>
@@ -39,7 +39,9 @@ msg::EpisodeRequest request(const std::string& id) {
 
 TEST(Faults, KilledCapabilityIsRecordedWithinItsLeaseAndTheEpisodeEnds) {
   itest::IsolatedEnv env;
-  cli::Deployment core({itest::service("sim_worker"), itest::service("governor"), itest::service("planner")},
+  // cap_push lives on beside the killed one: a live capability must not keep a dead one's liveliness up.
+  cli::Deployment core({itest::service("sim_worker"), itest::service("governor"), itest::service("planner"),
+                        itest::service("cap_push")},
                        paths::bin_dir(), env.runs / "logs");
   cli::Deployment cap({itest::service("cap_pick_place")}, paths::bin_dir(), env.runs / "logs");
   dds::Participant p("itest");
@@ -85,10 +87,12 @@ TEST(Faults, KilledCapabilityIsRecordedWithinItsLeaseAndTheEpisodeEnds) {
   EXPECT_GT(detect_s, 0.0);
   EXPECT_LT(detect_s, dds::kLivelinessLeaseSec * 1.5) << "loss recorded after " << detect_s << " s";
   std::printf("capability loss recorded %.3f s after SIGKILL\n", detect_s);
-  const bool replanned = std::any_of(lost, recs.end(), [](const auto& r) {
-    return r["kind"] == "decision" && r["phase"] == "lost" && r["decision"] == "request_replan";
+  // With cap_push alive the fast brain first substitutes it for the lost command, else it asks to replan.
+  const bool handled = std::any_of(lost, recs.end(), [](const auto& r) {
+    return r["kind"] == "decision" && r["phase"] == "lost" &&
+           (r["decision"] == "substitute" || r["decision"] == "request_replan");
   });
-  EXPECT_TRUE(replanned);
+  EXPECT_TRUE(handled) << "no substitution or replan recorded after the loss";
   EXPECT_EQ(recs.back()["kind"], "episode_end");
 }
 
@@ -118,7 +122,9 @@ TEST(Faults, AKilledGovernorLeavesTheArmHeldAndTheOrphanedEpisodeAbandoned) {
       {[&](const msg::EpisodeResult& r, const auto&) { std::lock_guard l(m); results[r.episode_id()] = r; cv.notify_all(); }, {}, {}});
   dds::Writer<msg::EpisodeRequestPubSubType> req(p, topics::kEpisodeRequest, dds::Qos::Episode);
   auto idle = [&] { return status && status->state() == msg::CHANNEL_IDLE; };
-  ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return announced && idle() && req.matched() >= 2; }));
+  ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return announced && idle(); }));
+  for (int i = 0; i < 400 && req.matched() < 2; ++i) std::this_thread::sleep_for(50ms);  // matching notifies nobody
+  ASSERT_GE(req.matched(), 2u);
   std::this_thread::sleep_for(300ms);
   req.write(request("orphan"));
   ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return step >= 40; })) << "the command never got going";
@@ -142,8 +148,18 @@ TEST(Faults, AKilledGovernorLeavesTheArmHeldAndTheOrphanedEpisodeAbandoned) {
     })) << "no lease rejection recorded";
     EXPECT_FALSE(results.count("orphan")) << "nobody was left to publish a result";
   }
-  // Not asserted here: a governor restarted right after the SIGKILL served the next episode in some runs
-  // and was discovered only ~20 s later in others (issue 6, see README "Not built yet").
+  // A governor started again takes the next episode on the same channel.
+  cli::Deployment restarted({itest::service("governor")}, paths::bin_dir(), env.runs / "logs");
+  const auto t0 = std::chrono::steady_clock::now();
+  req.write(request("after-restart"));
+  EXPECT_TRUE(itest::wait_until(m, cv, 60s, [&] { return results.count("after-restart") > 0; }))
+      << "the restarted governor never served the next episode";
+  std::printf("restarted governor: result %.1f s after the request\n",
+              std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  std::lock_guard l(m);
+  if (results.count("after-restart")) {
+    EXPECT_TRUE(results["after-restart"].success()) << results["after-restart"].reason();
+  }
 }
 
 TEST(Faults, TheSeamRejectsActionsUnderAnExpiredLease) {

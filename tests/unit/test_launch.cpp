@@ -65,7 +65,8 @@ void replace_all(std::string& text, const std::string& from, const std::string& 
 fdds::DomainParticipantQos load_in_fast_dds(std::string xml, const fs::path& file, const std::string& name) {
   replace_all(xml, "dh_participant", name);
   replace_all(xml, "dh_udp_host", name + "_udp");
-  replace_all(xml, "dh_shm", name + "_shm");
+  replace_all(xml, "dh_discovery_server", name);
+  replace_all(xml, "dh_udp_server", name + "_udp");
   std::ofstream(file) << xml;
   auto* factory = fdds::DomainParticipantFactory::get_instance();
   EXPECT_EQ(factory->load_XML_profiles_file(file.string()), ReturnCode_t::RETCODE_OK);
@@ -78,25 +79,36 @@ TEST_F(LaunchFileTest, TheShippedMultiHostFileGivesEachHostItsShare) {
   const LaunchFile l = load_launch(paths::home() / "deploy" / "multihost.yaml");
   ASSERT_EQ(l.hosts.size(), 3u);
   EXPECT_EQ(l.discovery, Discovery::Multicast);
-  const auto sim1 = l.services_on("sim1"), sim2 = l.services_on("sim2"), control = l.services_on("control");
+  const auto sim1 = l.services_on("sim1", dir), sim2 = l.services_on("sim2", dir), control = l.services_on("control", dir);
   ASSERT_EQ(sim1.size(), 1u);
   ASSERT_EQ(sim2.size(), 1u);
   EXPECT_EQ(sim1[0].exec, "sim_worker");
   EXPECT_EQ(sim2[0].args, (std::vector<std::string>{"--channels", "11", "--first-channel", "11", "--name", "sim2"}));
   EXPECT_EQ(control.size(), l.services.size() - 2);
   for (const auto& s : control) EXPECT_NE(s.exec, "sim_worker");
-  EXPECT_TRUE(contains(error_of([&] { l.services_on("sim3"); }), "no host 'sim3' (hosts: control, sim1, sim2)"));
+  EXPECT_TRUE(contains(error_of([&] { l.services_on("sim3", dir); }), "no host 'sim3' (hosts: control, sim1, sim2)"));
 }
 
 TEST_F(LaunchFileTest, ADiscoveryServerIsStartedFirstOnItsHost) {
   const LaunchFile l = load_launch(write(kThreeHosts + "discovery: server\ndiscovery_server: {host: control, port: 11900}\n"));
   EXPECT_EQ(l.discovery, Discovery::Server);
-  const auto control = l.services_on("control");
+  const auto control = l.services_on("control", dir);
   ASSERT_EQ(control.size(), 2u);
   EXPECT_EQ(control[0].exec, "fast-discovery-server");
   EXPECT_TRUE(control[0].from_path);
-  EXPECT_EQ(control[0].args, (std::vector<std::string>{"-i", "0", "-l", "10.1.0.1", "-p", "11900"}));
-  EXPECT_EQ(l.services_on("sim1").size(), 1u) << "only the server's host runs it";
+  EXPECT_EQ(control[0].args, (std::vector<std::string>{"-x", (dir / "launch-discovery_server.xml").string()}));
+  EXPECT_EQ(l.services_on("sim1", dir).size(), 1u) << "only the server's host runs it";
+  // Its profile: a SERVER with id 0's prefix, listening on its host's address and port only.
+  const auto qos = load_in_fast_dds(server_profile_xml(l), dir / "s.xml", "dh_test_server");
+  const auto& d = qos.wire_protocol().builtin.discovery_config;
+  EXPECT_EQ(d.discoveryProtocol, eprosima::fastrtps::rtps::DiscoveryProtocol_t::SERVER);
+  std::ostringstream prefix;
+  prefix << qos.wire_protocol().prefix;
+  EXPECT_EQ(prefix.str(), kDiscoveryServerPrefix);
+  const auto& meta = qos.wire_protocol().builtin.metatrafficUnicastLocatorList;
+  ASSERT_EQ(meta.size(), 1u);
+  EXPECT_EQ(meta.begin()->port, 11900u);
+  EXPECT_FALSE(qos.transport().use_builtin_transports);
 }
 
 TEST_F(LaunchFileTest, BadHostsAreRefusedNamingTheKey) {
@@ -125,7 +137,7 @@ TEST_F(LaunchFileTest, AHostProfilePinsUdpToItsAddressAndFastDdsLoadsIt) {
   EXPECT_FALSE(contains(xml, "CLIENT"));
   const auto qos = load_in_fast_dds(xml, dir / "p.xml", "dh_test_multicast");
   EXPECT_FALSE(qos.transport().use_builtin_transports);
-  EXPECT_EQ(qos.transport().user_transports.size(), 2u);
+  EXPECT_EQ(qos.transport().user_transports.size(), 1u) << "UDPv4 only, no shared memory";
   EXPECT_EQ(qos.wire_protocol().builtin.discovery_config.discoveryProtocol,
             eprosima::fastrtps::rtps::DiscoveryProtocol_t::SIMPLE);
   EXPECT_EQ(qos.wire_protocol().builtin.discovery_config.leaseDuration.seconds, 3);

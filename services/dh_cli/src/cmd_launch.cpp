@@ -31,11 +31,13 @@ std::vector<ServiceSpec> this_hosts_share(const LaunchFile& launch, const std::s
     for (const auto& h : launch.hosts) names += " " + h.name;
     throw ConfigError(launch.file.string() + " is a multi-host launch file: give --host, one of:" + names);
   }
-  const auto profile = write_host_profile(launch, host, paths::runs_dir() / "dds");
+  const auto dir = paths::runs_dir() / "dds";
+  const auto profile = write_host_profile(launch, host, dir);
+  if (launch.discovery == Discovery::Server && launch.server_host == host) write_server_profile(launch, dir);
   setenv("DH_DDS_PROFILE", profile.c_str(), 1);
   std::cerr << "host " << host << " (" << launch.host(host).address << "): DDS profile " << profile.string()
             << " (export DH_DDS_PROFILE=" << profile.string() << " for dh commands on this host)\n";
-  return launch.services_on(host);
+  return launch.services_on(host, dir);
 }
 
 }  // namespace

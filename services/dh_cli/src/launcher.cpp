@@ -39,12 +39,12 @@ const HostSpec& LaunchFile::host(const std::string& name) const {
   throw ConfigError(file.string() + ": no host '" + name + "' (hosts: " + known + ")");
 }
 
-std::vector<ServiceSpec> LaunchFile::services_on(const std::string& name) const {
+std::vector<ServiceSpec> LaunchFile::services_on(const std::string& name, const std::filesystem::path& profile_dir) const {
   const HostSpec& h = host(name);
   std::vector<ServiceSpec> out;
   if (discovery == Discovery::Server && server_host == h.name)
     out.push_back({"discovery_server", "fast-discovery-server",
-                   {"-i", "0", "-l", h.address, "-p", std::to_string(server_port)}, h.name, true});
+                   {"-x", (profile_dir / (file.stem().string() + "-discovery_server.xml")).string()}, h.name, true});
   for (const auto& s : services)
     if (s.host == h.name) out.push_back(s);
   return out;

@@ -61,14 +61,21 @@ std::string file_safe(std::string s) {
 class Governor {
  public:
   Governor(dds::Participant& p, gov::GovernorConfig config, std::map<std::string, ArmSpec> arms,
-           std::filesystem::path runs, std::shared_ptr<spdlog::logger> log)
+           std::filesystem::path runs, std::chrono::milliseconds startup_grace, std::shared_ptr<spdlog::logger> log)
       : config_(std::move(config)), arms_(std::move(arms)), runs_(std::move(runs)), log_(std::move(log)),
         plan_(p, topics::kPlanRequest, dds::Qos::Planner),
         command_(p, topics::kCommand, dds::Qos::Command),
         lease_(p, topics::kLease, dds::Qos::Lease),
-        result_(p, topics::kEpisodeResult, dds::Qos::Episode) {}
+        result_(p, topics::kEpisodeResult, dds::Qos::Episode),
+        ready_at_(gov::Clock::now() + startup_grace) {}
 
   void handle(const msg::EpisodeRequest& r) {
+    // A governor that has just started has not heard every capability's announcement yet (they come on
+    // discovery); requests waiting for it (transient-local, e.g. after a restart) are held until then.
+    if (gov::Clock::now() < ready_at_) {
+      held_.push_back(r);
+      return;
+    }
     auto& ch = channels_[r.channel()];
     if (ch.machine && ch.machine->spec().episode_id == r.episode_id()) return;  // redelivery
     if (std::find(done_.begin(), done_.end(), r.episode_id()) != done_.end()) return;
@@ -180,6 +187,11 @@ class Governor {
   }
   dds::fdds::InstanceHandle_t command_writer() const { return command_.handle(); }
   void tick() {
+    if (!held_.empty() && gov::Clock::now() >= ready_at_) {
+      auto held = std::move(held_);
+      held_.clear();
+      for (const auto& r : held) handle(r);
+    }
     for (auto& [id, ch] : channels_)
       if (ch.machine && !ch.machine->ended()) apply(id, ch.machine->on_tick(gov::Clock::now()));
   }
@@ -292,6 +304,8 @@ class Governor {
   std::map<std::string, std::string> instance_of_;
   std::map<std::uint32_t, ChannelState> channels_;
   std::vector<std::string> done_;
+  gov::Clock::time_point ready_at_;
+  std::vector<msg::EpisodeRequest> held_;
 };
 
 int run(int argc, char** argv) {
@@ -302,6 +316,9 @@ int run(int argc, char** argv) {
   std::optional<unsigned> planner_timeout_ms;
   app.add_option("--planner-timeout-ms", planner_timeout_ms,
                  "overrides planner_timeout_ms of the YAML (a model server's planner needs more than its own timeout)");
+  unsigned startup_grace_ms = 1500;
+  app.add_option("--startup-grace-ms", startup_grace_ms,
+                 "hold episode requests this long after start, until the capabilities' announcements are in");
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("dh_governor");
   return run_service(*log, [&] {
@@ -310,7 +327,8 @@ int run(int argc, char** argv) {
     dds::Participant participant("dh_governor");
     gov::GovernorConfig gc = gov::load_config(config);
     if (planner_timeout_ms) gc.planner_timeout = std::chrono::milliseconds(*planner_timeout_ms);
-    Governor gov(participant, gc, load_arms(config), std::filesystem::absolute(runs_dir), log);
+    Governor gov(participant, gc, load_arms(config), std::filesystem::absolute(runs_dir),
+                 std::chrono::milliseconds(startup_grace_ms), log);
     EventQueue<Event> q;
     auto push = [&q](auto m) { q.push(std::move(m)); };
     dds::Reader<msg::EpisodeRequestPubSubType> r1(participant, topics::kEpisodeRequest, dds::Qos::Episode,
@@ -324,7 +342,10 @@ int run(int argc, char** argv) {
     dds::Reader<msg::CapabilityAnnouncePubSubType> r5(participant, topics::kAnnounce, dds::Qos::Announce,
         {[&](const msg::CapabilityAnnounce& m, const dds::fdds::SampleInfo& i) { push(Announced{m, i.publication_handle}); },
          [&](const dds::fdds::LivelinessChangedStatus& s) {
-           if (s.not_alive_count_change > 0) push(LivelinessChange{s.last_publication_handle, false});
+           // Lost: an alive writer turned not alive (its lease expired) or went away (its participant's lease
+           // expired or it was deleted).
+           if (s.not_alive_count_change > 0 || s.alive_count_change < 0)
+             push(LivelinessChange{s.last_publication_handle, false});
            if (s.alive_count_change > 0) push(LivelinessChange{s.last_publication_handle, true});
          },
          {}});

@@ -434,6 +434,8 @@ int run(int argc, char** argv) {
          [&](const auto&) { for (auto& c : chans) c->queue().push(LeaseSilent{}); }});
     dds::Reader<msg::EpisodeResultPubSubType> res(participant, topics::kEpisodeResult, dds::Qos::Episode,
         {[&](const msg::EpisodeResult& m, const auto&) { if (auto c = route(m.channel())) c->queue().push(m); }, {}, {}});
+    const dds::Heartbeat alive([&writers] { writers.channel.assert_liveliness(); },
+                               std::chrono::milliseconds(static_cast<int>(dds::kChannelLivelinessSec * 1000 / 4)));
     log->info("worker={} channels={}..{} domain={} up", name, first, first + channels - 1, dds::domain_id());
     std::vector<std::thread> threads;
     for (auto& c : chans) threads.emplace_back([&c] { c->run(); });

@@ -15,12 +15,15 @@
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/dds/topic/TypeSupport.hpp>
 
+#include <chrono>
+#include <condition_variable>
 #include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
 #include <stdexcept>
 #include <string>
+#include <thread>
 
 namespace dh::dds {
 
@@ -28,7 +31,7 @@ namespace fdds = eprosima::fastdds::dds;
 
 /// The QoS classes of DESIGN.md §3.
 enum class Qos {
-  Announce,    ///< reliable, transient-local, liveliness AUTOMATIC lease 1 s
+  Announce,    ///< reliable, transient-local, liveliness MANUAL_BY_TOPIC lease 1 s (a Heartbeat asserts it)
   Command,     ///< reliable, keep-last 1 per channel
   Status,      ///< reliable, keep-last 16
   Lease,       ///< reliable, keep-last 1, deadline 1 s
@@ -37,8 +40,8 @@ enum class Qos {
   Verdict,     ///< reliable, keep-all
   Planner,     ///< reliable, keep-last 8
   Episode,     ///< reliable, transient-local, keep-last 1 per channel
-  ChannelStatus, ///< as Episode, plus liveliness AUTOMATIC lease kChannelLivelinessSec: a dead or cut-off
-                 ///< simulator worker is noticed by campaigns
+  ChannelStatus, ///< as Episode, plus liveliness MANUAL_BY_TOPIC lease kChannelLivelinessSec (a Heartbeat
+                 ///< asserts it): a dead or cut-off simulator worker is noticed by campaigns
   Camera,      ///< reliable, transient-local, keep-last 1 per channel and camera (150 KB samples)
 };
 
@@ -48,6 +51,10 @@ struct QosPair {
 };
 QosPair qos_for(Qos kind);
 
+/// Liveliness of announcements (capabilities, simulator channels) is MANUAL_BY_TOPIC, asserted by a
+/// Heartbeat thread: Fast DDS 2.9 (Debian 12) lets any remote participant's AUTOMATIC liveliness message
+/// assert every remote AUTOMATIC writer (Fast-DDS #4373, fixed by #4501 in 2.13/2.14), so a killed
+/// capability would stay "alive" as long as another one lives.
 /// Liveliness lease of capability announcements and the lease-topic deadline, in seconds.
 inline constexpr double kLivelinessLeaseSec = 1.0;
 inline constexpr double kLeaseDeadlineSec = 1.0;
@@ -95,6 +102,8 @@ class Writer {
   Writer& operator=(const Writer&) = delete;
 
   bool write(const T& sample) { return writer_->write(const_cast<T*>(&sample)); }
+  /// Asserts a MANUAL_BY_TOPIC writer's liveliness (see Heartbeat).
+  void assert_liveliness() { writer_->assert_liveliness(); }
   /// This writer's handle, as readers see it in SampleInfo::publication_handle.
   fdds::InstanceHandle_t handle() const { return writer_->get_instance_handle(); }
   /// Number of matched readers.
@@ -107,6 +116,22 @@ class Writer {
  private:
   Participant& participant_;
   fdds::DataWriter* writer_ = nullptr;
+};
+
+/// Calls `beat` every `period` on a thread of its own until destroyed: keeps MANUAL_BY_TOPIC writers alive
+/// for as long as the process lives, whatever its main loop is doing.
+class Heartbeat {
+ public:
+  Heartbeat(std::function<void()> beat, std::chrono::milliseconds period);
+  ~Heartbeat();
+  Heartbeat(const Heartbeat&) = delete;
+  Heartbeat& operator=(const Heartbeat&) = delete;
+
+ private:
+  std::mutex m_;
+  std::condition_variable cv_;
+  bool stop_ = false;
+  std::thread thread_;
 };
 
 template <class PubSub>

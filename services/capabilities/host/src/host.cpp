@@ -1,6 +1,6 @@
 // One capability family as its own process.
 //
-// Writes  rt/dh/capability/announce (Announce: transient-local, liveliness AUTOMATIC, lease 1 s), one
+// Writes  rt/dh/capability/announce (Announce: transient-local, liveliness MANUAL_BY_TOPIC, lease 1 s), one
 //                                    sample per capability the family serves
 //         rt/dh/action          (Action)  one action per observation while a command runs
 //         rt/dh/command/status  (Status)  accepted / refused(reason) / running / completed / failed(reason)
@@ -264,6 +264,8 @@ int run_capability_host(int argc, char** argv, const std::string& family,
       announce.write(s.descriptor);
       log->info("instance={} cost_steps={} announced", s.descriptor.instance(), s.descriptor.cost_steps());
     }
+    const dds::Heartbeat alive([&announce] { announce.assert_liveliness(); },
+                               std::chrono::milliseconds(static_cast<int>(dds::kLivelinessLeaseSec * 1000 / 4)));
     while (!shutdown_requested())
       if (auto e = queue.pop(std::chrono::milliseconds(50))) std::visit([&](auto& ev) { node.handle(ev); }, *e);
     node.drain();

@@ -43,8 +43,9 @@ struct LaunchFile {
   bool multi_host() const { return !hosts.empty(); }
   /// Throws ConfigError listing the hosts when `name` is not one of them.
   const HostSpec& host(const std::string& name) const;
-  /// What `host` runs, with the discovery server first when it is that host's job.
-  std::vector<ServiceSpec> services_on(const std::string& host) const;
+  /// What `host` runs, with the discovery server first when it is that host's job (it reads its profile
+  /// from `profile_dir`, see write_server_profile()).
+  std::vector<ServiceSpec> services_on(const std::string& host, const std::filesystem::path& profile_dir) const;
 };
 
 /// Reads a launch file; throws ConfigError naming file and key (unknown host, duplicate address, ...).
