@@ -1,6 +1,7 @@
 // Launch files with hosts, and the DDS profile each host gets: parsed, refused with reasons, and loaded
 // by Fast DDS itself.
 #include <gtest/gtest.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
@@ -191,6 +192,28 @@ TEST_F(LaunchFileTest, AServiceSeesItsOwnVariablesOverTheLaunchersEnvironment) {
   in >> a >> b;
   EXPECT_EQ(a, "service");
   EXPECT_EQ(b, "kept");
+}
+
+TEST_F(LaunchFileTest, AnExitedServiceCanBeStartedAgain) {
+  ServiceSpec sleeper{"sleeper", "sleep", {"30"}};
+  sleeper.from_path = true;
+  Deployment d({sleeper}, dir, dir / "logs");
+  const auto before = d.running();
+  ASSERT_EQ(before.size(), 1u);
+  EXPECT_FALSE(d.restart("sleeper")) << "it is running";
+  ASSERT_TRUE(d.signal("sleeper", SIGKILL));
+  std::vector<std::string> gone;
+  for (int i = 0; i < 200 && gone.empty(); ++i) {
+    gone = d.exited();
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(gone, std::vector<std::string>{"sleeper"});
+  EXPECT_TRUE(d.running().empty());
+  EXPECT_TRUE(d.restart("sleeper"));
+  EXPECT_FALSE(d.restart("nobody"));
+  const auto after = d.running();
+  ASSERT_EQ(after.size(), 1u);
+  EXPECT_NE(after[0].second, before[0].second) << "a new process";
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 // dh launch / dh dds-profile: run a deployment's services on this host.
 #include <cstdlib>
 #include <iostream>
+#include <map>
 #include <thread>
 
 #include "commands.hpp"
@@ -13,6 +14,9 @@
 namespace dh::cli {
 
 namespace {
+
+/// --restart starts an exited service again only if it had run at least this long.
+constexpr std::chrono::seconds kMinUptimeForRestart{5};
 
 std::filesystem::path launch_path(const std::string& file) {
   return file.empty() ? paths::home() / "deploy" / "local.yaml" : std::filesystem::path(file);
@@ -42,15 +46,28 @@ std::vector<ServiceSpec> this_hosts_share(const LaunchFile& launch, const std::s
 
 }  // namespace
 
-int cmd_launch(const std::string& file, const std::string& host) {
+int cmd_launch(const std::string& file, const std::string& host, bool restart) {
+  using Clock = std::chrono::steady_clock;
   install_shutdown_handlers();
   const auto path = launch_path(file);
   const LaunchFile launch = load_launch(path);
-  Deployment d(this_hosts_share(launch, host), paths::bin_dir(), paths::runs_dir() / "logs");
+  const auto services = this_hosts_share(launch, host);
+  Deployment d(services, paths::bin_dir(), paths::runs_dir() / "logs");
+  std::map<std::string, Clock::time_point> started;
+  for (const auto& s : services) started[s.name] = Clock::now();
   std::cerr << "deployment " << path.string() << " running (logs in " << d.log_dir().string() << "); Ctrl-C stops it\n";
   while (!shutdown_requested()) {
-    for (const auto& name : d.exited())
-      std::cerr << "service '" << name << "' exited; why: " << (d.log_dir() / (name + ".log")).string() << "\n";
+    for (const auto& name : d.exited()) {
+      const auto log = (d.log_dir() / (name + ".log")).string();
+      // One that ends right after its start (a missing file, a bad option) would only end again.
+      if (restart && Clock::now() - started[name] >= kMinUptimeForRestart) {
+        std::cerr << "service '" << name << "' exited (" << log << "); starting it again\n";
+        d.restart(name);
+        started[name] = Clock::now();
+      } else {
+        std::cerr << "service '" << name << "' exited; why: " << log << "\n";
+      }
+    }
     std::this_thread::sleep_for(std::chrono::milliseconds(200));
   }
   return 0;

@@ -9,7 +9,7 @@
 //   dh seeds --fresh N --salt S              a fresh block of seeds nobody tuned on
 //   dh swap CAPABILITY [--library FILE]      start a new instance, then drain and stop the old ones
 //   dh train-policy [--config FILE]          demonstrations, then the embedded policy's weight file
-//   dh launch [FILE] [--host H]              runs a deployment (a multi-host file: host H's share) until Ctrl-C
+//   dh launch [FILE] [--host H] [--restart]  runs a deployment (a multi-host file: host H's share) until Ctrl-C
 //   dh dds-profile FILE --host H             writes host H's DDS profile, prints its path
 // Exit codes: 0 done (an episode that fails is a result), 1 infrastructure failure or interrupted
 // campaign, 2 bad input (unknown cell/task/arm, bad config, malformed option, foreign database).
@@ -118,6 +118,8 @@ int main(int argc, char** argv) {
   auto* launch = app.add_subcommand("launch", "run a deployment until Ctrl-C");
   launch->add_option("file", deploy, "launch YAML (default deploy/local.yaml)");
   launch->add_option("--host", host, "multi-host launch file: run this host's services with its DDS profile");
+  bool restart = false;
+  launch->add_flag("--restart", restart, "start a service again when it exits after running at least 5 s");
   auto* profile = app.add_subcommand("dds-profile", "write a host's DDS profile of a multi-host launch file, print its path");
   profile->add_option("file", deploy, "multi-host launch YAML")->required();
   profile->add_option("--host", host, "host name in the file")->required();
@@ -132,7 +134,7 @@ int main(int argc, char** argv) {
     if (*sign) return cmd_stats_sign(a, b, json);
     if (*seeds) return cmd_seeds(fresh, salt, json);
     if (*swap) return cmd_swap(swap_args);
-    if (*launch) return cmd_launch(deploy, host);
+    if (*launch) return cmd_launch(deploy, host, restart);
     if (*profile) return cmd_dds_profile(deploy, host);
     if (*train) return cmd_train_policy(train_args);
   } catch (const dh::ConfigError& e) {

@@ -113,53 +113,79 @@ std::vector<ServiceSpec> load_launch_file(const std::filesystem::path& file) {
   return launch.services;
 }
 
+namespace {
+
+/// Starts one service, its output appended to `log`; returns its pid or throws naming it.
+pid_t spawn(const ServiceSpec& s, const std::filesystem::path& bin_dir, const std::filesystem::path& log) {
+  const auto exe = s.from_path ? std::filesystem::path(s.exec) : bin_dir / s.exec;
+  if (!s.from_path && !std::filesystem::exists(exe))
+    throw std::runtime_error("service '" + s.name + "': executable " + exe.string() + " not found (build first)");
+  std::vector<std::string> argv_s{exe.string()};
+  argv_s.insert(argv_s.end(), s.args.begin(), s.args.end());
+  std::vector<char*> argv;
+  for (auto& a : argv_s) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  // This process's environment, with the service's own variables in place of any of the same name.
+  std::vector<std::string> env_s;
+  for (char** e = environ; *e; ++e) {
+    const std::string var(*e);
+    if (!s.env.count(var.substr(0, var.find('=')))) env_s.push_back(var);
+  }
+  for (const auto& [k, v] : s.env) env_s.push_back(k + "=" + v);
+  std::vector<char*> envp;
+  for (auto& e : env_s) envp.push_back(e.data());
+  envp.push_back(nullptr);
+  posix_spawn_file_actions_t fa;
+  posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+  posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
+  pid_t pid = 0;
+  const int rc = s.from_path ? posix_spawnp(&pid, exe.c_str(), &fa, nullptr, argv.data(), envp.data())
+                             : posix_spawn(&pid, exe.c_str(), &fa, nullptr, argv.data(), envp.data());
+  posix_spawn_file_actions_destroy(&fa);
+  if (rc != 0)
+    throw std::runtime_error("service '" + s.name + "': cannot start " + exe.string() + ": " + std::strerror(rc));
+  return pid;
+}
+
+}  // namespace
+
 Deployment::Deployment(const std::vector<ServiceSpec>& services, const std::filesystem::path& bin_dir,
                        const std::filesystem::path& log_dir)
-    : log_dir_(log_dir) {
+    : bin_dir_(bin_dir), log_dir_(log_dir) {
   std::filesystem::create_directories(log_dir);
   for (const auto& s : services) {
-    const auto exe = s.from_path ? std::filesystem::path(s.exec) : bin_dir / s.exec;
-    if (!s.from_path && !std::filesystem::exists(exe)) {
+    try {
+      children_.push_back({s, spawn(s, bin_dir_, log_dir_ / (s.name + ".log"))});
+    } catch (...) {
       stop(0);
-      throw std::runtime_error("service '" + s.name + "': executable " + exe.string() + " not found (build first)");
+      throw;
     }
-    std::vector<std::string> argv_s{exe.string()};
-    argv_s.insert(argv_s.end(), s.args.begin(), s.args.end());
-    std::vector<char*> argv;
-    for (auto& a : argv_s) argv.push_back(a.data());
-    argv.push_back(nullptr);
-    const std::string log = (log_dir / (s.name + ".log")).string();
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
-    posix_spawn_file_actions_addopen(&fa, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    posix_spawn_file_actions_adddup2(&fa, STDOUT_FILENO, STDERR_FILENO);
-    pid_t pid = 0;
-    // This process's environment, with the service's own variables in place of any of the same name.
-    std::vector<std::string> env_s;
-    for (char** e = environ; *e; ++e) {
-      const std::string var(*e);
-      if (!s.env.count(var.substr(0, var.find('=')))) env_s.push_back(var);
-    }
-    for (const auto& [k, v] : s.env) env_s.push_back(k + "=" + v);
-    std::vector<char*> envp;
-    for (auto& e : env_s) envp.push_back(e.data());
-    envp.push_back(nullptr);
-    const int rc = s.from_path ? posix_spawnp(&pid, exe.c_str(), &fa, nullptr, argv.data(), envp.data())
-                               : posix_spawn(&pid, exe.c_str(), &fa, nullptr, argv.data(), envp.data());
-    posix_spawn_file_actions_destroy(&fa);
-    if (rc != 0) {
-      stop(0);
-      throw std::runtime_error("service '" + s.name + "': cannot start " + exe.string() + ": " + std::strerror(rc));
-    }
-    children_.push_back({s.name, pid});
   }
+}
+
+bool Deployment::restart(const std::string& name) {
+  for (auto& c : children_)
+    if (c.spec.name == name && c.reaped) {
+      c.pid = spawn(c.spec, bin_dir_, log_dir_ / (c.spec.name + ".log"));
+      c.reaped = false;
+      return true;
+    }
+  return false;
+}
+
+std::vector<std::pair<std::string, pid_t>> Deployment::running() const {
+  std::vector<std::pair<std::string, pid_t>> out;
+  for (const auto& c : children_)
+    if (!c.reaped) out.emplace_back(c.spec.name, c.pid);
+  return out;
 }
 
 Deployment::~Deployment() { stop(); }
 
 bool Deployment::signal(const std::string& name, int sig) {
   for (auto& c : children_)
-    if (c.name == name && !c.reaped) return kill(c.pid, sig) == 0;
+    if (c.spec.name == name && !c.reaped) return kill(c.pid, sig) == 0;
   return false;
 }
 
@@ -170,7 +196,7 @@ std::vector<std::string> Deployment::exited() {
     int status = 0;
     if (waitpid(c.pid, &status, WNOHANG) == c.pid) {
       c.reaped = true;
-      out.push_back(c.name);
+      out.push_back(c.spec.name);
     }
   }
   return out;

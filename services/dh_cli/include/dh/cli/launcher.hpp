@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace dh::cli {
@@ -69,16 +70,20 @@ class Deployment {
   bool signal(const std::string& name, int sig);
   /// Names of services that exited on their own (crashed) since start.
   std::vector<std::string> exited();
+  /// Starts an exited service again (same arguments, same log); false if `name` is unknown or running.
+  bool restart(const std::string& name);
+  /// Services running now, with their pids.
+  std::vector<std::pair<std::string, pid_t>> running() const;
   const std::filesystem::path& log_dir() const { return log_dir_; }
 
  private:
   struct Child {
-    std::string name;
+    ServiceSpec spec;
     pid_t pid;
     bool reaped = false;
   };
   std::vector<Child> children_;
-  std::filesystem::path log_dir_;
+  std::filesystem::path bin_dir_, log_dir_;
 };
 
 }  // namespace dh::cli
