@@ -11,9 +11,11 @@ std::map<std::string, ArmSpec> load_arms(const std::filesystem::path& governor_y
   for (const auto& name : arms.keys()) {
     const ConfigNode a = arms.child(name);
     ArmSpec spec{name, a.get<std::string>("mode"), a.get_or<std::vector<std::string>>("masked_capabilities", {}),
-                 a.get_or<bool>("latch", true)};
+                 a.get_or<bool>("latch", true), a.get_or<std::string>("grounding", "state")};
     if (spec.mode != "full" && spec.mode != "static" && spec.mode != "seq" && spec.mode != "bare")
       a.fail("mode", "expected full, static, seq or bare, got '" + spec.mode + "'");
+    if (spec.grounding != "state" && spec.grounding != "perception")
+      a.fail("grounding", "expected state or perception, got '" + spec.grounding + "'");
     out.emplace(name, std::move(spec));
   }
   if (out.empty()) root.fail("arms", "name at least one arm, e.g. full: {mode: full}");

@@ -116,21 +116,25 @@ TEST(Evidence, AppendsFlushedRecordsAndSkipsATornLine) {
 
 TEST(Arms, TheShippedArmsLoadAndBadOnesAreNamed) {
   const auto arms = load_arms(paths::config_dir() / "governor.yaml");
-  for (const char* name : {"full", "static", "seq", "no-analytic", "no-recovery", "no-vla", "no-latch", "bare"})
+  for (const char* name : {"full", "full-perception", "static", "seq", "no-analytic", "no-recovery", "no-vla", "no-latch", "bare"})
     EXPECT_TRUE(arms.count(name)) << name;
   EXPECT_EQ(arms.at("static").mode, "static");
   EXPECT_EQ(arms.at("no-analytic").masked,
             (std::vector<std::string>{"pick_place", "push", "slide_drawer", "turn_knob", "swing_door"}));
   EXPECT_FALSE(arms.at("no-latch").latch);
   EXPECT_TRUE(arms.at("full").latch);
+  EXPECT_EQ(arms.at("full").grounding, "state");
+  EXPECT_EQ(arms.at("full-perception").grounding, "perception");
   auto e = error_of([&] { find_arm(arms, "wizard"); });
-  EXPECT_NE(e.find("unknown arm 'wizard' (arms: bare, full, no-analytic, no-latch, no-recovery, no-vla, seq, static"),
+  EXPECT_NE(e.find("unknown arm 'wizard' (arms: bare, full, full-perception, no-analytic, no-latch, no-recovery, no-vla, seq, static"),
             std::string::npos) << e;
   TempDir t;
   const auto f = t.write("governor.yaml", "arms:\n  fast: {mode: reckless}\n");
   e = error_of([&] { load_arms(f); });
   EXPECT_NE(e.find("governor.yaml: key 'arms.fast.mode': expected full, static, seq or bare, got 'reckless'"), std::string::npos)
       << e;
+  e = error_of([&] { load_arms(t.write("g3.yaml", "arms:\n  eyes: {mode: full, grounding: telepathy}\n")); });
+  EXPECT_NE(e.find("key 'arms.eyes.grounding': expected state or perception, got 'telepathy'"), std::string::npos) << e;
   e = error_of([&] { load_arms(t.write("g2.yaml", "decision_period_steps: 10\n")); });
   EXPECT_NE(e.find("key 'arms'"), std::string::npos) << e;
 }

@@ -6,6 +6,8 @@
 //         rt/dh/command/status  (Status)
 //         rt/dh/capability/announce (Announce, liveliness 1 s: a lost lease marks the instance dead)
 //         rt/dh/verdict, rt/dh/seam/event     recorded and latched
+//         rt/dh/command         (Command)     commands it did not write are recorded as foreign
+//         rt/dh/perception/scene (Observation) scene estimates, for arms that ground from perception
 // Writes  rt/dh/planner/request (Planner), rt/dh/command (Command), rt/dh/lease (Lease, deadline 1 s),
 //         rt/dh/episode/result  (Episode)
 // Evidence: one JSON-lines file per episode under --runs-dir/evidence/.
@@ -31,6 +33,7 @@
 #include "dh/msg/capabilityPubSubTypes.h"
 #include "dh/msg/commandPubSubTypes.h"
 #include "dh/msg/episodePubSubTypes.h"
+#include "dh/msg/perceptionPubSubTypes.h"
 #include "dh/msg/plannerPubSubTypes.h"
 #include "dh/msg/robotPubSubTypes.h"
 
@@ -50,7 +53,7 @@ struct ForeignCommand {
   msg::Command c;
 };
 using Event = std::variant<msg::EpisodeRequest, msg::Observation, msg::Advice, msg::CommandStatus, Announced,
-                           LivelinessChange, msg::Verdict, msg::SeamEvent, ForeignCommand>;
+                           LivelinessChange, msg::Verdict, msg::SeamEvent, ForeignCommand, msg::SceneEstimate>;
 
 std::string file_safe(std::string s) {
   for (char& ch : s)
@@ -169,6 +172,19 @@ class Governor {
     const auto kind = static_cast<std::size_t>(e.kind());
     if (auto* mc = machine(e.channel(), e.episode_id()))
       mc->on_seam_event(e.step(), e.command_id(), kind < std::size(kinds) ? kinds[kind] : "unknown_kind", e.reason());
+  }
+  void handle(const msg::SceneEstimate& m) {
+    auto* mc = machine(m.channel(), m.episode_id());
+    if (!mc) return;
+    gov::SceneEstimate e{m.episode_id(), m.step(), m.looked_for(), {}};
+    for (const auto& p : m.seen()) {
+      const auto& c = p.centroid();
+      const auto& size = p.size();
+      // EntityState::p is the bottom centre of an object's box.
+      e.seen.push_back({p.entity(), {c[0], c[1], c[2] - size[2] / 2}, {size[0] / 2, size[1] / 2, size[2] / 2},
+                        p.confidence()});
+    }
+    apply(m.channel(), mc->on_scene_estimate(e, gov::Clock::now()));
   }
   /// Only this governor commands capabilities: a command from anyone else is recorded (capabilities may
   /// start on it, but the seam applies no action of a command this governor did not lease).
@@ -353,6 +369,8 @@ int run(int argc, char** argv) {
         {[&](const msg::Verdict& m, const auto&) { push(m); }, {}, {}});
     dds::Reader<msg::SeamEventPubSubType> r7(participant, topics::kSeamEvent, dds::Qos::Status,
         {[&](const msg::SeamEvent& m, const auto&) { push(m); }, {}, {}});
+    dds::Reader<msg::SceneEstimatePubSubType> r9(participant, topics::kSceneEstimate, dds::Qos::Observation,
+        {[&](const msg::SceneEstimate& m, const auto&) { push(m); }, {}, {}});
     const auto own_commands = gov.command_writer();
     dds::Reader<msg::CommandPubSubType> r8(participant, topics::kCommand, dds::Qos::Command,
         {[&](const msg::Command& m, const dds::fdds::SampleInfo& i) {

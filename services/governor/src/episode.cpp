@@ -79,12 +79,28 @@ Effects EpisodeMachine::on_observation(const Observation& obs, Clock::time_point
   return decide_now(CommandPhase::Running, "decision step", now);
 }
 
+Observation EpisodeMachine::perceived_scene() const {
+  Observation seen = last_obs_;
+  // The planner sees what perception saw; what it could not see is left out (the refusal comes at grounding).
+  if (config_.perception) perceive(seen, scene_estimate_, {}, *config_.perception);
+  return seen;
+}
+
+Effects EpisodeMachine::on_scene_estimate(const SceneEstimate& estimate, Clock::time_point now) {
+  if (!config_.perception || estimate.episode_id != spec_.episode_id) return {};
+  if (scene_estimate_ && estimate.step < scene_estimate_->step) return {};
+  scene_estimate_ = estimate;
+  if (phase_ != Phase::AwaitingPerception) return {};
+  const Advice advice = *awaiting_perception_;
+  return ground_and_dispatch(advice, now);
+}
+
 Effects EpisodeMachine::request_plan(const std::string& why, Clock::time_point now) {
   phase_ = Phase::Planning;
   PlanRequestOut r;
   r.request_id = spec_.episode_id + "/p" + std::to_string(plans_++);
   r.instruction = spec_.instruction;
-  r.scene = last_obs_.entities;
+  r.scene = perceived_scene().entities;
   for (const auto& c : registry_.alive_capabilities())
     if (!config_.masked.count(c)) r.capabilities.push_back(c);
   r.history = history_;
@@ -125,8 +141,29 @@ Effects EpisodeMachine::on_advice(const Advice& advice, Clock::time_point now) {
 Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_point now) {
   const std::uint32_t remaining = spec_.budget_steps > last_obs_.step ? spec_.budget_steps - last_obs_.step : 0;
   const std::string command_id = spec_.episode_id + "/c" + std::to_string(commands_);
-  GroundingResult g = ground({advice, registry_, last_obs_, remaining, config_.masked, command_id,
-                                    config_.decision_period});
+  Observation seen = last_obs_;
+  std::optional<Unperceived> unseen;
+  if (config_.perception && !advice.refused) {
+    std::vector<std::string> needed;
+    for (const auto& [role, value] : advice.args) needed.push_back(value);
+    unseen = perceive(seen, scene_estimate_, needed, *config_.perception);
+    // The frame of this step may still be on its way: wait a little for it (the robot is not moving).
+    if (unseen && unseen->estimate_missing_or_stale) {
+      if (phase_ != Phase::AwaitingPerception) {
+        perception_wait_until_ = now + config_.perception->wait;
+        evidence_.append("governor", "awaiting_perception", {{"step", last_obs_.step}, {"reason", unseen->reason}});
+      }
+      if (now < perception_wait_until_) {
+        phase_ = Phase::AwaitingPerception;
+        awaiting_perception_ = advice;
+        deadline_ = perception_wait_until_;
+        deadline_what_ = "a fresh scene estimate";
+        return {};
+      }
+    }
+  }
+  GroundingResult g = unseen ? GroundingResult{std::nullopt, Refusal::Perception, unseen->reason}
+                             : ground({advice, registry_, seen, remaining, config_.masked, command_id, config_.decision_period});
   if (!advice.refused) tried_[history::signature(advice.args)].insert(advice.capability);
   if (!g.command) {
     // An episode can reach this governor before the policy's announcement does (they travel on different
@@ -145,7 +182,9 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
                                                {"reason", g.reason}, {"capability", advice.capability}});
       return end(false, "gave_up", "bare arm: nothing but the policy may act, and " + g.reason);
     }
-    if (g.refusal == Refusal::PlannerRefused || g.refusal == Refusal::Budget) return refuse(g.refusal, g.reason, now);
+    // Another capability would not see the scene any better than this one.
+    if (g.refusal == Refusal::PlannerRefused || g.refusal == Refusal::Budget || g.refusal == Refusal::Perception)
+      return refuse(g.refusal, g.reason, now);
     // The advised capability cannot serve this step here: the executor decides what instead.
     ++refusals_total_;
     ++refusals_in_row_;
@@ -447,12 +486,17 @@ Effects EpisodeMachine::end(bool success, const std::string& outcome_in, const s
 Effects EpisodeMachine::on_tick(Clock::time_point now) {
   if (phase_ == Phase::Ended || now < deadline_) return {};
   if (phase_ == Phase::AwaitingCapability) return ground_and_dispatch(*last_advice_, now);  // refused once the wait is over
+  if (phase_ == Phase::AwaitingPerception) {
+    const Advice advice = *awaiting_perception_;
+    return ground_and_dispatch(advice, now);  // refused: the wait is over
+  }
   const std::string what = deadline_what_;
   evidence_.append("governor", "deadline_missed", {{"step", last_obs_.step}, {"waiting_for", what}});
   switch (phase_) {
     case Phase::WaitingFirstObservation:
       return end(false, "infrastructure", "no " + what);
     case Phase::AwaitingCapability:
+    case Phase::AwaitingPerception:
       break;  // handled above
     case Phase::Planning:
       pending_request_.clear();

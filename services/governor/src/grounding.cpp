@@ -15,6 +15,7 @@ const char* to_string(Refusal r) {
     case Refusal::UnresolvedEntity: return "unresolved_entity";
     case Refusal::Precondition: return "precondition";
     case Refusal::Budget: return "budget";
+    case Refusal::Perception: return "perception";
   }
   return "?";
 }

@@ -14,6 +14,7 @@ struct ArmSpec {
   std::string mode;                 ///< full | static | seq | bare
   std::vector<std::string> masked;  ///< capabilities switched off in this arm
   bool latch = true;                ///< end on the latched verdict (false: the final state decides)
+  std::string grounding = "state";  ///< state (the robot's observation) | perception (scene estimates)
 };
 
 /// The arms of a governor configuration; throws ConfigError naming file and key (an unknown mode, no arms).

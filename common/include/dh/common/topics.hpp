@@ -17,5 +17,12 @@ inline constexpr const char* kEpisodeRequest = "rt/dh/episode/request";
 inline constexpr const char* kEpisodeResult = "rt/dh/episode/result";
 inline constexpr const char* kChannelStatus = "rt/dh/sim/channel";
 inline constexpr const char* kCamera = "rt/dh/camera";
+inline constexpr const char* kSceneEstimate = "rt/dh/perception/scene";
 
+}  // namespace dh::topics
+
+// RGB-D frames (idl/camera.idl RgbdFrame) and the requests that ask for one (RgbdRequest).
+namespace dh::topics {
+inline constexpr const char* kRgbd = "rt/dh/camera/rgbd";
+inline constexpr const char* kRgbdRequest = "rt/dh/camera/rgbd/request";
 }  // namespace dh::topics

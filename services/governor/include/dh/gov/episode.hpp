@@ -14,6 +14,7 @@
 #include "dh/common/observation.hpp"
 #include "dh/gov/decide.hpp"
 #include "dh/gov/grounding.hpp"
+#include "dh/gov/perception.hpp"
 #include "dh/gov/registry.hpp"
 #include "dh/gov/types.hpp"
 
@@ -35,6 +36,9 @@ struct GovernorConfig {
   std::chrono::milliseconds ack_timeout{3000};
   std::chrono::milliseconds first_observation_timeout{15000};
   std::chrono::milliseconds step_stall_timeout{10000};  ///< no observation while a command runs
+  /// Set: ground from the perception service's scene estimates (arm `grounding: perception`).
+  std::optional<PerceptionLimits> perception;
+  PerceptionLimits perception_limits;  ///< the `perception:` section, used by arms that ground from it
 };
 
 struct EpisodeSpec {
@@ -76,6 +80,9 @@ class EpisodeMachine {
   Effects on_status(const CommandStatus& status, Clock::time_point now);
   Effects on_capability_lost(const std::string& instance, Clock::time_point now);
   void on_verdict(std::uint32_t step, const std::string& predicate, bool value);
+  /// The perception service's latest estimates for this episode (kept only under perception grounding);
+  /// a step waiting for a fresh estimate is grounded with it.
+  Effects on_scene_estimate(const SceneEstimate& estimate, Clock::time_point now);
   void on_seam_event(std::uint32_t step, const std::string& command_id, const std::string& kind,
                      const std::string& reason);
   /// Ends waits whose computed deadline passed (planner, acknowledgement, stalled steps).
@@ -87,8 +94,10 @@ class EpisodeMachine {
 
  private:
   /// AwaitingCapability: the bare arm's policy has not been announced to this governor yet.
-  enum class Phase { WaitingFirstObservation, Planning, AwaitingCapability, Running, Ended };
+  /// AwaitingPerception: grounding from perception waits for a fresh scene estimate.
+  enum class Phase { WaitingFirstObservation, Planning, AwaitingCapability, AwaitingPerception, Running, Ended };
   Effects request_plan(const std::string& why, Clock::time_point now);
+  Observation perceived_scene() const;  ///< the last observation as the planner may see it
   Effects ground_and_dispatch(const Advice& advice, Clock::time_point now);
   Effects refuse(Refusal r, const std::string& reason, Clock::time_point now);
   Effects decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now);
@@ -120,6 +129,9 @@ class EpisodeMachine {
 
   Observation last_obs_;
   bool have_obs_ = false;
+  std::optional<SceneEstimate> scene_estimate_;
+  std::optional<Advice> awaiting_perception_;     ///< the step waiting for a fresh scene estimate
+  Clock::time_point perception_wait_until_;
   VerdictLatch latch_;
   std::optional<Advice> last_advice_;            ///< the step being executed (capability + arguments)
   std::optional<Advice> resume_;                 ///< the step a recovery interrupted

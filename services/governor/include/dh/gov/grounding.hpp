@@ -22,6 +22,7 @@ enum class Refusal {
   UnresolvedEntity,    ///< an argument names no entity in the scene
   Precondition,        ///< a declared precondition does not hold
   Budget,              ///< remaining steps cannot pay for the cost model
+  Perception,          ///< grounding from perception: no fresh estimate, or an argument's entity unseen
 };
 const char* to_string(Refusal r);
 
