@@ -1,4 +1,7 @@
 // dh launch / dh dds-profile: run a deployment's services on this host.
+#include <unistd.h>
+
+#include <algorithm>
 #include <cstdlib>
 #include <iostream>
 #include <map>
@@ -44,14 +47,37 @@ std::vector<ServiceSpec> this_hosts_share(const LaunchFile& launch, const std::s
   return launch.services_on(host, dir);
 }
 
+/// `name`, found on PATH, as an absolute path ("" when it is not there).
+std::string on_path(const std::string& name) {
+  const char* path = std::getenv("PATH");
+  std::string dirs = path ? path : "";
+  for (std::size_t start = 0; start <= dirs.size();) {
+    const std::size_t end = std::min(dirs.find(':', start), dirs.size());
+    const auto candidate = std::filesystem::path(dirs.substr(start, end - start)) / name;
+    if (access(candidate.c_str(), X_OK) == 0) return candidate.string();
+    start = end + 1;
+  }
+  return "";
+}
+
 }  // namespace
 
-int cmd_launch(const std::string& file, const std::string& host, bool restart) {
+int cmd_launch(const std::string& file, const std::string& host, bool restart, bool list) {
   using Clock = std::chrono::steady_clock;
   install_shutdown_handlers();
   const auto path = launch_path(file);
   const LaunchFile launch = load_launch(path);
   const auto services = this_hosts_share(launch, host);
+  if (list) {  // name, executable, arguments: what install_units turns into systemd units
+    for (const auto& s : services) {
+      std::string args;
+      for (const auto& a : s.args) args += (args.empty() ? "" : " ") + a;
+      const std::string exe = s.from_path ? on_path(s.exec) : (paths::bin_dir() / s.exec).string();
+      if (exe.empty()) throw ConfigError("service '" + s.name + "': " + s.exec + " is not on PATH (install fastdds-tools)");
+      std::cout << s.name << "\t" << exe << "\t" << args << "\n";
+    }
+    return 0;
+  }
   Deployment d(services, paths::bin_dir(), paths::runs_dir() / "logs");
   std::map<std::string, Clock::time_point> started;
   for (const auto& s : services) started[s.name] = Clock::now();

@@ -22,8 +22,9 @@ struct RunArgs {
 int cmd_run(const RunArgs& a);
 
 /// Runs a launch file's services (a multi-host file: those of `host`, with the host's DDS profile);
-/// `restart`: a service that exits after running a while is started again.
-int cmd_launch(const std::string& file, const std::string& host, bool restart);
+/// `restart`: a service that exits after running a while is started again; `list`: print the services
+/// (name, executable, arguments; tab-separated) instead of running them.
+int cmd_launch(const std::string& file, const std::string& host, bool restart, bool list);
 /// Writes the DDS profile of `host` of a multi-host launch file and prints its path.
 int cmd_dds_profile(const std::string& file, const std::string& host);
 

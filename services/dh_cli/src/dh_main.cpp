@@ -120,6 +120,8 @@ int main(int argc, char** argv) {
   launch->add_option("--host", host, "multi-host launch file: run this host's services with its DDS profile");
   bool restart = false;
   launch->add_flag("--restart", restart, "start a service again when it exits after running at least 5 s");
+  bool list = false;
+  launch->add_flag("--list", list, "print this host's services (name, executable, arguments) and exit");
   auto* profile = app.add_subcommand("dds-profile", "write a host's DDS profile of a multi-host launch file, print its path");
   profile->add_option("file", deploy, "multi-host launch YAML")->required();
   profile->add_option("--host", host, "host name in the file")->required();
@@ -134,7 +136,7 @@ int main(int argc, char** argv) {
     if (*sign) return cmd_stats_sign(a, b, json);
     if (*seeds) return cmd_seeds(fresh, salt, json);
     if (*swap) return cmd_swap(swap_args);
-    if (*launch) return cmd_launch(deploy, host, restart);
+    if (*launch) return cmd_launch(deploy, host, restart, list);
     if (*profile) return cmd_dds_profile(deploy, host);
     if (*train) return cmd_train_policy(train_args);
   } catch (const dh::ConfigError& e) {
