@@ -10,16 +10,27 @@
 //         rt/dh/sim/channel     (Episode)   idle/running per channel, so clients find a free one
 //         rt/dh/camera          (Camera)    with --cameras: each camera's RGB8 image at episode start and
 //                                           every --camera-every steps, before that step's observation
+//         rt/dh/camera/rgbd     (RgbdFrame) one frame per request below (and every --rgbd-every steps)
+// Reads   rt/dh/camera/rgbd/request (RgbdRequest) for a channel of this worker and a camera of
+//                                           configs/cameras.yaml: the channel renders that camera's
+//                                           RGB-D frame of its current state (the last step observed; the
+//                                           last episode's final state when idle) on its own thread, between
+//                                           steps, and answers with the request's id. Nothing is rendered,
+//                                           and no OpenGL context is made, until the first request.
 // Parameters: --channels K, --first-channel C, --lease-grace-ms (how long an action waits for a
 // lease renewal before it is rejected), --abandon-after-s (a running episode that has had no applied
 // action, lease or request for this long is abandoned: its governor is gone; the channel goes idle and
 // says why), --name, --cameras agentview,wrist (default none: nothing is rendered), --camera-every N
 // (steps, default 5), --camera-size S (S x S pixels, default 224). Each channel renders on its own
 // thread with its own OpenGL context (EGL surfaceless); without one the worker does not start.
+// --rgbd-every N (steps, default 0 = only on request) also publishes every RGB-D camera's frame at
+// episode start and every N steps, before that step's observation.
 #include <CLI/CLI.hpp>
+#include <mujoco/mujoco.h>
 
 #include <algorithm>
 #include <atomic>
+#include <filesystem>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -42,6 +53,7 @@
 #include "dh/msg/episodePubSubTypes.h"
 #include "dh/msg/robotPubSubTypes.h"
 #include "dh/sim/camera.hpp"
+#include "dh/sim/rgbd.hpp"
 #include "dh/sim/seam.hpp"
 #include "dh/sim/workcell.hpp"
 
@@ -51,7 +63,8 @@ namespace {
 using Clock = std::chrono::steady_clock;
 
 struct LeaseSilent {};
-using Event = std::variant<msg::EpisodeRequest, msg::Action, msg::Lease, msg::EpisodeResult, LeaseSilent>;
+using Event = std::variant<msg::EpisodeRequest, msg::Action, msg::Lease, msg::EpisodeResult, LeaseSilent,
+                           msg::RgbdRequest>;
 
 struct Writers {
   dds::Writer<msg::ObservationPubSubType> obs;
@@ -59,13 +72,16 @@ struct Writers {
   dds::Writer<msg::SeamEventPubSubType> seam;
   dds::Writer<msg::ChannelStatusPubSubType> channel;
   std::unique_ptr<dds::Writer<msg::CameraImagePubSubType>> camera;  ///< only with --cameras
-  Writers(dds::Participant& p, bool cameras)
+  std::unique_ptr<dds::Writer<msg::RgbdFramePubSubType>> rgbd;       ///< only with RGB-D cameras configured
+  Writers(dds::Participant& p, bool cameras, bool rgbd_cameras)
       : obs(p, topics::kObservation, dds::Qos::Observation),
         verdict(p, topics::kVerdict, dds::Qos::Verdict),
         seam(p, topics::kSeamEvent, dds::Qos::Status),
         channel(p, topics::kChannelStatus, dds::Qos::ChannelStatus) {
     if (cameras)
       camera = std::make_unique<dds::Writer<msg::CameraImagePubSubType>>(p, topics::kCamera, dds::Qos::Camera);
+    if (rgbd_cameras)
+      rgbd = std::make_unique<dds::Writer<msg::RgbdFramePubSubType>>(p, topics::kRgbd, dds::Qos::Rgbd);
   }
 };
 
@@ -75,6 +91,8 @@ struct Rendering {
   std::vector<std::string> cameras;
   unsigned every = 5;
   int size = sim::kDefaultCameraSize;
+  const sim::CamerasConfig* rgbd = nullptr;  ///< RGB-D cameras added to every model (configs/cameras.yaml)
+  unsigned rgbd_every = 0;                   ///< 0: RGB-D frames only on request
 };
 
 class Channel {
@@ -103,8 +121,13 @@ class Channel {
       try_pending();
       abandon_if_orphaned();
     }
+    if (rgbd_frames_)
+      log_->info("channel={} {} RGB-D frames, {:.1f} ms each to render, {:.1f} ms to publish", id_, rgbd_frames_,
+                 1e3 * rgbd_render_s_ / rgbd_frames_, 1e3 * rgbd_publish_s_ / rgbd_frames_);
     rig_.reset();  // GPU state goes on this thread, while its context is current
+    rgbd_rigs_.clear();
     if (render_.gl) render_.gl->release();
+    if (rgbd_gl_) rgbd_gl_->release();
   }
 
  private:
@@ -131,11 +154,16 @@ class Channel {
     try {
       const TaskDef& task = find_task(suites_, r.suite(), r.task());
       auto& cell = cells_[sim::task_scene_key(task)];
-      if (!cell) cell = std::make_unique<sim::Workcell>(sim::load_task_scene(task));
+      if (!cell) {
+        sim::SceneSpec spec = sim::load_task_scene(task);
+        if (render_.rgbd) spec.cameras = render_.rgbd->for_scene(spec.name);
+        cell = std::make_unique<sim::Workcell>(std::move(spec));
+      }
       const auto t0 = Clock::now();
       cell->reset(r.seed(), task.goal);
       physics_s_ = std::chrono::duration<double>(Clock::now() - t0).count();
       cell_ = cell.get();
+      shown_ = cell_;
       goal_text_ = goal_text(task.goal);
       if (render_.gl && (!rig_ || rig_->model() != cell_->model())) {
         rig_.reset();  // one scene's GPU state at a time (a few MB each)
@@ -161,6 +189,12 @@ class Channel {
     log_->info("channel={} episode={} suite={} task={} seed={} started", id_, episode_, r.suite(), r.task(), r.seed());
     announce(msg::CHANNEL_RUNNING);
     publish_observation();
+  }
+
+  /// One RGB-D frame of the state the channel shows now, answering `r` (an error frame when it cannot).
+  void handle(msg::RgbdRequest& r) {
+    log_->debug("channel={} RGB-D request {} for camera {}", id_, r.request_id(), r.camera());
+    publish_rgbd(r.camera(), r.request_id());
   }
 
   void handle(msg::Lease& l) {
@@ -289,8 +323,99 @@ class Channel {
     render_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
   }
 
+  /// The channel's OpenGL context, current on this thread: --cameras' own, or one made at the first
+  /// RGB-D frame. Throws RenderError when none can be made.
+  void ensure_gl() {
+    if (render_.gl || rgbd_gl_) return;
+    if (!rgbd_gl_error_.empty()) throw sim::RenderError(rgbd_gl_error_);  // tried once, do not retry
+    try {
+      auto gl = std::make_unique<sim::GlContext>();
+      gl->make_current();
+      log_->info("channel={} OpenGL context for RGB-D frames: {}", id_, gl->description());
+      rgbd_gl_ = std::move(gl);
+    } catch (const std::exception& e) {
+      rgbd_gl_error_ = e.what();
+      throw;
+    }
+  }
+
+  /// Renders `camera`'s RGB-D frame of the state shown and publishes it with `request_id`.
+  void publish_rgbd(const std::string& camera, const std::string& request_id) {
+    if (!w_.rgbd) return;
+    rgbd_msg_.channel(id_);
+    rgbd_msg_.camera(camera);
+    rgbd_msg_.source("sim_worker " + worker_);
+    rgbd_msg_.episode_id(cell_ ? episode_ : std::string());
+    rgbd_msg_.step(step_);
+    rgbd_msg_.request_id(request_id);
+    rgbd_msg_.error("");
+    rgbd_msg_.has_pose(false);
+    rgbd_msg_.position({0, 0, 0});
+    rgbd_msg_.orientation({1, 0, 0, 0});
+    rgbd_msg_.fx(0);
+    rgbd_msg_.fy(0);
+    rgbd_msg_.cx(0);
+    rgbd_msg_.cy(0);
+    rgbd_msg_.stamp_s(0);
+    const auto t0 = Clock::now();
+    try {
+      if (!shown_)
+        throw std::runtime_error("channel " + std::to_string(id_) + " has run no episode yet: no state to render");
+      ensure_gl();
+      auto& rig = rgbd_rigs_[camera];
+      if (!rig || rig->model() != shown_->model()) {
+        const auto specs = render_.rgbd->for_scene(shown_->scene().name);
+        const auto spec = std::find_if(specs.begin(), specs.end(), [&](const auto& c) { return c.name == camera; });
+        if (spec == specs.end()) throw std::runtime_error("no RGB-D camera '" + camera + "' in configs/cameras.yaml");
+        rig.reset();
+        rig = std::make_unique<sim::CameraRig>(*shown_, std::vector<std::string>{camera}, spec->width, spec->height);
+      }
+      rig->render(0, rgbd_image_, rgbd_depth_);
+      const sim::Pinhole K = sim::camera_pinhole(shown_->model(), camera, rig->width(), rig->height());
+      const sim::CameraPose pose = sim::camera_pose(shown_->model(), shown_->data(), camera);
+      rgbd_msg_.stamp_s(shown_->data()->time);
+      rgbd_msg_.width(static_cast<std::uint32_t>(K.width));
+      rgbd_msg_.height(static_cast<std::uint32_t>(K.height));
+      rgbd_msg_.fx(K.fx);
+      rgbd_msg_.fy(K.fy);
+      rgbd_msg_.cx(K.cx);
+      rgbd_msg_.cy(K.cy);
+      rgbd_msg_.has_pose(true);
+      rgbd_msg_.position(pose.position);
+      rgbd_msg_.orientation(pose.wxyz);
+      rgbd_msg_.rgb().swap(rgbd_image_.rgb);  // no copy; render() refills the other buffer next time
+      auto& bytes = rgbd_msg_.depth();
+      bytes.resize(2 * rgbd_depth_.size());
+      for (std::size_t i = 0; i < rgbd_depth_.size(); ++i) {  // little-endian whatever the host
+        bytes[2 * i] = static_cast<std::uint8_t>(rgbd_depth_[i] & 0xFF);
+        bytes[2 * i + 1] = static_cast<std::uint8_t>(rgbd_depth_[i] >> 8);
+      }
+    } catch (const std::exception& e) {
+      rgbd_msg_.error(e.what());
+      rgbd_msg_.width(0);
+      rgbd_msg_.height(0);
+      rgbd_msg_.rgb().clear();
+      rgbd_msg_.depth().clear();
+      log_->error("channel={} RGB-D frame of camera {} (request '{}') cannot be made: {}", id_, camera, request_id,
+                  e.what());
+    }
+    const auto t1 = Clock::now();
+    w_.rgbd->write(rgbd_msg_);
+    const auto t2 = Clock::now();
+    if (rgbd_msg_.error().empty()) {
+      ++rgbd_frames_;
+      rgbd_render_s_ += std::chrono::duration<double>(t1 - t0).count();
+      rgbd_publish_s_ += std::chrono::duration<double>(t2 - t1).count();
+      log_->debug("channel={} RGB-D frame {} step={} rendered in {:.1f} ms, published in {:.1f} ms", id_, request_id,
+                  step_, std::chrono::duration<double, std::milli>(t1 - t0).count(),
+                  std::chrono::duration<double, std::milli>(t2 - t1).count());
+    }
+  }
+
   void publish_observation() {
     if (rig_ && step_ % render_.every == 0) publish_images();
+    if (render_.rgbd_every && step_ % render_.rgbd_every == 0)
+      for (const auto& c : render_.rgbd->cameras) publish_rgbd(c.camera.name, "");
     Observation o = cell_->observe();
     o.step = step_;
     o.budget_steps = budget_;
@@ -328,6 +453,15 @@ class Channel {
   std::unique_ptr<sim::CameraRig> rig_;  ///< the current cell's cameras (with --cameras)
   sim::Image image_;
   msg::CameraImage image_msg_;
+  const sim::Workcell* shown_ = nullptr;  ///< the cell whose state RGB-D frames show (kept when idle)
+  std::unique_ptr<sim::GlContext> rgbd_gl_;  ///< made at the first RGB-D frame when there is no --cameras context
+  std::string rgbd_gl_error_;
+  std::map<std::string, std::unique_ptr<sim::CameraRig>> rgbd_rigs_;  ///< per RGB-D camera, for shown_'s model
+  sim::Image rgbd_image_;
+  std::vector<std::uint16_t> rgbd_depth_;
+  msg::RgbdFrame rgbd_msg_;
+  std::uint64_t rgbd_frames_ = 0;
+  double rgbd_render_s_ = 0, rgbd_publish_s_ = 0;
   double render_s_ = 0;  ///< wall time rendering and publishing images in the running episode
   std::uint32_t images_ = 0;
   Clock::time_point last_sign_of_life_;
@@ -353,6 +487,7 @@ int run(int argc, char** argv) {
   std::vector<std::string> cameras;
   unsigned camera_every = 5;
   int camera_size = sim::kDefaultCameraSize;
+  unsigned rgbd_every = 0;
   app.add_option("--channels", channels, "number of channels (workcells) in this process")->check(CLI::Range(1, 64));
   app.add_option("--first-channel", first, "id of the first channel");
   app.add_option("--lease-grace-ms", grace_ms, "wall time an action waits for a lease renewal");
@@ -365,12 +500,22 @@ int run(int argc, char** argv) {
   app.add_option("--camera-every", camera_every, "images every N control steps and at episode start")
       ->check(CLI::Range(1u, 1000000u));
   app.add_option("--camera-size", camera_size, "image width and height (px)")->check(CLI::Range(16, 480));
+  app.add_option("--rgbd-every", rgbd_every,
+                 "also publish every RGB-D camera's frame at episode start and every N steps (0: only on request)");
   CLI11_PARSE(app, argc, argv);
   std::sort(cameras.begin(), cameras.end());
   cameras.erase(std::unique(cameras.begin(), cameras.end()), cameras.end());
   auto log = make_logger("dh_sim_worker");
   return run_service(*log, [&] {
     const auto suites = load_suites(paths::config_dir());
+    // RGB-D cameras (configs/cameras.yaml) go into every model; they render only when asked.
+    sim::CamerasConfig rgbd;
+    const auto rgbd_file = paths::config_dir() / "cameras.yaml";
+    if (std::filesystem::exists(rgbd_file)) rgbd = sim::load_cameras_config(rgbd_file);
+    else log->warn("{} not found: no RGB-D cameras, requests on {} go unanswered", rgbd_file.string(), topics::kRgbdRequest);
+    if (rgbd_every && rgbd.cameras.empty())
+      throw std::runtime_error("--rgbd-every " + std::to_string(rgbd_every) + " but " + rgbd_file.string() +
+                               " names no RGB-D camera");
     // Rendering is checked before anything starts, so a machine without it fails here, not mid-episode.
     std::vector<std::unique_ptr<sim::GlContext>> contexts;
     if (!cameras.empty()) {
@@ -385,11 +530,22 @@ int run(int argc, char** argv) {
         throw std::runtime_error("--cameras " + list + " cannot be rendered: " + e.what());
       }
     }
+    if (rgbd_every) {  // periodic frames: check now, as for --cameras (on request: checked at the first one)
+      try {
+        sim::GlContext gl;
+        log->info("RGB-D frames every {} steps on {}; {}", rgbd_every, topics::kRgbd, sim::check_rendering(gl, 64, 64));
+      } catch (const sim::RenderError& e) {
+        throw std::runtime_error("--rgbd-every " + std::to_string(rgbd_every) + " cannot be rendered: " + e.what());
+      }
+    }
+    std::string rgbd_names;
+    for (const auto& c : rgbd.cameras) rgbd_names += (rgbd_names.empty() ? "" : ",") + c.camera.name;
     dds::Participant participant("dh_sim_worker");
-    Writers writers(participant, !cameras.empty());
+    Writers writers(participant, !cameras.empty(), !rgbd.cameras.empty());
     std::vector<std::unique_ptr<Channel>> chans;
     for (unsigned i = 0; i < channels; ++i) {
-      Rendering rendering{contexts.empty() ? nullptr : std::move(contexts[i]), cameras, camera_every, camera_size};
+      Rendering rendering{contexts.empty() ? nullptr : std::move(contexts[i]), cameras, camera_every, camera_size,
+                          &rgbd, rgbd_every};
       chans.push_back(std::make_unique<Channel>(first + i, name, suites, writers,
                                                 std::chrono::milliseconds(grace_ms),
                                                 std::chrono::seconds(abandon_after_s), std::move(rendering), log));
@@ -432,11 +588,21 @@ int run(int argc, char** argv) {
            else reject_unknown(m.channel(), m.episode_id(), 0, m.command_id(), "lease");
          }, {},
          [&](const auto&) { for (auto& c : chans) c->queue().push(LeaseSilent{}); }});
+    // RGB-D requests for another worker's channel, or a camera this worker does not have (a frames_player
+    // may serve it), are not ours to answer.
+    std::unique_ptr<dds::Reader<msg::RgbdRequestPubSubType>> rgbd_req;
+    if (!rgbd.cameras.empty())
+      rgbd_req = std::make_unique<dds::Reader<msg::RgbdRequestPubSubType>>(participant, topics::kRgbdRequest,
+          dds::Qos::RgbdRequest, dds::Reader<msg::RgbdRequestPubSubType>::Callbacks{
+          [&](const msg::RgbdRequest& m, const auto&) {
+            if (auto c = route(m.channel()); c && rgbd.has(m.camera())) c->queue().push(m);
+          }, {}, {}});
     dds::Reader<msg::EpisodeResultPubSubType> res(participant, topics::kEpisodeResult, dds::Qos::Episode,
         {[&](const msg::EpisodeResult& m, const auto&) { if (auto c = route(m.channel())) c->queue().push(m); }, {}, {}});
     const dds::Heartbeat alive([&writers] { writers.channel.assert_liveliness(); },
                                std::chrono::milliseconds(static_cast<int>(dds::kChannelLivelinessSec * 1000 / 4)));
-    log->info("worker={} channels={}..{} domain={} up", name, first, first + channels - 1, dds::domain_id());
+    log->info("worker={} channels={}..{} domain={} up; RGB-D cameras on request: {}", name, first,
+              first + channels - 1, dds::domain_id(), rgbd_names.empty() ? "none" : rgbd_names);
     std::vector<std::thread> threads;
     for (auto& c : chans) threads.emplace_back([&c] { c->run(); });
     for (auto& t : threads) t.join();

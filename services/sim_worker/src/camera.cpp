@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "dh/sim/model.hpp"
+#include "dh/sim/rgbd.hpp"
 #include "dh/sim/workcell.hpp"
 
 namespace dh::sim {
@@ -224,7 +225,13 @@ CameraRig::~CameraRig() {
   mjv_freeScene(&gpu_->scene);
 }
 
-void CameraRig::render(std::size_t index, Image& out) {
+void CameraRig::render(std::size_t index, Image& out) { render_to(index, out, nullptr); }
+
+void CameraRig::render(std::size_t index, Image& out, std::vector<std::uint16_t>& depth_mm) {
+  render_to(index, out, &depth_mm);
+}
+
+void CameraRig::render_to(std::size_t index, Image& out, std::vector<std::uint16_t>* depth_mm) {
   mjvCamera cam;
   mjv_defaultCamera(&cam);
   cam.type = mjCAMERA_FIXED;
@@ -235,7 +242,13 @@ void CameraRig::render(std::size_t index, Image& out) {
   mjr_render(viewport, &gpu_->scene, &gpu_->context);
   const std::size_t row = 3 * static_cast<std::size_t>(width_);
   bottom_up_.resize(row * height_);
-  mjr_readPixels(bottom_up_.data(), nullptr, viewport, &gpu_->context);
+  if (depth_mm) depth_bottom_up_.resize(static_cast<std::size_t>(width_) * height_);
+  mjr_readPixels(bottom_up_.data(), depth_mm ? depth_bottom_up_.data() : nullptr, viewport, &gpu_->context);
+  if (depth_mm) {
+    const auto [znear, zfar] = model_clip_planes(m_);
+    depth_mm->resize(depth_bottom_up_.size());
+    depth_buffer_to_mm(depth_bottom_up_.data(), width_, height_, znear, zfar, depth_mm->data());
+  }
   out.width = width_;
   out.height = height_;
   out.rgb.resize(bottom_up_.size());

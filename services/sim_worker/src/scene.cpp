@@ -249,7 +249,14 @@ std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& pla
   x += "<size njmax=\"1000\" nconmax=\"250\"/>\n";
   // Rendering only (camera.hpp): the offscreen buffer bounds the image size; on llvmpipe a 1024² shadow
   // map without multisampling renders a 224² image 3-4x faster than MuJoCo's 4096² and 4 samples.
-  x += "<visual><global offwidth=\"640\" offheight=\"480\"/><quality shadowsize=\"1024\" offsamples=\"0\"/></visual>\n";
+  // No multisampling also keeps the depth buffer one exact sample per pixel (RGB-D cameras, rgbd.hpp).
+  int offwidth = 640, offheight = 480;
+  for (const auto& c : scene.cameras) {
+    offwidth = std::max(offwidth, c.width);
+    offheight = std::max(offheight, c.height);
+  }
+  x += "<visual><global offwidth=\"" + std::to_string(offwidth) + "\" offheight=\"" + std::to_string(offheight) +
+       "\"/><quality shadowsize=\"1024\" offsamples=\"0\"/></visual>\n";
   x += "<worldbody>\n";
   x += "<light pos=\"0 0 2\" dir=\"0 0 -1\" directional=\"true\"/>\n";
   x += "<geom name=\"floor\" type=\"plane\" size=\"3 3 0.1\" pos=\"0 0 -0.75\" rgba=\"0.3 0.3 0.3 1\"/>\n";
@@ -263,6 +270,9 @@ std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& pla
   x += "<geom name=\"pedestal\" type=\"cylinder\" size=\"0.1 0.375\" pos=\"" + num(scene.robot_base[0]) + " " +
        num(scene.robot_base[1]) + " " + num(scene.robot_base[2] - 0.375) + "\" rgba=\"0.2 0.2 0.2 1\"/>\n";
   x += agentview_camera_xml(scene);
+  for (const auto& c : scene.cameras)
+    x += "<camera name=\"" + c.name + "\" pos=\"" + vec(c.pos.data(), 3) + "\" xyaxes=\"" +
+         mjcf::look_at(c.pos.data(), c.look_at.data()) + "\" fovy=\"" + num(c.fovy) + "\"/>\n";
   x += robot.body;
   for (std::size_t i = 0; i < scene.entities.size(); ++i) x += entity_xml(scene.entities[i], placements.at(i));
   x += "</worldbody>\n";

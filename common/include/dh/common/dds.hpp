@@ -43,6 +43,8 @@ enum class Qos {
   ChannelStatus, ///< as Episode, plus liveliness MANUAL_BY_TOPIC lease kChannelLivelinessSec (a Heartbeat
                  ///< asserts it): a dead or cut-off simulator worker is noticed by campaigns
   Camera,      ///< reliable, transient-local, keep-last 1 per channel and camera (150 KB samples)
+  Rgbd,        ///< RGB-D frames (~1.5 MB): see qos_for for the choice and its measurement
+  RgbdRequest, ///< reliable, volatile, keep-last 8 (asks for one RGB-D frame)
 };
 
 struct QosPair {

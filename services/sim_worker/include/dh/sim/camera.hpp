@@ -6,6 +6,8 @@
 // renders the model's named cameras to RGB8. The workcell model carries two cameras (scene_mjcf):
 //   agentview  fixed, in front of the table (+x), looking back over the workspace towards the robot
 //   wrist      on the hand, looking along the tool axis, the fingertips at the bottom of the image
+// plus, in sim_worker, the RGB-D cameras of configs/cameras.yaml (rgbd.hpp: "workcell", 640 x 480), which
+// render colour and metric depth (render(index, image, depth_mm)).
 // Images are upright: row-major, top row first (not OpenGL's bottom-up order), no 180° rotation.
 #pragma once
 
@@ -92,6 +94,10 @@ class CameraRig {
     render(index, out);
     return out;
   }
+  /// The same, with the depth image registered to it: `depth_mm` gets height x width values, top row
+  /// first, millimetres along the optical axis, 0 where nothing was drawn (rgbd.hpp linearises MuJoCo's
+  /// depth buffer with the model's clip planes).
+  void render(std::size_t index, Image& out, std::vector<std::uint16_t>& depth_mm);
 
  private:
   struct Gpu;
@@ -100,7 +106,9 @@ class CameraRig {
   std::vector<std::string> cameras_;
   int width_ = 0, height_ = 0;
   std::unique_ptr<Gpu> gpu_;
+  void render_to(std::size_t index, Image& out, std::vector<std::uint16_t>* depth_mm);
   std::vector<std::uint8_t> bottom_up_;  ///< glReadPixels' row order
+  std::vector<float> depth_bottom_up_;
 };
 
 /// The start-up check of a process that will render: makes `gl` current on the calling thread, renders

@@ -35,6 +35,16 @@ struct TableRegion {
   std::array<double, 2> half{};
 };
 
+/// A fixed camera the model carries besides agentview and wrist (an RGB-D workcell camera, rgbd.hpp):
+/// at `pos`, aimed at `look_at` with the world's z up in the image, vertical field of view `fovy`
+/// (degrees), rendered at width x height (the model's offscreen buffer is made at least that large).
+struct CameraSpec {
+  std::string name;
+  std::array<double, 3> pos{}, look_at{};
+  double fovy = 45;
+  int width = 640, height = 480;
+};
+
 struct SceneSpec {
   std::filesystem::path file;
   std::string name;
@@ -49,6 +59,8 @@ struct SceneSpec {
   double finger_friction = 1.5;
   std::vector<EntitySpec> entities;
   std::vector<TableRegion> regions;
+  /// Extra fixed cameras (not from the scene file: sim_worker adds configs/cameras.yaml's); none by default.
+  std::vector<CameraSpec> cameras;
 
   const EntitySpec* entity(const std::string& name) const;
 };
@@ -76,7 +88,7 @@ std::string task_scene_key(const TaskDef& task);
 std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t seed);
 
 /// The complete MJCF document of the workcell with entities at `placements`, with the cameras
-/// "agentview" and "wrist" (camera.hpp), which do not touch the physics.
+/// "agentview" and "wrist" (camera.hpp) and the scene's extra `cameras`, which do not touch the physics.
 std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& placements);
 
 /// MJCF names: a part body is "<entity>_<part>", its joint "<entity>_<part>_joint", an asset site
