@@ -119,6 +119,11 @@ class Governor {
       ch.early.reset();
       handle(first);
     }
+    if (ch.early_scene && ch.early_scene->episode_id() == r.episode_id()) {
+      const msg::SceneEstimate scene = *ch.early_scene;
+      ch.early_scene.reset();
+      handle(scene);
+    }
   }
 
   void handle(const msg::Observation& m) {
@@ -175,7 +180,11 @@ class Governor {
   }
   void handle(const msg::SceneEstimate& m) {
     auto* mc = machine(m.channel(), m.episode_id());
-    if (!mc) return;
+    if (!mc) {
+      // The frame of step 0 can be seen before this governor takes the episode's request.
+      channels_[m.channel()].early_scene = m;
+      return;
+    }
     gov::SceneEstimate e{m.episode_id(), m.step(), m.looked_for(), {}};
     for (const auto& p : m.seen()) {
       const auto& c = p.centroid();
@@ -219,6 +228,7 @@ class Governor {
     /// The simulator answers the same episode request with its first observation, which can reach us
     /// before the request does; it is kept until the request comes.
     std::optional<msg::Observation> early;
+    std::optional<msg::SceneEstimate> early_scene;  ///< the same for perception's first scene estimate
   };
 
   gov::EpisodeMachine* machine(std::uint32_t channel, const std::string& episode) {

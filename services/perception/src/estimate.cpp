@@ -119,6 +119,14 @@ PlaneResult support_plane(const Cloud::Ptr& in, const CloudParams& p) {
   return r;
 }
 
+/// The known support surface z = `z` taken as the plane: the points more than `distance` above it stay.
+PlaneResult known_support(const Cloud::Ptr& in, double z, double distance) {
+  Cloud::Ptr kept(new Cloud);
+  for (const pcl::PointXYZ& q : *in)
+    if (q.z > z + distance) kept->push_back(q);
+  return {kept, true, Eigen::Vector4d(0, 0, 1, -z)};
+}
+
 /// The voxel of a point as PCL's VoxelGrid computes it (floor of coordinate / leaf), packed in 63 bits.
 /// A voxel's centroid lies inside its voxel, so it maps back to the same key.
 struct VoxelKey {
@@ -196,7 +204,9 @@ EntityEstimate estimate_entity(const RgbdFrame& frame, const Mask& mask, const C
 
   const Cloud::Ptr sampled = voxel(cloud, params.voxel_m);
   const Cloud::Ptr inliers = outliers(sampled, params.outlier_k, params.outlier_stddev);
-  const PlaneResult plane = params.remove_plane ? support_plane(inliers, params) : PlaneResult{inliers, false, {}};
+  const PlaneResult plane = !params.remove_plane ? PlaneResult{inliers, false, {}}
+                            : params.support_z   ? known_support(inliers, *params.support_z, params.plane_distance_m)
+                                                 : support_plane(inliers, params);
   const std::vector<pcl::PointIndices> found = clusters(plane.kept, params.cluster_tolerance_m);
   if (found.empty()) return est;
   const pcl::PointIndices& kept = found.front();

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -45,6 +46,10 @@ struct CloudParams {
   int outlier_k = 12;         ///< statistical outlier removal: neighbours; 0 = none
   double outlier_stddev = 2.5;  ///< ... and the threshold in standard deviations of the mean distance
   bool remove_plane = true;
+  /// The support surface's height when it is known (a calibrated table; the simulated workcell's top is at
+  /// z = 0): points up to plane_distance_m above it go and boxes extend down to it, without RANSAC. Unset:
+  /// the support plane is searched in each mask's points (which can take a thin object's own top face).
+  std::optional<double> support_z;
   double plane_distance_m = 0.005;   ///< RANSAC inlier distance
   double plane_max_tilt_deg = 8.0;   ///< a support plane's normal is this close to world z
   double plane_min_fraction = 0.25;  ///< a support plane holds at least this share of the points ...

@@ -1,0 +1,248 @@
+// perception: scene estimates from RGB-D frames, for arms that ground from perception.
+// Reads   rt/dh/episode/request (Episode)      which scene a channel runs: the free objects to look for,
+//                                              for arms that ground from perception (configs/governor.yaml)
+//         rt/dh/episode/result  (Episode)      the channel's episode is over
+//         rt/dh/observation     (Observation)  when to look: step 0, then every --every-steps
+//         rt/dh/camera/rgbd     (Rgbd)         the frames it asked for
+// Writes  rt/dh/camera/rgbd/request (RgbdRequest)  one frame of the channel's current state
+//         rt/dh/perception/scene    (Observation)  one SceneEstimate per frame: looked for, seen, latency
+// Parameters: --camera (workcell), --every-steps (10), --backend colour|http, --segment-url,
+// --segment-timeout-s, --frame-timeout-ms (a request unanswered this long is asked again), --table-z
+// (the support surface's height, 0 in the workcell) or --search-support-plane.
+#include <CLI/CLI.hpp>
+
+#include <chrono>
+#include <map>
+#include <memory>
+#include <optional>
+#include <variant>
+
+#include "dh/common/arms.hpp"
+#include "dh/common/config.hpp"
+#include "dh/common/dds.hpp"
+#include "dh/common/event_queue.hpp"
+#include "dh/common/log.hpp"
+#include "dh/common/paths.hpp"
+#include "dh/common/service.hpp"
+#include "dh/common/shutdown.hpp"
+#include "dh/common/suite.hpp"
+#include "dh/common/topics.hpp"
+#include "dh/msg/cameraPubSubTypes.h"
+#include "dh/msg/episodePubSubTypes.h"
+#include "dh/msg/perceptionPubSubTypes.h"
+#include "dh/msg/robotPubSubTypes.h"
+#include "dh/perception/colour_segmenter.hpp"
+#include "dh/perception/estimate.hpp"
+#include "dh/perception/http_segmenter.hpp"
+#include "dh/perception/scene_entities.hpp"
+#include "dh/sim/scene.hpp"
+
+namespace dh {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Event = std::variant<msg::EpisodeRequest, msg::EpisodeResult, msg::Observation, msg::RgbdFrame>;
+
+struct ChannelState {
+  std::string episode_id;
+  std::vector<perception::LookFor> objects;
+  std::vector<perception::EntityAppearance> looked_for;
+  std::optional<std::uint32_t> last_step;  ///< the step of the last frame asked for
+  std::string pending;                     ///< request id awaiting its frame
+  Clock::time_point asked_at;
+};
+
+/// The frame as the perception library takes it (copies the pixels).
+perception::RgbdFrame to_frame(const msg::RgbdFrame& m) {
+  perception::RgbdFrame f;
+  f.K = {m.fx(), m.fy(), m.cx(), m.cy(), static_cast<int>(m.width()), static_cast<int>(m.height())};
+  const auto& q = m.orientation();
+  f.world_from_camera = Eigen::Translation3d(m.position()[0], m.position()[1], m.position()[2]) *
+                        Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized();
+  f.rgb = cv::Mat(f.K.height, f.K.width, CV_8UC3, const_cast<unsigned char*>(m.rgb().data())).clone();
+  f.depth = cv::Mat(f.K.height, f.K.width, CV_16UC1, const_cast<unsigned char*>(m.depth().data())).clone();
+  f.stamp_s = m.stamp_s();
+  return f;
+}
+
+class Perception {
+ public:
+  Perception(dds::Participant& p, std::unique_ptr<perception::Segmenter> segmenter, perception::CloudParams cloud,
+             std::string camera, unsigned every, std::chrono::milliseconds frame_timeout,
+             std::shared_ptr<spdlog::logger> log)
+      : segmenter_(std::move(segmenter)), cloud_(std::move(cloud)), camera_(std::move(camera)), every_(every),
+        frame_timeout_(frame_timeout),
+        log_(std::move(log)), suites_(load_suites(paths::config_dir())),
+        arms_(load_arms(paths::config_dir() / "governor.yaml")),
+        request_(p, topics::kRgbdRequest, dds::Qos::RgbdRequest),
+        scene_(p, topics::kSceneEstimate, dds::Qos::Observation) {}
+
+  void handle(const msg::EpisodeRequest& r) {
+    // Rendering costs the simulator time: only episodes whose arm grounds from perception are looked at.
+    const auto arm = arms_.find(r.arm().empty() ? "full" : r.arm());
+    if (arm == arms_.end() || arm->second.grounding != "perception") {
+      channels_.erase(r.channel());
+      return;
+    }
+    auto& ch = channels_[r.channel()];
+    if (ch.episode_id == r.episode_id()) return;
+    ch = {};
+    try {
+      const TaskDef& task = find_task(suites_, r.suite(), r.task());
+      ch.objects = perception::free_objects(sim::load_task_scene(task));
+      ch.looked_for = perception::appearances(ch.objects);
+      ch.episode_id = r.episode_id();
+      log_->info("channel={} episode={} looking for {} free objects", r.channel(), r.episode_id(), ch.looked_for.size());
+    } catch (const std::exception& e) {
+      log_->error("channel={} episode={}: no scene to look for: {}", r.channel(), r.episode_id(), e.what());
+      return;
+    }
+    // The simulator's first observation can come before the request does.
+    const auto last = last_seen_.find(r.channel());
+    if (last != last_seen_.end() && last->second.first == r.episode_id()) ask(r.channel(), ch, last->second.second);
+  }
+  void handle(const msg::EpisodeResult& r) {
+    auto it = channels_.find(r.channel());
+    if (it != channels_.end() && it->second.episode_id == r.episode_id()) channels_.erase(it);
+  }
+  void handle(const msg::Observation& o) {
+    last_seen_[o.channel()] = {o.episode_id(), o.step()};
+    auto it = channels_.find(o.channel());
+    if (it == channels_.end() || it->second.episode_id != o.episode_id()) return;
+    auto& ch = it->second;
+    if (!ch.pending.empty() || (ch.last_step && o.step() < *ch.last_step + every_)) return;
+    ask(o.channel(), ch, o.step());
+  }
+  /// A request unanswered for the frame timeout is asked again (the robot may be waiting for it).
+  void tick() {
+    for (auto& [id, ch] : channels_)
+      if (!ch.pending.empty() && Clock::now() - ch.asked_at >= frame_timeout_) {
+        log_->warn("channel={} frame {} not answered in time; asking again", id, ch.pending);
+        ask(id, ch, ch.last_step.value_or(0));
+      }
+  }
+  void handle(const msg::RgbdFrame& m) {
+    auto it = channels_.find(m.channel());
+    if (it == channels_.end() || m.request_id() != it->second.pending) return;
+    auto& ch = it->second;
+    if (!m.error().empty() || (!m.episode_id().empty() && m.episode_id() != ch.episode_id)) {
+      // Asked before the simulator started the episode, or it could not render: ask again after a while.
+      log_->warn("channel={} frame {}: {}", m.channel(), m.request_id(),
+                 m.error().empty() ? "shows episode '" + m.episode_id() + "', not this one" : m.error());
+      return;
+    }
+    ch.pending.clear();
+    const auto t0 = Clock::now();
+    msg::SceneEstimate out;
+    out.channel(m.channel());
+    out.episode_id(ch.episode_id);
+    out.step(m.step());
+    out.stamp_s(m.stamp_s());
+    out.camera(m.camera());
+    try {
+      const perception::RgbdFrame frame = to_frame(m);
+      const auto candidates = segmenter_->segment(frame.rgb, ch.looked_for);
+      for (const auto& e : perception::estimate_objects(frame, candidates, ch.objects, cloud_)) {
+        if (e.confidence <= 0) continue;
+        msg::PerceivedEntity p;
+        p.entity(e.entity);
+        p.centroid({e.centroid.x(), e.centroid.y(), e.centroid.z()});
+        p.size({e.size.x(), e.size.y(), e.size.z()});
+        p.yaw(std::atan2(e.axes(1, 0), e.axes(0, 0)));
+        p.confidence(e.confidence);
+        p.points(static_cast<std::uint32_t>(e.points));
+        out.seen().push_back(p);
+      }
+    } catch (const std::exception& e) {
+      log_->error("channel={} frame {} not processed: {}", m.channel(), m.request_id(), e.what());
+    }
+    for (const auto& a : ch.looked_for) out.looked_for().push_back(a.entity);
+    out.latency_ms(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+    scene_.write(out);
+    log_->debug("channel={} step={} seen {}/{} in {:.1f} ms", m.channel(), m.step(), out.seen().size(),
+                out.looked_for().size(), out.latency_ms());
+  }
+
+ private:
+  void ask(std::uint32_t channel, ChannelState& ch, std::uint32_t step) {
+    msg::RgbdRequest r;
+    r.channel(channel);
+    r.camera(camera_);
+    r.request_id("perception-" + std::to_string(++requests_));
+    request_.write(r);
+    ch.pending = r.request_id();
+    ch.asked_at = Clock::now();
+    ch.last_step = step;
+  }
+
+  std::unique_ptr<perception::Segmenter> segmenter_;
+  perception::CloudParams cloud_;
+  std::string camera_;
+  unsigned every_;
+  std::chrono::milliseconds frame_timeout_;
+  std::shared_ptr<spdlog::logger> log_;
+  std::map<std::string, SuiteDef> suites_;
+  std::map<std::string, ArmSpec> arms_;
+  dds::Writer<msg::RgbdRequestPubSubType> request_;
+  dds::Writer<msg::SceneEstimatePubSubType> scene_;
+  std::map<std::uint32_t, ChannelState> channels_;
+  std::map<std::uint32_t, std::pair<std::string, std::uint32_t>> last_seen_;  ///< episode and step per channel
+  std::uint64_t requests_ = 0;
+};
+
+int run(int argc, char** argv) {
+  CLI::App app{"perception: scene estimates from RGB-D frames (OpenCV masks, PCL boxes)"};
+  std::string camera = "workcell", backend = "colour", url;
+  unsigned every = 10, frame_timeout_ms = 2000;
+  double segment_timeout_s = 5;
+  std::optional<double> table_z = 0.0;
+  app.add_option("--camera", camera, "camera to ask for (configs/cameras.yaml, or what frames_player plays as)");
+  app.add_option("--every-steps", every, "ask for a frame every N control steps (and at step 0)")->check(CLI::PositiveNumber);
+  app.add_option("--backend", backend, "colour (from the scene description) | http (a SAM-style server)")
+      ->check(CLI::IsMember({"colour", "http"}));
+  app.add_option("--segment-url", url, "http backend: the server's endpoint, e.g. http://127.0.0.1:8765/segment");
+  app.add_option("--segment-timeout-s", segment_timeout_s, "http backend: whole-request timeout");
+  app.add_option("--frame-timeout-ms", frame_timeout_ms, "a frame not answered this long is asked for again");
+  bool search_plane = false;
+  app.add_option("--table-z", table_z, "height of the table top in the world (m; the workcell's is 0)");
+  app.add_flag("--search-support-plane", search_plane, "the table height is not known: find it in each mask (RANSAC)");
+  CLI11_PARSE(app, argc, argv);
+  auto log = make_logger("dh_perception");
+  return run_service(*log, [&] {
+    std::unique_ptr<perception::Segmenter> segmenter;
+    if (backend == "http") {
+      if (url.empty()) throw ConfigError("--backend http needs --segment-url (the segmentation server's endpoint)");
+      perception::HttpSegmenterConfig c;
+      c.url = url;
+      c.timeout_s = segment_timeout_s;
+      segmenter = std::make_unique<perception::HttpSegmenter>(c);
+    } else {
+      segmenter = std::make_unique<perception::ColourSegmenter>();
+    }
+    perception::CloudParams cloud;
+    if (!search_plane) cloud.support_z = table_z;
+    dds::Participant participant("dh_perception");
+    Perception node(participant, std::move(segmenter), cloud, camera, every, std::chrono::milliseconds(frame_timeout_ms),
+                    log);
+    EventQueue<Event> q;
+    auto push = [&q](auto m) { q.push(std::move(m)); };
+    dds::Reader<msg::EpisodeRequestPubSubType> r1(participant, topics::kEpisodeRequest, dds::Qos::Episode,
+        {[&](const msg::EpisodeRequest& m, const auto&) { push(m); }, {}, {}});
+    dds::Reader<msg::EpisodeResultPubSubType> r2(participant, topics::kEpisodeResult, dds::Qos::Episode,
+        {[&](const msg::EpisodeResult& m, const auto&) { push(m); }, {}, {}});
+    dds::Reader<msg::ObservationPubSubType> r3(participant, topics::kObservation, dds::Qos::Observation,
+        {[&](const msg::Observation& m, const auto&) { push(m); }, {}, {}});
+    dds::Reader<msg::RgbdFramePubSubType> r4(participant, topics::kRgbd, dds::Qos::Rgbd,
+        {[&](const msg::RgbdFrame& m, const auto&) { push(m); }, {}, {}});
+    log->info("backend={} camera={} every {} steps; domain={} up", backend, camera, every, dds::domain_id());
+    while (!shutdown_requested()) {
+      if (auto e = q.pop(std::chrono::milliseconds(50))) std::visit([&](auto& ev) { node.handle(ev); }, *e);
+      node.tick();
+    }
+  });
+}
+
+}  // namespace
+}  // namespace dh
+
+int main(int argc, char** argv) { return dh::run(argc, argv); }

@@ -1,0 +1,44 @@
+// What the perception service looks for in a workcell, from its scene description (the embedded
+// default): the free objects and the colours of their visible parts. Fixtures, their parts and the
+// table regions are the cell's calibrated layout and are not looked for.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "dh/perception/estimate.hpp"
+#include "dh/perception/segmenter.hpp"
+#include "dh/sim/scene.hpp"
+
+namespace dh::perception {
+
+/// A free object to find: its colours, and its size from its asset's geometry (the shape cue).
+struct LookFor {
+  EntityAppearance appearance;
+  Eigen::Vector3d size = Eigen::Vector3d::Zero();  ///< full extents of its upright box: x, y, z (m)
+};
+
+/// One per free object of `scene`, in the scene's order: the entity's own colour first, then the distinct
+/// colours its geoms paint themselves; mask areas from 40 px up to what its size can cover in a 640x480
+/// workcell view at 0.8 m or more.
+std::vector<LookFor> free_objects(const sim::SceneSpec& scene);
+std::vector<EntityAppearance> appearances(const std::vector<LookFor>& objects);
+
+/// How a candidate must look to be taken for an object.
+struct ObjectMatch {
+  std::size_t max_candidates = 4;  ///< the object's largest candidates that are estimated
+  /// The box may differ from the object's size by at most this share of its extents' sum (summed over
+  /// the three extents): a part of the robot or a fixture of the same colour is seldom the same shape.
+  double max_size_mismatch = 0.5;
+  double max_bottom_z_m = 0.4;  ///< objects rest on the table or a fixture: a box starting higher is not one
+};
+
+/// One estimate per object from a segmenter's candidate masks: each candidate of the object is estimated,
+/// and the one whose box is closest to the object's size wins; no candidate that passes `match` means
+/// "not seen" (confidence 0) — better than a wrong place. Objects that share colours (two identical
+/// objects) never get the same candidate: the first in the scene's order chooses first.
+std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::vector<Mask>& candidates,
+                                             const std::vector<LookFor>& objects, const CloudParams& params = {},
+                                             const ObjectMatch& match = {});
+
+}  // namespace dh::perception

@@ -1,0 +1,65 @@
+// The perception service over DDS: it asks sim_worker for workcell frames, publishes scene estimates
+// close to the simulator's truth, and an episode of the full-perception arm grounds from them.
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "../integration/harness.hpp"
+#include "dh/common/dds.hpp"
+#include "dh/common/topics.hpp"
+#include "dh/msg/episodePubSubTypes.h"
+#include "dh/msg/perceptionPubSubTypes.h"
+#include "dh/msg/robotPubSubTypes.h"
+
+namespace dh {
+using namespace std::chrono_literals;
+
+TEST(PerceptionE2E, EstimatesFollowTheSimulatorAndTheFullPerceptionArmGroundsFromThem) {
+  itest::IsolatedEnv env;
+  cli::Deployment d({itest::service("sim_worker"), itest::service("governor"), itest::service("planner", {"--backend", "rules"}),
+                     itest::service("cap_pick_place"), itest::service("perception")},
+                    paths::bin_dir(), env.runs / "logs");
+  dds::Participant p("itest");
+  std::mutex m;
+  std::condition_variable cv;
+  std::optional<msg::Observation> first;
+  std::vector<msg::SceneEstimate> estimates;
+  dds::Reader<msg::ObservationPubSubType> obs(p, topics::kObservation, dds::Qos::Observation,
+      {[&](const msg::Observation& o, const auto&) { std::lock_guard l(m); if (o.step() == 0 && !first) first = o; cv.notify_all(); }, {}, {}});
+  dds::Reader<msg::SceneEstimatePubSubType> scene(p, topics::kSceneEstimate, dds::Qos::Observation,
+      {[&](const msg::SceneEstimate& e, const auto&) { std::lock_guard l(m); estimates.push_back(e); cv.notify_all(); }, {}, {}});
+  const std::string dh = (paths::bin_dir() / "dh").string();
+  auto [out, status] = itest::run_command(dh + " run --suite goal --task 8 --seed 4 --arm full-perception --json --ready-timeout-ms 20000");
+  ASSERT_EQ(status, 0) << out;
+  const auto j = nlohmann::json::parse(out);
+  EXPECT_TRUE(j["success"].get<bool>()) << j.dump();
+
+  std::lock_guard l(m);
+  ASSERT_TRUE(first.has_value());
+  ASSERT_FALSE(estimates.empty()) << "the perception service published nothing";
+  const msg::SceneEstimate& e0 = estimates.front();
+  EXPECT_EQ(e0.step(), 0u);
+  const auto looked = e0.looked_for();
+  EXPECT_NE(std::find(looked.begin(), looked.end(), "bowl"), looked.end());
+  for (const char* name : {"bowl", "plate"}) {
+    const auto seen = std::find_if(e0.seen().begin(), e0.seen().end(), [&](const auto& s) { return s.entity() == name; });
+    ASSERT_NE(seen, e0.seen().end()) << name << " not seen";
+    const auto truth = std::find_if(first->entities().begin(), first->entities().end(),
+                                    [&](const auto& t) { return t.name() == name; });
+    ASSERT_NE(truth, first->entities().end());
+    const double dx = seen->centroid()[0] - truth->pose().p()[0], dy = seen->centroid()[1] - truth->pose().p()[1];
+    EXPECT_LT(std::hypot(dx, dy), 0.01) << name << " more than 1 cm off the simulator's truth";
+  }
+  // The governor waited for the frame of step 0, then grounded from it.
+  std::ifstream in(j["evidence"].get<std::string>());
+  bool waited = false, grounded = false;
+  for (std::string line; std::getline(in, line);) {
+    const auto r = nlohmann::json::parse(line);
+    waited |= r["kind"] == "awaiting_perception";
+    grounded |= r["kind"] == "grounding";
+  }
+  EXPECT_TRUE(grounded);
+  std::printf("perception: %zu estimates, first after the governor %s for it\n", estimates.size(),
+              waited ? "waited" : "did not wait");
+}
+
+}  // namespace dh

@@ -1,0 +1,95 @@
+// What the perception service looks for in a workcell (free objects, their colours and sizes from the
+// scene description) and how it picks, among a colour's candidates, the one of the object's shape.
+#include <gtest/gtest.h>
+
+#include "dh/common/paths.hpp"
+#include "dh/common/suite.hpp"
+#include "dh/perception/scene_entities.hpp"
+#include "synthetic_scene.hpp"
+
+namespace dh::perception {
+namespace {
+
+using synth::Box;
+
+Mask mask_of(const synth::Rendered& r, int id, const std::string& entity) {
+  return {entity, synth::id_mask(r, id), 1.0};
+}
+
+LookFor object(const std::string& name, const Eigen::Vector3d& size) {
+  LookFor o;
+  o.appearance = {name, {{200, 40, 40}}, 40, 0};
+  o.size = size;
+  return o;
+}
+
+TEST(SceneObjects, TheGoalKitchensFreeObjectsWithTheirColoursAndSizes) {
+  const auto suites = load_suites(paths::config_dir());
+  const auto objects = free_objects(sim::load_task_scene(find_task(suites, "goal", 8)));
+  std::vector<std::string> names;
+  for (const auto& o : objects) names.push_back(o.appearance.entity);
+  for (const char* fixture : {"cabinet", "stove", "wine_rack"})
+    EXPECT_EQ(std::find(names.begin(), names.end(), fixture), names.end()) << fixture << " is the cell's layout";
+  const auto bowl = std::find_if(objects.begin(), objects.end(), [](const auto& o) { return o.appearance.entity == "bowl"; });
+  ASSERT_NE(bowl, objects.end());
+  // configs/assets/bowl.yaml: a wall ring of outer radius 0.065 m reaching 0.05 m up; colour 0.1 grey.
+  EXPECT_NEAR(bowl->size.x(), 0.13, 1e-9);
+  EXPECT_NEAR(bowl->size.y(), 0.13, 1e-9);
+  EXPECT_NEAR(bowl->size.z(), 0.05, 1e-9);
+  EXPECT_EQ(bowl->appearance.rgb.front(), cv::Vec3b(26, 26, 26));
+  EXPECT_GT(bowl->appearance.max_area_px, 1000);
+}
+
+TEST(SceneObjects, TheCandidateOfTheObjectsShapeWinsAndNothingOfItsShapeIsNotSeen) {
+  synth::Scene s;
+  s.world_from_camera = synth::workcell_camera();
+  // Same colour: a robot link hovering 0.3 m up, and the object on the table.
+  s.boxes = {Box{Eigen::Vector3d(-0.1, 0.1, 0.35), 0, Eigen::Vector3d(0.25, 0.08, 0.1), {200, 40, 40}},
+             Box{Eigen::Vector3d(0.05, 0.0, 0.025), 0.3, Eigen::Vector3d(0.07, 0.05, 0.05), {200, 40, 40}}};
+  const auto r = synth::render(s);
+  CloudParams p;
+  p.support_z = 0;
+  const std::vector<Mask> candidates{mask_of(r, 1, "cube"), mask_of(r, 2, "cube"), mask_of(r, 1, "slab"),
+                                     mask_of(r, 2, "slab")};
+  const auto est = estimate_objects(r.frame, candidates,
+                                    {object("cube", {0.07, 0.05, 0.05}), object("slab", {0.3, 0.3, 0.01})}, p);
+  ASSERT_EQ(est.size(), 2u);
+  EXPECT_GT(est[0].confidence, 0.5);
+  EXPECT_LT((est[0].centroid - Eigen::Vector3d(0.05, 0.0, 0.025)).norm(), 0.004) << est[0].centroid.transpose();
+  EXPECT_EQ(est[1].entity, "slab");
+  EXPECT_EQ(est[1].confidence, 0) << "neither candidate has a slab's shape: not seen rather than wrong";
+}
+
+TEST(SceneObjects, IdenticalObjectsNeverShareACandidate) {
+  synth::Scene s;
+  s.world_from_camera = synth::workcell_camera();
+  s.boxes = {Box{Eigen::Vector3d(-0.08, 0.0, 0.03), 0, Eigen::Vector3d(0.06, 0.06, 0.06), {40, 40, 200}},
+             Box{Eigen::Vector3d(0.08, 0.02, 0.03), 0, Eigen::Vector3d(0.06, 0.06, 0.06), {40, 40, 200}}};
+  const auto r = synth::render(s);
+  CloudParams p;
+  p.support_z = 0;
+  const std::vector<Mask> candidates{mask_of(r, 1, "pot_1"), mask_of(r, 2, "pot_1"), mask_of(r, 1, "pot_2"),
+                                     mask_of(r, 2, "pot_2")};
+  const auto est = estimate_objects(r.frame, candidates,
+                                    {object("pot_1", {0.06, 0.06, 0.06}), object("pot_2", {0.06, 0.06, 0.06})}, p);
+  ASSERT_EQ(est.size(), 2u);
+  ASSERT_GT(est[0].confidence, 0);
+  ASSERT_GT(est[1].confidence, 0);
+  EXPECT_GT((est[0].centroid - est[1].centroid).norm(), 0.1) << "each pot has a box of its own";
+}
+
+TEST(SceneObjects, AKnownTableKeepsAThinObjectThatASearchedPlaneWouldTakeForTheSupport) {
+  synth::Scene s;
+  s.world_from_camera = synth::workcell_camera();
+  s.boxes = {Box{Eigen::Vector3d(0.0, 0.0, 0.006), 0, Eigen::Vector3d(0.18, 0.18, 0.012), {230, 230, 230}}};
+  const auto r = synth::render(s);
+  CloudParams known;
+  known.support_z = 0;
+  const EntityEstimate e = estimate_entity(r.frame, mask_of(r, 1, "plate"), known);
+  EXPECT_GT(e.confidence, 0.5);
+  EXPECT_LT((e.centroid - Eigen::Vector3d(0, 0, 0.006)).norm(), 0.003) << e.centroid.transpose();
+  EXPECT_NEAR(e.size.z(), 0.012, 0.003) << "the box reaches down to the known table";
+}
+
+}  // namespace
+}  // namespace dh::perception
