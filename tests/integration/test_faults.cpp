@@ -98,7 +98,8 @@ TEST(Faults, KilledCapabilityIsRecordedWithinItsLeaseAndTheEpisodeEnds) {
 
 TEST(Faults, AKilledGovernorLeavesTheArmHeldAndTheOrphanedEpisodeAbandoned) {
   itest::IsolatedEnv env;
-  cli::Deployment core({itest::service("sim_worker", {"--abandon-after-s", "3"}), itest::service("planner"),
+  // Abandonment (5 s) outlasts a restarted governor's startup grace (3 s), as the defaults do (60 s).
+  cli::Deployment core({itest::service("sim_worker", {"--abandon-after-s", "5"}), itest::service("planner"),
                         itest::service("cap_pick_place")},
                        paths::bin_dir(), env.runs / "logs");
   cli::Deployment governor({itest::service("governor")}, paths::bin_dir(), env.runs / "logs");

@@ -43,6 +43,8 @@ std::string host_profile_xml(const LaunchFile& launch, const std::string& host) 
          "        <transport_id>dh_udp_host</transport_id>\n"
          "        <type>UDPv4</type>\n"
          "        <interfaceWhiteList><address>" + h.address + "</address></interfaceWhiteList>\n"
+         "        <sendBufferSize>4194304</sendBufferSize>\n"
+         "        <receiveBufferSize>4194304</receiveBufferSize>\n"
          "      </transport_descriptor>\n"
          "    </transport_descriptors>\n"
          "    <participant profile_name=\"dh_participant\">\n"

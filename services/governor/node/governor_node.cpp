@@ -342,7 +342,7 @@ int run(int argc, char** argv) {
   std::optional<unsigned> planner_timeout_ms;
   app.add_option("--planner-timeout-ms", planner_timeout_ms,
                  "overrides planner_timeout_ms of the YAML (a model server's planner needs more than its own timeout)");
-  unsigned startup_grace_ms = 1500;
+  unsigned startup_grace_ms = 3000;
   app.add_option("--startup-grace-ms", startup_grace_ms,
                  "hold episode requests this long after start, until the capabilities' announcements are in");
   CLI11_PARSE(app, argc, argv);

@@ -278,6 +278,7 @@ Effects EpisodeMachine::finish_command(const CommandStatus& st, Clock::time_poin
 }
 
 Effects EpisodeMachine::on_capability_lost(const std::string& instance, Clock::time_point now) {
+  if (phase_ == Phase::Ended) return {};  // the episode's record is closed
   evidence_.append("governor", "capability_lost", {{"step", last_obs_.step}, {"instance", instance}});
   if (phase_ != Phase::Running || !running_ || running_->instance != instance) return {};
   if (!recovering_) count_failure();
