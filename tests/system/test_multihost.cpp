@@ -125,7 +125,9 @@ TEST(MultiHost, ACutSimulatorHostLinkLosesOnlyItsEpisodesWhichRunAgainElsewhere)
   }
   const auto losses = store.losses();
   ASSERT_GE(losses.size(), 1u) << "sim2 was running episodes when its link went down";
-  EXPECT_LE(losses.size(), 11u) << "only what sim2's 11 channels were running is lost";
+  // Each of sim2's 11 channels loses what it ran at the cut, and at most one more episode dispatched to it
+  // in the 2 s before its loss was noticed (its idle announcement crossed the cut).
+  EXPECT_LE(losses.size(), 22u) << "only what sim2's 11 channels were given is lost";
   for (const auto& l : losses) {
     EXPECT_EQ(l.worker, "sim2");
     EXPECT_NE(l.reason.find("worker sim2 lost"), std::string::npos) << l.reason;
