@@ -8,6 +8,7 @@
 #include <set>
 #include <sstream>
 
+#include "../integration/episode_request.hpp"
 #include "../integration/harness.hpp"
 #include "dh/common/dds.hpp"
 #include "dh/common/topics.hpp"
@@ -76,16 +77,7 @@ class Driver {
   /// Starts an episode on every channel: the goal kitchen, "put the bowl on the plate", seed 4.
   bool start(std::uint32_t budget) {
     for (std::uint32_t ch = 0; ch < channels_; ++ch) {
-      msg::EpisodeRequest r;
-      r.channel(ch);
-      r.episode_id(episode(ch));
-      r.suite("goal");
-      r.task(8);
-      r.seed(4);
-      r.arm("full");
-      r.instruction("put the bowl on the plate");
-      r.budget_steps(budget);
-      req_.write(r);
+      req_.write(itest::bowl_on_plate(ch, episode(ch), budget));
       renew(ch, 0, budget);
     }
     return itest::wait_until(m_, cv_, 20s, [&] { return step_.size() == channels_; });

@@ -15,6 +15,7 @@
 #include <set>
 #include <sstream>
 
+#include "../integration/episode_request.hpp"
 #include "../integration/harness.hpp"
 #include "dh/common/dds.hpp"
 #include "dh/common/suite.hpp"
@@ -103,16 +104,7 @@ class Client {
 
   /// "put the bowl on the plate" (goal task 8), seed 4, on channel 0; waits for the step-0 observation.
   bool start(std::uint32_t budget) {
-    msg::EpisodeRequest r;
-    r.channel(0);
-    r.episode_id(kEpisode);
-    r.suite("goal");
-    r.task(8);
-    r.seed(4);
-    r.arm("full");
-    r.instruction("put the bowl on the plate");
-    r.budget_steps(budget);
-    ep_.write(r);
+    ep_.write(itest::bowl_on_plate(0, kEpisode, budget));
     renew(0, budget);
     return itest::wait_until(m_, cv_, 20s, [&] { return step_.has_value(); });
   }

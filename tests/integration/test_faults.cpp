@@ -16,26 +16,12 @@
 #include "dh/msg/commandPubSubTypes.h"
 #include "dh/msg/episodePubSubTypes.h"
 #include "dh/msg/robotPubSubTypes.h"
+#include "episode_request.hpp"
 #include "harness.hpp"
 
 namespace dh {
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
-
-namespace {
-msg::EpisodeRequest request(const std::string& id) {
-  msg::EpisodeRequest r;
-  r.channel(0);
-  r.episode_id(id);
-  r.suite("goal");
-  r.task(8);
-  r.seed(4);
-  r.arm("full");
-  r.instruction("put the bowl on the plate");
-  r.budget_steps(300);
-  return r;
-}
-}  // namespace
 
 TEST(Faults, KilledCapabilityIsRecordedWithinItsLeaseAndTheEpisodeEnds) {
   itest::IsolatedEnv env;
@@ -61,7 +47,7 @@ TEST(Faults, KilledCapabilityIsRecordedWithinItsLeaseAndTheEpisodeEnds) {
   dds::Writer<msg::EpisodeRequestPubSubType> req(p, topics::kEpisodeRequest, dds::Qos::Episode);
   ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return announced && idle && req.matched() >= 2; }));
   std::this_thread::sleep_for(300ms);
-  req.write(request("kill-test"));
+  req.write(itest::bowl_on_plate(0, "kill-test"));
   ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return step >= 60; })) << "the command never got going";
   ASSERT_TRUE(cap.signal("cap_pick_place", SIGKILL));
   const auto killed_at = std::chrono::system_clock::now();
@@ -127,7 +113,7 @@ TEST(Faults, AKilledGovernorLeavesTheArmHeldAndTheOrphanedEpisodeAbandoned) {
   for (int i = 0; i < 400 && req.matched() < 2; ++i) std::this_thread::sleep_for(50ms);  // matching notifies nobody
   ASSERT_GE(req.matched(), 2u);
   std::this_thread::sleep_for(300ms);
-  req.write(request("orphan"));
+  req.write(itest::bowl_on_plate(0, "orphan"));
   ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return step >= 40; })) << "the command never got going";
   ASSERT_TRUE(governor.signal("governor", SIGKILL));
   std::uint32_t killed_at;
@@ -152,7 +138,7 @@ TEST(Faults, AKilledGovernorLeavesTheArmHeldAndTheOrphanedEpisodeAbandoned) {
   // A governor started again takes the next episode on the same channel.
   cli::Deployment restarted({itest::service("governor")}, paths::bin_dir(), env.runs / "logs");
   const auto t0 = std::chrono::steady_clock::now();
-  req.write(request("after-restart"));
+  req.write(itest::bowl_on_plate(0, "after-restart"));
   EXPECT_TRUE(itest::wait_until(m, cv, 60s, [&] { return results.count("after-restart") > 0; }))
       << "the restarted governor never served the next episode";
   std::printf("restarted governor: result %.1f s after the request\n",
@@ -182,7 +168,7 @@ TEST(Faults, TheSeamRejectsActionsUnderAnExpiredLease) {
   dds::Writer<msg::LeasePubSubType> lease(p, topics::kLease, dds::Qos::Lease);
   dds::Writer<msg::ActionPubSubType> act(p, topics::kAction, dds::Qos::Action);
   ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return idle && req.matched() >= 1 && act.matched() >= 1 && lease.matched() >= 1; }));
-  req.write(request("lease-test"));
+  req.write(itest::bowl_on_plate(0, "lease-test"));
   ASSERT_TRUE(itest::wait_until(m, cv, 10s, [&] { return step == 0; }));
   msg::Lease l;
   l.channel(0);

@@ -10,25 +10,13 @@
 #include "dh/msg/episodePubSubTypes.h"
 #include "dh/msg/plannerPubSubTypes.h"
 #include "dh/msg/robotPubSubTypes.h"
+#include "episode_request.hpp"
 #include "harness.hpp"
 
 namespace dh {
 using namespace std::chrono_literals;
 
 namespace {
-
-msg::EpisodeRequest request(std::uint32_t channel, const std::string& id) {
-  msg::EpisodeRequest r;
-  r.channel(channel);
-  r.episode_id(id);
-  r.suite("goal");
-  r.task(8);
-  r.seed(4);
-  r.arm("full");
-  r.instruction("put the bowl on the plate");
-  r.budget_steps(300);
-  return r;
-}
 
 std::vector<nlohmann::json> evidence_of(const std::string& path) {
   std::ifstream in(path);
@@ -64,7 +52,7 @@ TEST(TopicGarbage, AnObservationArrivingBeforeItsRequestStillStartsTheEpisode) {
   o.gripper_opening(0.08);
   obs.write(o);
   std::this_thread::sleep_for(500ms);  // the observation is surely in before the request
-  req.write(request(3, "early"));
+  req.write(itest::bowl_on_plate(3, "early"));
   EXPECT_TRUE(itest::wait_until(m, cv, 10s, [&] { return !plan_requests.empty(); }))
       << "the governor dropped the early observation and waits for another";
   std::lock_guard l(m);
@@ -101,7 +89,7 @@ TEST(TopicGarbage, ForeignCommandsAndActionsForMissingChannelsAreRejectedAndReco
   dds::Writer<msg::LeasePubSubType> lease(p, topics::kLease, dds::Qos::Lease);
   ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return announced && idle && req.matched() >= 2; }));
   std::this_thread::sleep_for(300ms);
-  req.write(request(0, "garbage"));
+  req.write(itest::bowl_on_plate(0, "garbage"));
   ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return step >= 20; })) << "the episode never got going";
 
   msg::Command foreign;
