@@ -1,43 +1,14 @@
 #include <gtest/gtest.h>
 
-#include <filesystem>
 
 #include "dh/gov/episode.hpp"
-#include "fixtures.hpp"
+#include "machine_fixture.hpp"
 
 using namespace dh;
 using namespace dh::gov;
 using namespace std::chrono_literals;
 
-namespace {
-struct Machine : ::testing::Test {
-  std::filesystem::path file = std::filesystem::temp_directory_path() /
-                               ("dh_machine_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-                                ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".jsonl");
-  Registry registry;
-  GovernorConfig config;
-  std::unique_ptr<EvidenceWriter> evidence;
-  std::unique_ptr<EpisodeMachine> m;
-  Clock::time_point t0 = Clock::time_point{} + 1000s;
-
-  void SetUp() override {
-    std::filesystem::remove(file);
-    registry.announce(test::pick_place_info());
-    evidence = std::make_unique<EvidenceWriter>(file);
-    m = std::make_unique<EpisodeMachine>(EpisodeSpec{0, "ep", "put the bowl on the plate", "full", 300}, config,
-                                         registry, *evidence, t0);
-  }
-  void TearDown() override { std::filesystem::remove(file); }
-  Advice good(const std::string& id) {
-    return {id, false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules", false, {}};
-  }
-  std::vector<std::string> kinds() {
-    std::vector<std::string> k;
-    for (const auto& r : read_evidence(file)) k.push_back(r["kind"]);
-    return k;
-  }
-};
-}  // namespace
+using Machine = test::MachineTest;
 
 TEST_F(Machine, PlansGroundsDispatchesRenewsAndEndsOnTheLatchedVerdict) {
   Effects fx = m->on_observation(test::scene_observation(0), t0);

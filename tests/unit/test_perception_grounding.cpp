@@ -1,14 +1,12 @@
 // Grounding from perception: entities the perception service looked for are placed where it saw them;
 // no, stale or unsure estimates make grounding wait for a fresh frame, then refuse with the reason.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <filesystem>
 
 #include "dh/gov/episode.hpp"
 #include "dh/gov/perception.hpp"
-#include "fixtures.hpp"
+#include "machine_fixture.hpp"
 
 using namespace dh;
 using namespace dh::gov;
@@ -58,28 +56,8 @@ TEST(Perceive, MissingStaleAndUnsureEstimatesAreNamed) {
   EXPECT_FALSE(perceive(obs, estimate(35, 0.1), {"plate"}, limits)) << "the bowl is not needed here";
 }
 
-struct PerceptionMachine : ::testing::Test {
-  std::filesystem::path file = std::filesystem::temp_directory_path() /
-                               ("dh_perception_machine_" + std::to_string(::getpid()) + "_" +
-                                ::testing::UnitTest::GetInstance()->current_test_info()->name() + ".jsonl");
-  Registry registry;
-  GovernorConfig config;
-  std::unique_ptr<EvidenceWriter> evidence;
-  std::unique_ptr<EpisodeMachine> m;
-  Clock::time_point t0 = Clock::time_point{} + 1000s;
-
-  void SetUp() override {
-    std::filesystem::remove(file);
-    registry.announce(test::pick_place_info());
-    config.perception = PerceptionLimits{};
-    evidence = std::make_unique<EvidenceWriter>(file);
-    m = std::make_unique<EpisodeMachine>(EpisodeSpec{0, "ep", "put the bowl on the plate", "full", 300}, config,
-                                         registry, *evidence, t0);
-  }
-  void TearDown() override { std::filesystem::remove(file); }
-  Advice good(const std::string& id) {
-    return {id, false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules", false, {}};
-  }
+struct PerceptionMachine : test::MachineTest {
+  void configure(GovernorConfig& c) override { c.perception = PerceptionLimits{}; }
 };
 
 TEST_F(PerceptionMachine, AStepWaitsForTheFrameOfItsStepThenGroundsWithWhatPerceptionSaw) {
