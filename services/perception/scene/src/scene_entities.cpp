@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <tuple>
 
 namespace dh::perception {
 
@@ -74,27 +75,39 @@ std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::
                                              const std::vector<LookFor>& objects, const CloudParams& params,
                                              const ObjectMatch& match) {
   // Candidates are per entity; entities of the same colours got the same pixels, so a candidate is
-  // known by its pixel count and its first pixel.
-  std::vector<std::pair<int, cv::Point>> taken;
+  // known by its pixel count and its first pixel, and each distinct one is identified and estimated once.
+  using Id = std::pair<int, cv::Point>;
   const auto identity = [](const Mask& m) {
     std::vector<cv::Point> nz;
     cv::findNonZero(m.pixels, nz);
-    return std::make_pair(static_cast<int>(nz.size()), nz.empty() ? cv::Point(-1, -1) : nz.front());
+    return Id(static_cast<int>(nz.size()), nz.empty() ? cv::Point(-1, -1) : nz.front());
   };
+  std::vector<Id> ids;
+  ids.reserve(candidates.size());
+  for (const auto& m : candidates) ids.push_back(identity(m));
+  const auto before = [](const Id& a, const Id& b) {
+    return std::tie(a.first, a.second.y, a.second.x) < std::tie(b.first, b.second.y, b.second.x);
+  };
+  std::map<Id, EntityEstimate, decltype(before)> estimated(before);
+  std::vector<Id> taken;
   std::vector<EntityEstimate> out;
   for (const auto& o : objects) {
     EntityEstimate best;
     best.entity = o.appearance.entity;
     best.stamp_s = frame.stamp_s;
     double best_mismatch = 1e9;
-    std::pair<int, cv::Point> best_id;
+    Id best_id;
     std::size_t tried = 0;
-    for (const auto& m : candidates) {
+    for (std::size_t i = 0; i < candidates.size(); ++i) {
+      const Mask& m = candidates[i];
       if (m.entity != o.appearance.entity || tried == match.max_candidates) continue;
-      const auto id = identity(m);
+      const Id& id = ids[i];
       if (std::find(taken.begin(), taken.end(), id) != taken.end()) continue;
       ++tried;
-      const EntityEstimate e = estimate_entity(frame, m, params);
+      auto cached = estimated.find(id);
+      if (cached == estimated.end()) cached = estimated.emplace(id, estimate_entity(frame, m, params)).first;
+      EntityEstimate e = cached->second;
+      e.entity = m.entity;
       if (e.confidence <= 0 || e.centroid.z() - e.size.z() / 2 > match.max_bottom_z_m) continue;
       const double mismatch = size_mismatch(e.size, o.size);
       if (mismatch < best_mismatch) {
