@@ -28,6 +28,12 @@ QosPair qos_for(Qos kind) {
   // also avoids the fast_datasharing_* files a killed process would leave in /dev/shm.
   w.data_sharing().off();
   r.data_sharing().off();
+  // A sample that reaches a reader before the reader has matched its writer is dropped and repaired only
+  // at the writer's next heartbeat, by default 3 s later. Seen: a capability's transient-local
+  // announcement reached the governor exactly 3 s after it was written, in about one start in four under
+  // ctest, and the governor refused the first episode. Heartbeats are only sent while a sample is
+  // unacknowledged, so a short period costs nothing at rest.
+  w.reliable_writer_qos().times.heartbeatPeriod = seconds(0.2);
   int depth = 1;
   switch (kind) {
     case Qos::Announce:
