@@ -103,4 +103,15 @@ std::vector<msg::Param> to_msg(const std::map<std::string, double>& p) {
   return out;
 }
 
+SceneEstimate from_msg(const msg::SceneEstimate& m) {
+  SceneEstimate e{m.episode_id(), m.step(), m.looked_for(), {}};
+  for (const auto& p : m.seen()) {
+    const auto& c = p.centroid();
+    const auto& size = p.size();
+    e.seen.push_back({p.entity(), {c[0], c[1], c[2] - size[2] / 2}, {size[0] / 2, size[1] / 2, size[2] / 2},
+                      p.confidence()});
+  }
+  return e;
+}
+
 }  // namespace dh::convert

@@ -185,15 +185,7 @@ class Governor {
       channels_[m.channel()].early_scene = m;
       return;
     }
-    gov::SceneEstimate e{m.episode_id(), m.step(), m.looked_for(), {}};
-    for (const auto& p : m.seen()) {
-      const auto& c = p.centroid();
-      const auto& size = p.size();
-      // EntityState::p is the bottom centre of an object's box.
-      e.seen.push_back({p.entity(), {c[0], c[1], c[2] - size[2] / 2}, {size[0] / 2, size[1] / 2, size[2] / 2},
-                        p.confidence()});
-    }
-    apply(m.channel(), mc->on_scene_estimate(e, gov::Clock::now()));
+    apply(m.channel(), mc->on_scene_estimate(convert::from_msg(m), gov::Clock::now()));
   }
   /// Only this governor commands capabilities: a command from anyone else is recorded (capabilities may
   /// start on it, but the seam applies no action of a command this governor did not lease).
@@ -276,6 +268,7 @@ class Governor {
       c.start_step(g.start_step);
       c.budget_steps(g.budget_steps);
       c.lease_until_step(g.lease_until_step);
+      c.grounding(arms_.at(ch.machine->spec().arm).grounding);
       command_.write(c);
       log_->info("channel={} dispatch {} -> {} budget={}", channel, g.command_id, g.instance, g.budget_steps);
     }

@@ -24,12 +24,7 @@ GovernorConfig load_config(const std::filesystem::path& file) {
   g.first_observation_timeout = std::chrono::milliseconds(c.get<unsigned>("first_observation_timeout_ms"));
   g.step_stall_timeout = std::chrono::milliseconds(c.get<unsigned>("step_stall_timeout_ms"));
   if (c.has("perception")) {
-    const ConfigNode p = c.child("perception");
-    g.perception_limits.max_age_steps = p.get<unsigned>("max_age_steps");
-    g.perception_limits.min_confidence = p.get<double>("min_confidence");
-    if (g.perception_limits.min_confidence < 0 || g.perception_limits.min_confidence > 1)
-      p.fail("min_confidence", "must be within 0..1");
-    g.perception_limits.wait = std::chrono::milliseconds(p.get<unsigned>("wait_ms"));
+    g.perception_limits = perception_limits(c.child("perception"));
   }
   return g;
 }

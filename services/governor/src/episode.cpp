@@ -28,6 +28,7 @@ nlohmann::json bindings_json(const Bindings& b) {
 EpisodeMachine::EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, const Registry& registry,
                                EvidenceWriter& evidence, Clock::time_point now)
     : spec_(std::move(spec)), config_(config), registry_(registry), evidence_(evidence) {
+  if (config_.perception) world_.emplace(*config_.perception);
   deadline_ = now + config_.first_observation_timeout;
   deadline_what_ = "first observation from the simulator channel";
   capability_wait_until_ = now + config_.ack_timeout;
@@ -79,17 +80,16 @@ Effects EpisodeMachine::on_observation(const Observation& obs, Clock::time_point
   return decide_now(CommandPhase::Running, "decision step", now);
 }
 
-Observation EpisodeMachine::perceived_scene() const {
+Observation EpisodeMachine::perceived_scene() {
   Observation seen = last_obs_;
   // The planner sees what perception saw; what it could not see is left out (the refusal comes at grounding).
-  if (config_.perception) perceive(seen, scene_estimate_, {}, *config_.perception);
+  if (world_) world_->view(seen, {});
   return seen;
 }
 
 Effects EpisodeMachine::on_scene_estimate(const SceneEstimate& estimate, Clock::time_point now) {
-  if (!config_.perception || estimate.episode_id != spec_.episode_id) return {};
-  if (scene_estimate_ && estimate.step < scene_estimate_->step) return {};
-  scene_estimate_ = estimate;
+  if (!world_ || estimate.episode_id != spec_.episode_id) return {};
+  world_->on_estimate(estimate);
   if (phase_ != Phase::AwaitingPerception) return {};
   const Advice advice = *awaiting_perception_;
   return ground_and_dispatch(advice, now);
@@ -143,10 +143,10 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
   const std::string command_id = spec_.episode_id + "/c" + std::to_string(commands_);
   Observation seen = last_obs_;
   std::optional<Unperceived> unseen;
-  if (config_.perception && !advice.refused) {
+  if (world_ && !advice.refused) {
     std::vector<std::string> needed;
     for (const auto& [role, value] : advice.args) needed.push_back(value);
-    unseen = perceive(seen, scene_estimate_, needed, *config_.perception);
+    unseen = world_->view(seen, needed);
     // The frame of this step may still be on its way: wait a little for it (the robot is not moving).
     if (unseen && unseen->estimate_missing_or_stale) {
       if (phase_ != Phase::AwaitingPerception) {

@@ -7,6 +7,8 @@
 #include <vector>
 
 #include "dh/common/observation.hpp"
+#include "dh/common/perceived_world.hpp"
+#include "dh/msg/perception.h"
 #include "dh/msg/robot.h"
 #include "dh/msg/types.h"
 
@@ -19,6 +21,9 @@ msg::Observation to_msg(const Observation& o, std::uint32_t channel, const std::
 
 std::vector<std::pair<std::string, std::string>> from_msg(const std::vector<msg::Binding>& b);
 std::vector<msg::Binding> to_msg(const std::vector<std::pair<std::string, std::string>>& b);
+
+/// Box centres become bottom centres (EntityState::p); sizes become half extents.
+SceneEstimate from_msg(const msg::SceneEstimate& m);
 
 std::map<std::string, double> from_msg(const std::vector<msg::Param>& p);
 std::vector<msg::Param> to_msg(const std::map<std::string, double>& p);

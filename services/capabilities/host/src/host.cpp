@@ -7,6 +7,9 @@
 // Reads   rt/dh/command         (Command) START / CANCEL addressed to one of this process's instances;
 //                                         every START on a channel also records a keyframe there
 //         rt/dh/observation     (Observation)
+//         rt/dh/perception/scene (Observation) scene estimates: a command whose `grounding` is "perception"
+//                                         moves in the perceived world (dh/common/perceived_world.hpp),
+//                                         not among the observation's object poses
 // On SIGTERM/SIGINT the process drains: it refuses new commands and finishes the ones running (at most
 // --drain-timeout-s), then exits — how `dh swap` replaces it without losing a command.
 #include "dh/cap/host.hpp"
@@ -16,6 +19,7 @@
 
 #include <chrono>
 #include <map>
+#include <optional>
 #include <variant>
 
 #include "dh/cap/descriptor.hpp"
@@ -25,16 +29,19 @@
 #include "dh/common/dds.hpp"
 #include "dh/common/event_queue.hpp"
 #include "dh/common/log.hpp"
+#include "dh/common/paths.hpp"
+#include "dh/common/perceived_world.hpp"
 #include "dh/common/service.hpp"
 #include "dh/common/topics.hpp"
 #include "dh/msg/capabilityPubSubTypes.h"
 #include "dh/msg/commandPubSubTypes.h"
+#include "dh/msg/perceptionPubSubTypes.h"
 #include "dh/msg/robotPubSubTypes.h"
 
 namespace dh::cap {
 namespace {
 
-using Event = std::variant<msg::Command, msg::Observation>;
+using Event = std::variant<msg::Command, msg::Observation, msg::SceneEstimate>;
 
 struct Served {
   CapabilityDef def;
@@ -47,6 +54,9 @@ struct Running {
   std::unique_ptr<Skill> skill;  // set once the command's first observation arrived
   std::uint32_t steps_used = 0;
   std::string stage;
+  /// Set while a perceived command waits for a fresh scene estimate (sending no action holds the
+  /// lock-stepped channel too, as a robot pauses for its cameras).
+  std::optional<std::chrono::steady_clock::time_point> awaiting_frame_since;
 };
 
 Bindings bindings(const msg::Command& c) {
@@ -55,10 +65,24 @@ Bindings bindings(const msg::Command& c) {
   return b;
 }
 
+std::vector<std::string> bound_entities(const msg::Command& c) {
+  std::vector<std::string> e;
+  for (const auto& x : c.args()) e.push_back(x.entity());
+  return e;
+}
+
+/// The deployment's limits on scene estimates: the `perception:` section of the governor's configuration
+/// (the same limits for both brains); the defaults where it has none.
+PerceptionLimits deployment_perception_limits() {
+  const ConfigNode c = ConfigNode::load_file(paths::config_dir() / "governor.yaml");
+  return c.has("perception") ? perception_limits(c.child("perception")) : PerceptionLimits{};
+}
+
 class Node {
  public:
-  Node(dds::Participant& p, const std::vector<Served>& served, std::shared_ptr<spdlog::logger> log)
-      : served_(served), log_(std::move(log)), action_(p, topics::kAction, dds::Qos::Action),
+  Node(dds::Participant& p, const std::vector<Served>& served, PerceptionLimits limits,
+       std::shared_ptr<spdlog::logger> log)
+      : served_(served), limits_(limits), log_(std::move(log)), action_(p, topics::kAction, dds::Qos::Action),
         status_(p, topics::kCommandStatus, dds::Qos::Status) {}
 
   void handle(const msg::Command& c) {
@@ -77,7 +101,7 @@ class Node {
       if (it != running_.end() && it->second.command.command_id() == c.command_id()) cancel(it, "cancelled by the governor");
       return;
     }
-    Running r{c, s, nullptr, 0, "pending"};
+    Running r{c, s, nullptr, 0, "pending", std::nullopt};
     if (draining_) {
       status(r, msg::STATE_REFUSED, "instance " + c.instance() + " is draining (being replaced or stopped)",
              c.start_step(), 0);
@@ -87,15 +111,60 @@ class Node {
     if (auto o = last_obs_.find(c.channel()); o != last_obs_.end()) handle(o->second);
   }
 
+  void handle(const msg::SceneEstimate& m) {
+    worlds_.try_emplace(m.channel(), limits_).first->second.on_estimate(convert::from_msg(m));
+    retry_awaiting(m.channel());
+  }
+
+  /// Commands waiting for a frame past the deadline give up (called between events).
+  void tick() {
+    std::vector<std::uint32_t> due;
+    for (const auto& [channel, r] : running_)
+      if (r.awaiting_frame_since && std::chrono::steady_clock::now() - *r.awaiting_frame_since >= limits_.wait)
+        due.push_back(channel);
+    for (const auto channel : due) retry_awaiting(channel);
+  }
+
   void handle(const msg::Observation& m) {
     auto& last = last_obs_[m.channel()];
     if (last.episode_id() != m.episode_id()) keyframes_.erase(m.channel());
     last = m;
+    Observation obs = convert::from_msg(m);
+    // Every observation goes through the channel's perceived world, so it sees each grasp and release.
+    PerceivedWorld* world = nullptr;
+    if (auto w = worlds_.find(m.channel()); w != worlds_.end() && w->second.latest()->episode_id == m.episode_id())
+      world = &w->second;
     auto it = running_.find(m.channel());
+    const bool perceived = it != running_.end() && it->second.command.grounding() == "perception" &&
+                           m.episode_id() == it->second.command.episode_id();
+    std::optional<Unperceived> unseen;
+    if (world) {
+      Observation seen = obs;
+      unseen = world->view(seen, perceived ? bound_entities(it->second.command) : std::vector<std::string>{});
+      if (perceived) obs = std::move(seen);
+    } else if (perceived) {
+      unseen = Unperceived{"no scene estimate from the perception service for this episode", true};
+    }
     if (it == running_.end()) return;
     Running& r = it->second;
     if (m.episode_id() != r.command.episode_id() || m.step() < r.command.start_step()) return;
-    const Observation obs = convert::from_msg(m);
+    if (perceived && unseen) {
+      // A missing or stale frame may still come: wait up to the limit without acting.
+      const auto now = std::chrono::steady_clock::now();
+      if (unseen->estimate_missing_or_stale) {
+        if (!r.awaiting_frame_since) r.awaiting_frame_since = now;
+        if (now - *r.awaiting_frame_since < limits_.wait) return;
+      }
+      const std::string why = "perception: " + unseen->reason +
+                              (unseen->estimate_missing_or_stale
+                                   ? "; waited " + std::to_string(limits_.wait.count()) + " ms for a fresh frame"
+                                   : "");
+      status(r, r.skill ? msg::STATE_FAILED : msg::STATE_REFUSED, why, m.step(), r.steps_used, r.stage);
+      log_->info("channel={} command={} {}: {}", m.channel(), r.command.command_id(), r.skill ? "failed" : "refused", why);
+      running_.erase(it);
+      return;
+    }
+    r.awaiting_frame_since.reset();
     if (!r.skill && !begin(r, obs)) {
       running_.erase(it);
       return;
@@ -135,6 +204,15 @@ class Node {
   std::size_t running() const { return running_.size(); }
 
  private:
+  void retry_awaiting(std::uint32_t channel) {
+    const auto it = running_.find(channel);
+    const auto o = last_obs_.find(channel);
+    if (it != running_.end() && it->second.awaiting_frame_since && o != last_obs_.end()) {
+      const msg::Observation m = o->second;
+      handle(m);
+    }
+  }
+
   const Served* find(const std::string& instance) const {
     for (const auto& s : served_)
       if (s.descriptor.instance() == instance) return &s;
@@ -199,12 +277,14 @@ class Node {
   }
 
   const std::vector<Served>& served_;
+  PerceptionLimits limits_;
   std::shared_ptr<spdlog::logger> log_;
   dds::Writer<msg::ActionPubSubType> action_;
   dds::Writer<msg::CommandStatusPubSubType> status_;
   std::map<std::uint32_t, Running> running_;
   std::map<std::uint32_t, msg::Observation> last_obs_;
   std::map<std::uint32_t, std::vector<Keyframe>> keyframes_;
+  std::map<std::uint32_t, PerceivedWorld> worlds_;  ///< per channel: its current episode's perceived world
   bool draining_ = false;
 };
 
@@ -254,11 +334,13 @@ int run_capability_host(int argc, char** argv, const std::string& family,
     }
     dds::Participant participant(service);
     EventQueue<Event> queue;
-    Node node(participant, served, log);  // θ arrives with each command
+    Node node(participant, served, deployment_perception_limits(), log);  // θ arrives with each command
     dds::Reader<msg::CommandPubSubType> cmd(participant, topics::kCommand, dds::Qos::Command,
         {[&](const msg::Command& m, const auto&) { queue.push(m); }, {}, {}});
     dds::Reader<msg::ObservationPubSubType> obs(participant, topics::kObservation, dds::Qos::Observation,
         {[&](const msg::Observation& m, const auto&) { queue.push(m); }, {}, {}});
+    dds::Reader<msg::SceneEstimatePubSubType> scene(participant, topics::kSceneEstimate, dds::Qos::Observation,
+        {[&](const msg::SceneEstimate& m, const auto&) { queue.push(m); }, {}, {}});
     dds::Writer<msg::CapabilityAnnouncePubSubType> announce(participant, topics::kAnnounce, dds::Qos::Announce);
     for (const auto& s : served) {
       announce.write(s.descriptor);
@@ -266,13 +348,17 @@ int run_capability_host(int argc, char** argv, const std::string& family,
     }
     const dds::Heartbeat alive([&announce] { announce.assert_liveliness(); },
                                std::chrono::milliseconds(static_cast<int>(dds::kLivelinessLeaseSec * 1000 / 4)));
-    while (!shutdown_requested())
+    while (!shutdown_requested()) {
       if (auto e = queue.pop(std::chrono::milliseconds(50))) std::visit([&](auto& ev) { node.handle(ev); }, *e);
+      node.tick();
+    }
     node.drain();
     log->info("family={} draining: {} command(s) running", family, node.running());
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(drain_timeout_s);
-    while (node.running() > 0 && std::chrono::steady_clock::now() < deadline)
+    while (node.running() > 0 && std::chrono::steady_clock::now() < deadline) {
       if (auto e = queue.pop(std::chrono::milliseconds(50))) std::visit([&](auto& ev) { node.handle(ev); }, *e);
+      node.tick();
+    }
     if (node.running() > 0) log->warn("family={} drain timed out with {} command(s) running", family, node.running());
   });
 }

@@ -12,9 +12,9 @@
 
 #include "dh/common/evidence.hpp"
 #include "dh/common/observation.hpp"
+#include "dh/common/perceived_world.hpp"
 #include "dh/gov/decide.hpp"
 #include "dh/gov/grounding.hpp"
-#include "dh/gov/perception.hpp"
 #include "dh/gov/registry.hpp"
 #include "dh/gov/types.hpp"
 
@@ -97,7 +97,7 @@ class EpisodeMachine {
   /// AwaitingPerception: grounding from perception waits for a fresh scene estimate.
   enum class Phase { WaitingFirstObservation, Planning, AwaitingCapability, AwaitingPerception, Running, Ended };
   Effects request_plan(const std::string& why, Clock::time_point now);
-  Observation perceived_scene() const;  ///< the last observation as the planner may see it
+  Observation perceived_scene();  ///< the last observation as the planner may see it
   Effects ground_and_dispatch(const Advice& advice, Clock::time_point now);
   Effects refuse(Refusal r, const std::string& reason, Clock::time_point now);
   Effects decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now);
@@ -129,7 +129,7 @@ class EpisodeMachine {
 
   Observation last_obs_;
   bool have_obs_ = false;
-  std::optional<SceneEstimate> scene_estimate_;
+  std::optional<PerceivedWorld> world_;  ///< set under perception grounding
   std::optional<Advice> awaiting_perception_;     ///< the step waiting for a fresh scene estimate
   Clock::time_point perception_wait_until_;
   VerdictLatch latch_;

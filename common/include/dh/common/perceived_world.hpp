@@ -1,0 +1,85 @@
+// The world as the perception service sees it, for arms that ground from perception (`grounding:
+// perception`): the governor grounds and the capabilities move in it instead of in the simulator's (or
+// the robot adapter's) object poses. Free objects the service looks for are placed where its frames saw
+// them; fixtures, their parts and regions stay where the cell's description puts them (a real cell
+// calibrates those once); the arm's own state is proprioception. Pure logic, no DDS.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dh/common/observation.hpp"
+
+namespace dh {
+
+class ConfigNode;
+
+struct PerceivedEntity {
+  std::string name;
+  std::array<double, 3> p{};             ///< bottom centre of its box (m), as EntityState::p
+  std::array<double, 3> half_extents{};  ///< m
+  double confidence = 0;                 ///< 0..1
+};
+
+/// One frame's estimates from the perception service.
+struct SceneEstimate {
+  std::string episode_id;
+  std::uint32_t step = 0;              ///< the control step of the frame
+  std::vector<std::string> looked_for;  ///< every entity the service tried to find in the frame
+  std::vector<PerceivedEntity> seen;    ///< those it found
+};
+
+struct PerceptionLimits {
+  std::uint32_t max_age_steps = 20;  ///< an estimate older than this (1 s at 20 Hz) is stale
+  double min_confidence = 0.3;       ///< below this an entity counts as not seen
+  std::chrono::milliseconds wait{3000};  ///< how long grounding waits for a fresh estimate before refusing
+};
+
+/// The `perception:` section of configs/governor.yaml ({max_age_steps, min_confidence, wait_ms}); throws
+/// ConfigError naming the key.
+PerceptionLimits perception_limits(const ConfigNode& section);
+
+/// Why the perceived world cannot serve a step.
+struct Unperceived {
+  std::string reason;
+  bool estimate_missing_or_stale = false;  ///< a fresh estimate may still come (worth waiting for)
+};
+
+/// One episode's perceived world on one channel. An object keeps the place of the last frame that saw it
+/// with the hand away: while the tool is over it, the hand hides part of it and frames would shift it. The
+/// object the closed jaw holds (the nearest one whose footprint, 3 cm wider, has the tool over it) moves
+/// with the tool until the jaw opens, where it stays until a later frame sees it; the contact corrects its
+/// perceived place so far that the tool is inside its footprint and above its bottom.
+class PerceivedWorld {
+ public:
+  explicit PerceivedWorld(PerceptionLimits limits) : limits_(limits) {}
+
+  /// A frame's estimates; an older frame than the latest is ignored.
+  void on_estimate(const SceneEstimate& e);
+  /// The latest frame's estimates, if any came.
+  const std::optional<SceneEstimate>& latest() const { return latest_; }
+
+  /// Rewrites `obs` as perception sees it: each entity the service looks for takes its perceived place and
+  /// size (upright: no tilt is estimated), or leaves the scene when no frame of the episode saw it.
+  /// Returns why it cannot — no estimate, a stale one, or an entity of `needed` never seen — or nullopt.
+  std::optional<Unperceived> view(Observation& obs, const std::vector<std::string>& needed);
+
+ private:
+  struct Seen {
+    PerceivedEntity entity;
+    std::uint32_t step = 0;  ///< the frame (or the release) it was last placed at
+  };
+  PerceptionLimits limits_;
+  std::optional<SceneEstimate> latest_;
+  std::map<std::string, Seen> seen_;
+  std::optional<std::string> held_;          ///< the object moving with the tool
+  std::array<double, 3> held_offset_{};      ///< its bottom centre relative to the tool
+  std::optional<std::array<double, 3>> tool_;  ///< the tool's position at the latest view
+};
+
+}  // namespace dh

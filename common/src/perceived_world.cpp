@@ -1,0 +1,115 @@
+#include "dh/common/perceived_world.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+#include "dh/common/config.hpp"
+
+namespace dh {
+
+PerceptionLimits perception_limits(const ConfigNode& section) {
+  PerceptionLimits l;
+  l.max_age_steps = section.get<unsigned>("max_age_steps");
+  l.min_confidence = section.get<double>("min_confidence");
+  if (l.min_confidence < 0 || l.min_confidence > 1) section.fail("min_confidence", "must be within 0..1");
+  l.wait = std::chrono::milliseconds(section.get<unsigned>("wait_ms"));
+  return l;
+}
+
+namespace {
+constexpr double kHeldMarginM = 0.03;  ///< how far outside a footprint the jaw may close and still hold it
+constexpr double kHandOverMarginM = 0.05;  ///< around a footprint, the hand hides part of the object
+constexpr double kHandOverHeightM = 0.15;  ///< above the object's top, ditto
+
+/// The tool is over `e`'s footprint grown by `margin`, at most `height` above its top.
+bool tool_over(const std::array<double, 3>& tool, const PerceivedEntity& e, double margin, double height) {
+  return std::abs(tool[0] - e.p[0]) < e.half_extents[0] + margin &&
+         std::abs(tool[1] - e.p[1]) < e.half_extents[1] + margin && tool[2] < e.p[2] + 2 * e.half_extents[2] + height;
+}
+}  // namespace
+
+void PerceivedWorld::on_estimate(const SceneEstimate& e) {
+  if (latest_ && latest_->episode_id != e.episode_id) *this = PerceivedWorld(limits_);
+  if (latest_ && e.step < latest_->step) return;
+  latest_ = e;
+  for (const auto& s : e.seen) {
+    if (s.confidence < limits_.min_confidence || held_ == s.name) continue;
+    auto it = seen_.find(s.name);
+    if (it != seen_.end()) {
+      if (it->second.step > e.step) continue;  // put down after this frame was taken
+      if (tool_ && tool_over(*tool_, it->second.entity, kHandOverMarginM, kHandOverHeightM)) continue;
+    }
+    seen_[s.name] = {s, e.step};
+  }
+}
+
+std::optional<Unperceived> PerceivedWorld::view(Observation& obs, const std::vector<std::string>& needed) {
+  if (!latest_) return Unperceived{"no scene estimate from the perception service for this episode", true};
+  if (obs.step > latest_->step + limits_.max_age_steps)
+    return Unperceived{"the latest scene estimate is from step " + std::to_string(latest_->step) + ", " +
+                           std::to_string(obs.step - latest_->step) + " steps old (limit " +
+                           std::to_string(limits_.max_age_steps) + ")",
+                       true};
+  tool_ = obs.ee_p;
+  // The hand: what the jaw let go stays where it was let go; what it closed on moves with the tool.
+  if (held_ && !obs.holding()) {
+    Seen& s = seen_[*held_];
+    for (int i = 0; i < 3; ++i) s.entity.p[i] = obs.ee_p[i] + held_offset_[i];
+    s.step = obs.step;
+    held_.reset();
+  }
+  if (!held_ && obs.holding()) {
+    double best = INFINITY;
+    for (const auto& [name, s] : seen_) {
+      const double d = std::hypot(obs.ee_p[0] - s.entity.p[0], obs.ee_p[1] - s.entity.p[1]);
+      if (tool_over(obs.ee_p, s.entity, kHeldMarginM, kHeldMarginM) && obs.ee_p[2] > s.entity.p[2] - kHeldMarginM && d < best) {
+        best = d;
+        held_ = name;
+      }
+    }
+    if (held_) {
+      const PerceivedEntity& o = seen_[*held_].entity;
+      const double reach = std::max(o.half_extents[0], o.half_extents[1]);
+      const double d = std::hypot(o.p[0] - obs.ee_p[0], o.p[1] - obs.ee_p[1]);
+      const double shrink = d > reach ? reach / d : 1;  // the jaw holds it: the tool is inside its footprint
+      held_offset_ = {(o.p[0] - obs.ee_p[0]) * shrink, (o.p[1] - obs.ee_p[1]) * shrink,
+                      std::min(o.p[2] - obs.ee_p[2], -0.005)};  // and above its bottom
+    }
+  }
+  const auto looked_for = [&](const std::string& name) {
+    return std::find(latest_->looked_for.begin(), latest_->looked_for.end(), name) != latest_->looked_for.end();
+  };
+  for (const auto& name : needed) {
+    if (!looked_for(name) || seen_.count(name)) continue;
+    std::string detail = "latest frame: step " + std::to_string(latest_->step);
+    for (const auto& e : latest_->seen)
+      if (e.name == name) {
+        char conf[64];
+        std::snprintf(conf, sizeof conf, ", confidence %.2f < %.2f", e.confidence, limits_.min_confidence);
+        detail += conf;
+        break;
+      }
+    return Unperceived{"perception has not seen '" + name + "' in this episode (" + detail + ")", false};
+  }
+  std::vector<EntityState> kept;
+  for (auto& e : obs.entities) {
+    if (!looked_for(e.name)) {
+      kept.push_back(e);
+      continue;
+    }
+    const auto it = seen_.find(e.name);
+    if (it == seen_.end()) continue;
+    e.half_extents = it->second.entity.half_extents;
+    e.q = {1, 0, 0, 0};
+    if (held_ == e.name)
+      for (int i = 0; i < 3; ++i) e.p[i] = obs.ee_p[i] + held_offset_[i];
+    else
+      e.p = it->second.entity.p;
+    kept.push_back(e);
+  }
+  obs.entities = std::move(kept);
+  return std::nullopt;
+}
+
+}  // namespace dh

@@ -1,0 +1,179 @@
+// The perceived world: objects where the frames saw them, remembered while hidden, carried by the hand
+// while held; missing, stale or never-seen estimates are named.
+#include <gtest/gtest.h>
+
+#include "dh/common/perceived_world.hpp"
+#include "fixtures.hpp"
+
+using namespace dh;
+
+namespace {
+
+SceneEstimate estimate(std::uint32_t step, double bowl_confidence = 0.9, const std::string& episode = "ep") {
+  SceneEstimate e{episode, step, {"bowl", "plate"}, {}};
+  e.seen.push_back({"bowl", {0.01, -0.14, 0.002}, {0.066, 0.064, 0.026}, bowl_confidence});
+  e.seen.push_back({"plate", {0.0, 0.15, 0.0}, {0.09, 0.09, 0.006}, 0.8});
+  return e;
+}
+
+SceneEstimate without_bowl(std::uint32_t step) {
+  SceneEstimate e = estimate(step);
+  e.seen.erase(e.seen.begin());
+  return e;
+}
+
+Observation holding_at(std::uint32_t step, std::array<double, 3> ee) {
+  Observation o = test::scene_observation(step);
+  o.ee_p = ee;
+  o.contact_left = o.contact_right = true;
+  o.gripper_opening = 0.05;
+  return o;
+}
+
+void expect_at(const Observation& o, const std::string& name, std::array<double, 3> p) {
+  const EntityState* e = o.entity(name);
+  ASSERT_NE(e, nullptr) << name;
+  for (int i = 0; i < 3; ++i) EXPECT_NEAR(e->p[i], p[i], 1e-9) << name << " axis " << i;
+}
+
+TEST(PerceivedWorld, SeenEntitiesTakeTheirEstimatedPlaceAndTheRestStay) {
+  PerceivedWorld w{PerceptionLimits{}};
+  Observation obs = test::scene_observation(5);
+  obs.entities.push_back({"stove", "stove", {0.3, 0.2, 0}, {1, 0, 0, 0}, {0.1, 0.1, 0.05}});
+  obs.entities.push_back({"mug", "mug", {0.2, 0, 0}, {0.7, 0, 0, 0.7}, {0.04, 0.04, 0.05}});
+  obs.entities[0].q = {0.9, 0.1, 0, 0};
+  SceneEstimate e = estimate(5);
+  e.looked_for.push_back("mug");  // looked for, not seen
+  w.on_estimate(e);
+  EXPECT_FALSE(w.view(obs, {"bowl", "plate"}));
+  expect_at(obs, "bowl", {0.01, -0.14, 0.002});
+  EXPECT_DOUBLE_EQ(obs.entity("bowl")->half_extents[1], 0.064);
+  EXPECT_DOUBLE_EQ(obs.entity("bowl")->q[0], 1) << "upright: perception estimates no tilt";
+  expect_at(obs, "stove", {0.3, 0.2, 0});  // what perception does not look for stays where the cell says
+  EXPECT_EQ(obs.entity("mug"), nullptr) << "looked for and never seen: not in the perceived scene";
+}
+
+TEST(PerceivedWorld, MissingStaleAndNeverSeenEstimatesAreNamed) {
+  PerceivedWorld w{PerceptionLimits{}};
+  Observation obs = test::scene_observation(40);
+  auto why = w.view(obs, {"bowl"});
+  ASSERT_TRUE(why);
+  EXPECT_TRUE(why->estimate_missing_or_stale);
+  EXPECT_NE(why->reason.find("no scene estimate"), std::string::npos) << why->reason;
+  w.on_estimate(estimate(10, 0.1));
+  why = w.view(obs, {"bowl"});
+  ASSERT_TRUE(why);
+  EXPECT_TRUE(why->estimate_missing_or_stale);
+  EXPECT_NE(why->reason.find("from step 10, 30 steps old (limit 20)"), std::string::npos) << why->reason;
+  w.on_estimate(estimate(35, 0.1));
+  why = w.view(obs, {"bowl", "plate"});
+  ASSERT_TRUE(why);
+  EXPECT_FALSE(why->estimate_missing_or_stale);
+  EXPECT_NE(why->reason.find("has not seen 'bowl' in this episode (latest frame: step 35, confidence 0.10 < 0.30)"),
+            std::string::npos)
+      << why->reason;
+  obs = test::scene_observation(40);
+  EXPECT_FALSE(w.view(obs, {"plate"})) << "the bowl is not needed here";
+  EXPECT_EQ(obs.entity("bowl"), nullptr);
+}
+
+TEST(PerceivedWorld, AnObjectHiddenInALaterFrameKeepsItsLastSeenPlace) {
+  PerceivedWorld w{PerceptionLimits{}};
+  w.on_estimate(estimate(0));
+  w.on_estimate(without_bowl(10));  // the arm reaching for it hides it
+  Observation obs = test::scene_observation(12);
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  expect_at(obs, "bowl", {0.01, -0.14, 0.002});
+  w.on_estimate(estimate(5));  // an older frame arriving late changes nothing
+  EXPECT_EQ(w.latest()->step, 10u);
+}
+
+TEST(PerceivedWorld, AHeldObjectMovesWithTheToolAndStaysWhereItIsLetGo) {
+  PerceivedWorld w{PerceptionLimits{}};
+  w.on_estimate(estimate(0));
+  Observation obs = holding_at(10, {0.01, -0.14, 0.05});
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  expect_at(obs, "bowl", {0.01, -0.14, 0.002});
+  EXPECT_TRUE(obs.in_jaw(*obs.entity("bowl")));
+  // Frames taken while it is in the hand see fragments of it; they do not move it.
+  SceneEstimate in_hand = estimate(20);
+  in_hand.seen[0].p = {0.2, 0.3, 0.1};
+  w.on_estimate(in_hand);
+  obs = holding_at(25, {0.1, 0.1, 0.2});
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  expect_at(obs, "bowl", {0.1, 0.1, 0.152});
+  EXPECT_TRUE(obs.in_jaw(*obs.entity("bowl"))) << "the skill still sees it in the jaw";
+  // Let go above the plate: it stays there, and a frame taken before the release does not undo that.
+  obs = test::scene_observation(30);
+  obs.ee_p = {0, 0.15, 0.06};
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  expect_at(obs, "bowl", {0, 0.15, 0.012});
+  in_hand.step = 28;
+  w.on_estimate(in_hand);
+  obs = test::scene_observation(31);
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  expect_at(obs, "bowl", {0, 0.15, 0.012});
+  SceneEstimate after = estimate(40);
+  after.seen[0].p = {0.001, 0.151, 0.007};
+  w.on_estimate(after);
+  obs = test::scene_observation(41);
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  expect_at(obs, "bowl", {0.001, 0.151, 0.007});
+}
+
+TEST(PerceivedWorld, FramesTakenWhileTheHandIsOverAnObjectDoNotMoveIt) {
+  PerceivedWorld w{PerceptionLimits{}};
+  w.on_estimate(estimate(0));
+  Observation obs = test::scene_observation(8);
+  obs.ee_p = {0.02, -0.13, 0.1};  // descending onto the bowl
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  SceneEstimate occluded = estimate(10);
+  occluded.seen[0].p = {0.04, -0.1, 0.002};  // the part the hand leaves visible
+  w.on_estimate(occluded);
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  expect_at(obs, "bowl", {0.01, -0.14, 0.002});
+  obs = test::scene_observation(20);  // the hand went back up and away
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  occluded.step = 20;
+  w.on_estimate(occluded);
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  expect_at(obs, "bowl", {0.04, -0.1, 0.002});
+}
+
+TEST(PerceivedWorld, TheClosedJawCorrectsAPerceivedPlaceThatMissesIt) {
+  PerceivedWorld w{PerceptionLimits{}};
+  w.on_estimate(estimate(0));
+  // The jaw closed 2 cm beyond the perceived footprint's edge (0.066 from the centre in x): it holds the
+  // bowl all the same, which must then be where the tool is.
+  Observation obs = holding_at(10, {0.01 + 0.086, -0.14, 0.05});
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  const EntityState* bowl = obs.entity("bowl");
+  ASSERT_NE(bowl, nullptr);
+  EXPECT_NEAR(bowl->p[0], 0.01 + 0.086 - 0.066, 1e-9) << "pulled in until the tool is on its footprint's edge";
+  EXPECT_TRUE(obs.in_jaw(*bowl));
+}
+
+TEST(PerceivedWorld, AClosedJawWithNothingPerceivedInItCarriesNothing) {
+  PerceivedWorld w{PerceptionLimits{}};
+  w.on_estimate(estimate(0));
+  Observation obs = holding_at(10, {0.3, 0.3, 0.05});  // far from every perceived object
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  obs = holding_at(12, {0.35, 0.3, 0.05});
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  expect_at(obs, "bowl", {0.01, -0.14, 0.002});
+}
+
+TEST(PerceivedWorld, AnotherEpisodesFrameStartsAfresh) {
+  PerceivedWorld w{PerceptionLimits{}};
+  w.on_estimate(estimate(50));
+  SceneEstimate next = without_bowl(0);
+  next.episode_id = "ep2";
+  w.on_estimate(next);
+  EXPECT_EQ(w.latest()->episode_id, "ep2");
+  Observation obs = test::scene_observation(2);
+  const auto why = w.view(obs, {"bowl"});
+  ASSERT_TRUE(why) << "the bowl of the last episode is forgotten";
+  EXPECT_NE(why->reason.find("has not seen 'bowl'"), std::string::npos) << why->reason;
+}
+
+}  // namespace
