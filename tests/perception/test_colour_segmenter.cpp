@@ -106,5 +106,26 @@ TEST(ColourSegmenter, MultiColourEntityNeedsItsMainColour) {
   for (const Mask& m : masks) EXPECT_LT(cv::countNonZero(m.pixels), 20000);
 }
 
+TEST(ColourSegmenter, SideFacesUnderTopLightMatchByTheirChroma) {
+  // The simulator's light: from straight above, little ambient. Side faces show about a quarter of their
+  // colour (the mugs' walls render at 0.15-0.32 of it); a saturated red keeps its hue that dark, a pale
+  // cream does not: a dark grey cube is no cream candidate.
+  synth::Scene s;
+  s.world_from_camera = synth::workcell_camera();
+  s.light = Eigen::Vector3d::UnitZ();
+  s.ambient = 0.25;
+  const cv::Vec3b cream{217, 217, 179};
+  s.boxes = {Box{Eigen::Vector3d(-0.1, 0.0, 0.05), 0.4, Eigen::Vector3d(0.06, 0.06, 0.1), kRed},
+             Box{Eigen::Vector3d(0.1, 0.0, 0.04), 0.0, Eigen::Vector3d(0.08, 0.08, 0.08), {60, 60, 60}}};
+  const synth::Rendered r = synth::render(s, synth::Noise{2.0, 0.0, 0, 0, 3});
+  ColourSegmenter seg;
+  const auto masks = seg.segment(r.frame.rgb, {{"red_block", {kRed}, 150}, {"cream_box", {cream}, 150}});
+  const auto red = of(masks, "red_block");
+  ASSERT_EQ(red.size(), 1u);
+  EXPECT_GT(synth::iou(red[0].pixels, synth::id_mask(r, 1)), 0.9);  // from 0.45 only its top: IoU 0.38
+  // With the same floor for every colour the grey cube is a cream candidate and its dark sides red.
+  EXPECT_TRUE(of(masks, "cream_box").empty());
+}
+
 }  // namespace
 }  // namespace dh::perception

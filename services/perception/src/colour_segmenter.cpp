@@ -33,28 +33,43 @@ const cv::Mat& bin_centre_lab() {
   return lab;
 }
 
+/// Lab of `colour` scaled by kShadeLevels shading factors evenly spaced over [kmin, kmax].
+cv::Mat shaded_lab(const cv::Vec3b& colour, float kmin, float kmax) {
+  cv::Mat shaded(1, kShadeLevels, CV_8UC3), lab;
+  for (int i = 0; i < kShadeLevels; ++i) {
+    const float k = kmin + (kmax - kmin) * static_cast<float>(i) / (kShadeLevels - 1);
+    for (int ch = 0; ch < 3; ++ch)
+      shaded.at<cv::Vec3b>(0, i)[ch] = cv::saturate_cast<unsigned char>(k * static_cast<float>(colour[ch]));
+  }
+  cv::cvtColor(shaded, lab, cv::COLOR_RGB2Lab);
+  return lab;
+}
+
+double chroma(const cv::Vec3b& lab8) { return std::hypot(lab8[1] - 128.0, lab8[2] - 128.0); }
+
+/// The darkest shade at which `colour` still matches: achromatic_min_shade for an achromatic colour; for
+/// a chromatic one the shade where darkening brings its chroma down to achromatic_chroma, since darker it
+/// is as grey as the achromatic ones (cream (217,217,179) from about 0.53, a saturated red from min_shade).
+float lowest_shade(const cv::Vec3b& colour, const ColourSegmenterParams& p) {
+  const auto kmin = static_cast<float>(p.min_shade), kmax = static_cast<float>(p.max_shade);
+  if (chroma(shaded_lab(colour, 1.0f, 1.0f).at<cv::Vec3b>(0, 0)) < p.achromatic_chroma)
+    return std::min(kmax, std::max(kmin, static_cast<float>(p.achromatic_min_shade)));
+  const cv::Mat lab = shaded_lab(colour, kmin, kmax);
+  int first = 0;
+  while (first + 1 < kShadeLevels && chroma(lab.at<cv::Vec3b>(0, first)) < p.achromatic_chroma) ++first;
+  return kmin + (kmax - kmin) * static_cast<float>(first) / (kShadeLevels - 1);
+}
+
 /// For every bin: does its centre colour match `colour` under some allowed shading factor?
 std::vector<unsigned char> colour_lut(const cv::Vec3b& colour, const ColourSegmenterParams& p) {
   const float cr = colour[0], cg = colour[1], cb = colour[2];
   const float cc = cr * cr + cg * cg + cb * cb;
-  float kmin = static_cast<float>(p.min_shade);
-  const float kmax = static_cast<float>(p.max_shade);
-  cv::Mat shaded(1, kShadeLevels + 1, CV_8UC3), shaded_lab;
-  shaded.at<cv::Vec3b>(0, kShadeLevels) = colour;
-  cv::cvtColor(shaded.colRange(kShadeLevels, kShadeLevels + 1), shaded_lab, cv::COLOR_RGB2Lab);
-  const cv::Vec3b own = shaded_lab.at<cv::Vec3b>(0, 0);
-  if (std::hypot(own[1] - 128.0, own[2] - 128.0) < p.achromatic_chroma)
-    kmin = std::min(kmax, std::max(kmin, static_cast<float>(p.achromatic_min_shade)));
-  // Lab of the material colour at kShadeLevels shading factors in [kmin, kmax].
-  for (int i = 0; i < kShadeLevels; ++i) {
-    const float k = cc < 1 ? 1.0f : kmin + (kmax - kmin) * static_cast<float>(i) / (kShadeLevels - 1);
-    for (int ch = 0; ch < 3; ++ch)
-      shaded.at<cv::Vec3b>(0, i)[ch] = cv::saturate_cast<unsigned char>(k * static_cast<float>(colour[ch]));
-  }
-  cv::cvtColor(shaded.colRange(0, kShadeLevels), shaded_lab, cv::COLOR_RGB2Lab);
+  const float kmin = lowest_shade(colour, p), kmax = static_cast<float>(p.max_shade);
+  // Lab of the material colour at kShadeLevels shading factors in [kmin, kmax] (black: itself).
+  const cv::Mat shaded = cc < 1 ? shaded_lab(colour, 1.0f, 1.0f) : shaded_lab(colour, kmin, kmax);
   std::array<float, kShadeLevels> tl{}, ta{}, tb{};
   for (int i = 0; i < kShadeLevels; ++i) {
-    const cv::Vec3b v = shaded_lab.at<cv::Vec3b>(0, i);
+    const cv::Vec3b v = shaded.at<cv::Vec3b>(0, i);
     tl[i] = v[0] * kL8ToL;
     ta[i] = v[1];
     tb[i] = v[2];

@@ -8,7 +8,8 @@
 // bin's centre, so within about 1 unit of distance of the exact pixel) and looked up per pixel. For an achromatic colour (white, grey, black: chroma below achromatic_chroma)
 // brightness is the only cue, so its shade range starts at achromatic_min_shade: a white object is not
 // a grey table in shadow. Achromatic entities on a background of nearly their own brightness still need
-// max_area_px or another backend.
+// max_area_px or another backend. A chromatic colour's range starts at the darkest shade where its chroma
+// is still achromatic_chroma or more: darker, it is as grey as the achromatic ones.
 // The union over an entity's colours is opened (drops speckle noise) and closed (fills specular holes and
 // joins an entity's differently coloured parts); then connected components (8-connected).
 //
@@ -36,9 +37,10 @@ namespace dh::perception {
 struct ColourSegmenterParams {
   /// CIE76 distance (L* in 0..100) between the pixel and the shaded material colour.
   double tolerance = 12.0;
-  /// The shading factors allowed: a side face at half the top face's brightness still matches; a
-  /// highlight up to 20 % brighter than the material colour.
-  double min_shade = 0.45, max_shade = 1.2;
+  /// The shading factors allowed: a highlight up to 20 % brighter than the material colour; side faces
+  /// lit from above only by ambient and head light (the simulator's vertical faces: 0.15-0.32 of their
+  /// colour, measured on its mugs' walls) still match, for colours that keep their chroma that dark.
+  double min_shade = 0.15, max_shade = 1.2;
   double achromatic_chroma = 12.0;     ///< C*ab below this: the colour is achromatic
   double achromatic_min_shade = 0.8;   ///< the shade range of achromatic colours starts here
   int open_px = 3;   ///< opening kernel (square side, pixels); 0 = none
