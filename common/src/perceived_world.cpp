@@ -100,12 +100,13 @@ std::optional<Unperceived> PerceivedWorld::view(Observation& obs, const std::vec
     }
     const auto it = seen_.find(e.name);
     if (it == seen_.end()) continue;
-    e.half_extents = it->second.entity.half_extents;
-    e.q = {1, 0, 0, 0};
+    const PerceivedEntity& seen = it->second.entity;
+    e.half_extents = seen.half_extents;
+    e.q = {std::cos(seen.yaw / 2), 0, 0, std::sin(seen.yaw / 2)};
     if (held_ == e.name)
       for (int i = 0; i < 3; ++i) e.p[i] = obs.ee_p[i] + held_offset_[i];
     else
-      e.p = it->second.entity.p;
+      e.p = seen.p;
     kept.push_back(e);
   }
   obs.entities = std::move(kept);

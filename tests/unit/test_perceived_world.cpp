@@ -51,6 +51,15 @@ TEST(PerceivedWorld, SeenEntitiesTakeTheirEstimatedPlaceAndTheRestStay) {
   EXPECT_DOUBLE_EQ(obs.entity("bowl")->q[0], 1) << "upright: perception estimates no tilt";
   expect_at(obs, "stove", {0.3, 0.2, 0});  // what perception does not look for stays where the cell says
   EXPECT_EQ(obs.entity("mug"), nullptr) << "looked for and never seen: not in the perceived scene";
+  e.seen[1].yaw = 0.5;
+  e.step = 6;
+  w.on_estimate(e);
+  obs = test::scene_observation(6);
+  EXPECT_FALSE(w.view(obs, {"plate"}));
+  const auto& q = obs.entity("plate")->q;
+  EXPECT_NEAR(q[0], std::cos(0.25), 1e-12);
+  EXPECT_NEAR(q[3], std::sin(0.25), 1e-12) << "the estimated yaw turns it about z";
+  EXPECT_DOUBLE_EQ(q[1], 0);
 }
 
 TEST(PerceivedWorld, MissingStaleAndNeverSeenEstimatesAreNamed) {

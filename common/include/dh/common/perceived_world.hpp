@@ -22,8 +22,9 @@ class ConfigNode;
 struct PerceivedEntity {
   std::string name;
   std::array<double, 3> p{};             ///< bottom centre of its box (m), as EntityState::p
-  std::array<double, 3> half_extents{};  ///< m
+  std::array<double, 3> half_extents{};  ///< m, along the box's own axes
   double confidence = 0;                 ///< 0..1
+  double yaw = 0;                        ///< rad about world z: the box's x axis (a jaw closes across it)
 };
 
 /// One frame's estimates from the perception service.
@@ -64,8 +65,8 @@ class PerceivedWorld {
   /// The latest frame's estimates, if any came.
   const std::optional<SceneEstimate>& latest() const { return latest_; }
 
-  /// Rewrites `obs` as perception sees it: each entity the service looks for takes its perceived place and
-  /// size (upright: no tilt is estimated), or leaves the scene when no frame of the episode saw it.
+  /// Rewrites `obs` as perception sees it: each entity the service looks for takes its perceived place,
+  /// size and yaw (upright: no tilt is estimated), or leaves the scene when no frame of the episode saw it.
   /// Returns why it cannot — no estimate, a stale one, or an entity of `needed` never seen — or nullopt.
   std::optional<Unperceived> view(Observation& obs, const std::vector<std::string>& needed);
 
