@@ -22,10 +22,12 @@ constexpr double kHeldMarginM = 0.03;  ///< how far outside a footprint the jaw 
 constexpr double kHandOverMarginM = 0.05;  ///< around a footprint, the hand hides part of the object
 constexpr double kHandOverHeightM = 0.15;  ///< above the object's top, ditto
 
-/// The tool is over `e`'s footprint grown by `margin`, at most `height` above its top.
+/// The tool is over `e`'s footprint (its box turned by its yaw) grown by `margin`, at most `height` above
+/// its top.
 bool tool_over(const std::array<double, 3>& tool, const PerceivedEntity& e, double margin, double height) {
-  return std::abs(tool[0] - e.p[0]) < e.half_extents[0] + margin &&
-         std::abs(tool[1] - e.p[1]) < e.half_extents[1] + margin && tool[2] < e.p[2] + 2 * e.half_extents[2] + height;
+  const double dx = tool[0] - e.p[0], dy = tool[1] - e.p[1], c = std::cos(e.yaw), s = std::sin(e.yaw);
+  return std::abs(c * dx + s * dy) < e.half_extents[0] + margin && std::abs(-s * dx + c * dy) < e.half_extents[1] + margin &&
+         tool[2] < e.p[2] + 2 * e.half_extents[2] + height;
 }
 }  // namespace
 

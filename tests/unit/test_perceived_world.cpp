@@ -162,6 +162,19 @@ TEST(PerceivedWorld, TheClosedJawCorrectsAPerceivedPlaceThatMissesIt) {
   EXPECT_TRUE(obs.in_jaw(*bowl));
 }
 
+TEST(PerceivedWorld, AFootprintTurnsWithTheEstimatedYaw) {
+  PerceivedWorld w{PerceptionLimits{}};
+  SceneEstimate e = estimate(0);
+  e.seen[0].half_extents = {0.1, 0.02, 0.026};  // a long box, its long side along world y
+  e.seen[0].yaw = M_PI / 2;
+  w.on_estimate(e);
+  Observation obs = holding_at(10, {0.01, -0.14 + 0.08, 0.04});  // near one end of it
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  obs = holding_at(12, {0.2, 0.2, 0.1});
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  expect_at(obs, "bowl", {0.2, 0.2 - 0.08, 0.062});  // held: it went with the tool
+}
+
 TEST(PerceivedWorld, AClosedJawWithNothingPerceivedInItCarriesNothing) {
   PerceivedWorld w{PerceptionLimits{}};
   w.on_estimate(estimate(0));
