@@ -213,6 +213,20 @@ inline cv::Mat1b id_mask(const Rendered& r, int id) {
   return m;
 }
 
+/// The pixels of object `id` whose surface lies higher than `min_z` (world): e.g. its top face.
+inline cv::Mat1b id_mask_above(const Rendered& r, int id, double min_z) {
+  cv::Mat1b m(r.ids.size(), 0);
+  const RgbdFrame& f = r.frame;
+  for (int v = 0; v < m.rows; ++v)
+    for (int u = 0; u < m.cols; ++u) {
+      if (r.ids(v, u) != id) continue;
+      const double z = r.exact_depth_m(v, u);
+      const Eigen::Vector3d p = f.world_from_camera * Eigen::Vector3d((u - f.K.cx) / f.K.fx * z, (v - f.K.cy) / f.K.fy * z, z);
+      if (p.z() > min_z) m(v, u) = 255;
+    }
+  return m;
+}
+
 inline double iou(const cv::Mat1b& a, const cv::Mat1b& b) {
   const double inter = cv::countNonZero(a & b), uni = cv::countNonZero(a | b);
   return uni > 0 ? inter / uni : 0.0;

@@ -78,6 +78,32 @@ TEST(SceneObjects, IdenticalObjectsNeverShareACandidate) {
   EXPECT_GT((est[0].centroid - est[1].centroid).norm(), 0.1) << "each pot has a box of its own";
 }
 
+TEST(SceneObjects, IdenticalObjectsAreToldApartByWhereTheyAreExpected) {
+  synth::Scene s;
+  s.world_from_camera = synth::workcell_camera();
+  const Eigen::Vector3d left(-0.08, 0.0, 0.03), right(0.08, 0.02, 0.03);
+  s.boxes = {Box{left, 0, Eigen::Vector3d(0.06, 0.06, 0.06), {40, 40, 200}},
+             Box{right, 0, Eigen::Vector3d(0.06, 0.06, 0.06), {40, 40, 200}}};
+  const auto r = synth::render(s);
+  CloudParams p;
+  p.support_z = 0;
+  // Each pot's candidates in both orders, so that the scene's order alone would give either one.
+  for (const bool left_first : {true, false}) {
+    const int a = left_first ? 1 : 2, b = left_first ? 2 : 1;
+    const std::vector<Mask> candidates{mask_of(r, a, "pot_1"), mask_of(r, b, "pot_1"), mask_of(r, a, "pot_2"),
+                                       mask_of(r, b, "pot_2")};
+    LookFor pot_1 = object("pot_1", {0.06, 0.06, 0.06}), pot_2 = object("pot_2", {0.06, 0.06, 0.06});
+    pot_1.prior_xy = Eigen::Vector2d(0.1, 0.05);  // expected on the right, a few centimetres off
+    pot_2.prior_xy = Eigen::Vector2d(-0.05, -0.02);
+    const auto est = estimate_objects(r.frame, candidates, {pot_1, pot_2}, p);
+    ASSERT_EQ(est.size(), 2u);
+    EXPECT_EQ(est[0].entity, "pot_1");
+    EXPECT_EQ(est[1].entity, "pot_2");
+    EXPECT_LT((est[0].centroid - right).norm(), 0.01) << "left_first " << left_first << ": " << est[0].centroid.transpose();
+    EXPECT_LT((est[1].centroid - left).norm(), 0.01) << "left_first " << left_first << ": " << est[1].centroid.transpose();
+  }
+}
+
 TEST(SceneObjects, AKnownTableKeepsAThinObjectThatASearchedPlaneWouldTakeForTheSupport) {
   synth::Scene s;
   s.world_from_camera = synth::workcell_camera();
@@ -89,6 +115,25 @@ TEST(SceneObjects, AKnownTableKeepsAThinObjectThatASearchedPlaneWouldTakeForTheS
   EXPECT_GT(e.confidence, 0.5);
   EXPECT_LT((e.centroid - Eigen::Vector3d(0, 0, 0.006)).norm(), 0.003) << e.centroid.transpose();
   EXPECT_NEAR(e.size.z(), 0.012, 0.003) << "the box reaches down to the known table";
+}
+
+TEST(SceneObjects, AnObjectWhoseColourMatchesOnlyItsTopIsSeenByGrowingOverDepthOnAKnownTable) {
+  synth::Scene s;
+  s.world_from_camera = synth::workcell_camera();
+  s.cylinders = {synth::Cylinder{Eigen::Vector3d(0.02, 0.03, 0.0), 0.038, 0.16, {150, 150, 155}}};
+  const auto r = synth::render(s);
+  // The candidate is the top cap only: what colour finds of a grey pot lit from above.
+  const cv::Mat1b top = synth::id_mask_above(r, 1, 0.158);
+  const std::vector<Mask> candidates{{"moka_pot", top, 1.0}};
+  const std::vector<LookFor> pot{object("moka_pot", {0.076, 0.076, 0.16})};
+  CloudParams searched;
+  EXPECT_EQ(estimate_objects(r.frame, candidates, pot, searched)[0].confidence, 0) << "a flat top is no pot";
+  CloudParams known;
+  known.support_z = 0;
+  const EntityEstimate e = estimate_objects(r.frame, candidates, pot, known)[0];
+  ASSERT_GT(e.confidence, 0);
+  EXPECT_LT((e.centroid - Eigen::Vector3d(0.02, 0.03, 0.08)).norm(), 0.01) << e.centroid.transpose();
+  EXPECT_NEAR(e.size.z(), 0.16, 0.01);
 }
 
 }  // namespace

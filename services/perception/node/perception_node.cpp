@@ -142,8 +142,11 @@ class Perception {
     try {
       const perception::RgbdFrame frame = to_frame(m);
       const auto candidates = segmenter_->segment(frame.rgb, ch.looked_for);
-      for (const auto& e : perception::estimate_objects(frame, candidates, ch.objects, cloud_)) {
+      const auto estimates = perception::estimate_objects(frame, candidates, ch.objects, cloud_);
+      for (std::size_t k = 0; k < estimates.size(); ++k) {
+        const perception::EntityEstimate& e = estimates[k];
         if (e.confidence <= 0) continue;
+        ch.objects[k].prior_xy = e.centroid.head<2>();  // identical objects keep their identities as they move
         msg::PerceivedEntity p;
         p.entity(e.entity);
         p.centroid({e.centroid.x(), e.centroid.y(), e.centroid.z()});

@@ -15,6 +15,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <filesystem>
+#include <fstream>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -58,6 +59,8 @@ int main(int argc, char** argv) {
   app.add_option("--cells", cells, "cells whose scenes are evaluated");
   app.add_option("--seeds", seeds, "seeds of the initial states, e.g. 1-10");
   app.add_flag("--json", json, "one JSON object on stdout");
+  std::string csv_path;
+  app.add_option("--csv", csv_path, "write one row per object and frame (scene, seed, entity, class, candidate masks, seen, error, sizes) to this file");
   app.add_option("--save-frames", save_dir, "write each frame's colour image as <scene>_s<seed>.png into this folder");
   CLI11_PARSE(app, argc, argv);
   try {
@@ -73,6 +76,12 @@ int main(int argc, char** argv) {
     std::map<std::string, ClassStats> by_class;
     std::vector<double> frame_ms;
     std::set<std::string> done;
+    std::ofstream csv;
+    if (!csv_path.empty()) {
+      csv.open(csv_path);
+      if (!csv) throw std::runtime_error("--csv " + csv_path + ": cannot write it (does its folder exist?)");
+      csv << "scene,seed,entity,class,candidates,seen,confidence,error_m,horizontal_m,size_x,size_y,size_z,true_x,true_y,true_z\n";
+    }
     std::size_t frames = 0;
     for (const auto& cell_name : campaign::parse_list(cells, "--cells")) {
       const SuiteDef& suite = suites.at(cell_name);
@@ -110,7 +119,8 @@ int main(int argc, char** argv) {
           }
           segmenter.prepare(appearances);  // colour tables once per colour, outside the timing
           const auto t0 = std::chrono::steady_clock::now();
-          const auto estimates = perception::estimate_objects(frame, segmenter.segment(frame.rgb, appearances), objects, cloud);
+          const auto candidates = segmenter.segment(frame.rgb, appearances);
+          const auto estimates = perception::estimate_objects(frame, candidates, objects, cloud);
           frame_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
           ++frames;
           const Observation truth = cell->observe();
@@ -121,10 +131,20 @@ int main(int argc, char** argv) {
             ++s.looked_for;
             const auto e = std::find_if(estimates.begin(), estimates.end(),
                                         [&](const auto& x) { return x.entity == a.entity && x.confidence > 0; });
-            if (e == estimates.end() || !t) continue;
+            const bool seen = e != estimates.end() && t;
+            const Eigen::Vector3d centre =
+                t ? Eigen::Vector3d(t->p[0], t->p[1], t->p[2] + t->half_extents[2]) : Eigen::Vector3d::Zero();
+            const Eigen::Vector3d d = seen ? Eigen::Vector3d(e->centroid - centre) : Eigen::Vector3d::Zero();
+            if (csv.is_open()) {
+              const auto n = std::count_if(candidates.begin(), candidates.end(), [&](const auto& m) { return m.entity == a.entity; });
+              csv << spec.name << ',' << seed << ',' << a.entity << ',' << kind << ',' << n << ',' << seen << ','
+                  << (seen ? e->confidence : 0) << ',' << d.norm() << ',' << d.head<2>().norm();
+              for (int i = 0; i < 3; ++i) csv << ',' << (seen ? e->size[i] : 0);
+              for (int i = 0; i < 3; ++i) csv << ',' << (t ? 2 * t->half_extents[i] : 0);
+              csv << '\n';
+            }
+            if (!seen) continue;
             ++s.seen;
-            const Eigen::Vector3d centre(t->p[0], t->p[1], t->p[2] + t->half_extents[2]);
-            const Eigen::Vector3d d = e->centroid - centre;
             s.error.push_back(d.norm());
             s.horizontal.push_back(d.head<2>().norm());
           }

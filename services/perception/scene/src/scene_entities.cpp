@@ -5,6 +5,8 @@
 #include <map>
 #include <tuple>
 
+#include "dh/perception/grow.hpp"
+
 namespace dh::perception {
 
 namespace {
@@ -51,6 +53,7 @@ std::vector<LookFor> free_objects(const sim::SceneSpec& scene) {
     if (e.fixture()) continue;
     LookFor o;
     o.size = asset_size(e.asset);
+    o.prior_xy = Eigen::Vector2d(e.nominal_xy[0], e.nominal_xy[1]);
     // 600 px focal length, 0.8 m away: the most pixels the object can cover in the workcell view.
     const double span_px = 600.0 * o.size.norm() / 0.8;
     o.appearance = {e.name, {to_rgb8(e.rgba)}, 40, span_px * span_px};
@@ -90,8 +93,10 @@ std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::
   };
   std::map<Id, EntityEstimate, decltype(before)> estimated(before);
   std::vector<Id> taken;
-  std::vector<EntityEstimate> out;
-  for (const auto& o : objects) {
+  std::vector<std::pair<std::pair<Id, Eigen::Vector3d>, EntityEstimate>> grown;
+  // The object's candidate closest to its size, among its largest max_candidates not taken; `grow` tries
+  // every candidate not taken, grown over the depth image (see below). confidence 0 when none passes `match`.
+  const auto choose = [&](const LookFor& o, bool grow) {
     EntityEstimate best;
     best.entity = o.appearance.entity;
     best.stamp_s = frame.stamp_s;
@@ -100,15 +105,43 @@ std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::
     std::size_t tried = 0;
     for (std::size_t i = 0; i < candidates.size(); ++i) {
       const Mask& m = candidates[i];
-      if (m.entity != o.appearance.entity || tried == match.max_candidates) continue;
+      if (m.entity != o.appearance.entity || (!grow && tried == match.max_candidates)) continue;
       const Id& id = ids[i];
       if (std::find(taken.begin(), taken.end(), id) != taken.end()) continue;
       ++tried;
-      auto cached = estimated.find(id);
-      if (cached == estimated.end()) cached = estimated.emplace(id, estimate_entity(frame, m, params)).first;
-      EntityEstimate e = cached->second;
+      const auto bottom = [](const EntityEstimate& x) { return x.centroid.z() - x.size.z() / 2; };
+      EntityEstimate e;
+      if (!grow) {
+        auto cached = estimated.find(id);
+        if (cached == estimated.end())
+          cached = estimated.emplace(id, estimate_entity(frame, m, params)).first;
+        e = cached->second;
+        if (e.confidence <= 0 || bottom(e) > match.max_bottom_z_m) continue;
+      } else {
+        // What of the seed lies higher than the object standing on its support can reach is something else
+        // (a robot link the colour mask joined) and is dropped; a seed too small to estimate (a rim) grows.
+        GrowParams g;
+        g.support_z = *params.support_z;
+        g.max_height_m = o.size.z() + match.grown_max_bottom_m;
+        g.max_radius_m = 0.5 * std::hypot(o.size.x(), o.size.y()) + match.grow_margin_m;
+        g.min_depth_m = params.min_depth_m;
+        g.max_depth_m = params.max_depth_m;
+        // Identical objects grow the same candidates alike: each (candidate, size) is grown once.
+        auto done = std::find_if(grown.begin(), grown.end(),
+                                 [&](const auto& x) { return x.first == std::pair(id, o.size); });
+        if (done == grown.end()) {
+          const cv::Mat1b mask = grow_by_depth(frame, m.pixels, g);
+          grown.emplace_back(std::pair(id, o.size),
+                             cv::countNonZero(mask) > 0
+                                 ? estimate_entity(frame, Mask{m.entity, mask, m.score}, params)
+                                 : EntityEstimate{});
+          done = std::prev(grown.end());
+        }
+        e = done->second;
+        // Grown, it must reach down to what holds it: a robot link or a fixture's rim stands higher.
+        if (e.confidence <= 0 || bottom(e) > g.support_z + match.grown_max_bottom_m) continue;
+      }
       e.entity = m.entity;
-      if (e.confidence <= 0 || e.centroid.z() - e.size.z() / 2 > match.max_bottom_z_m) continue;
       const double mismatch = size_mismatch(e.size, o.size);
       if (mismatch < best_mismatch) {
         best_mismatch = mismatch;
@@ -118,8 +151,32 @@ std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::
     }
     if (best.confidence > 0 && best_mismatch > match.max_size_mismatch * o.size.sum()) best.confidence = 0;
     if (best.confidence > 0) taken.push_back(best_id);
-    out.push_back(best);
-  }
+    return best;
+  };
+  std::vector<EntityEstimate> out;
+  for (const auto& o : objects) out.push_back(choose(o, false));
+  // An object none of whose candidates has its size may be one whose colour matched only its lit faces
+  // (white and grey walls render as grey as the floor and the shadows): its candidates grow over the depth
+  // image into what stands above the known support, after every object seen as it is has chosen.
+  if (params.support_z)
+    for (std::size_t k = 0; k < objects.size(); ++k)
+      if (out[k].confidence <= 0) out[k] = choose(objects[k], true);
+  // Identical objects (same colours, same size) are told apart by where they are expected: two of them
+  // trade estimates when that brings both nearer their priors in sum.
+  for (std::size_t i = 0; i < objects.size(); ++i)
+    for (std::size_t j = i + 1; j < objects.size(); ++j) {
+      const LookFor &a = objects[i], &b = objects[j];
+      if (!a.prior_xy || !b.prior_xy || out[i].confidence <= 0 || out[j].confidence <= 0 ||
+          a.appearance.rgb != b.appearance.rgb || !a.size.isApprox(b.size, 1e-9))
+        continue;
+      const auto d = [](const EntityEstimate& e, const Eigen::Vector2d& xy) {
+        return (e.centroid.head<2>() - xy).norm();
+      };
+      if (d(out[j], *a.prior_xy) + d(out[i], *b.prior_xy) < d(out[i], *a.prior_xy) + d(out[j], *b.prior_xy)) {
+        std::swap(out[i], out[j]);
+        std::swap(out[i].entity, out[j].entity);
+      }
+    }
   return out;
 }
 

@@ -3,6 +3,7 @@
 // table regions are the cell's calibrated layout and are not looked for.
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -16,11 +17,14 @@ namespace dh::perception {
 struct LookFor {
   EntityAppearance appearance;
   Eigen::Vector3d size = Eigen::Vector3d::Zero();  ///< full extents of its upright box: x, y, z (m)
+  /// Where it is expected (world xy, m): its nominal place in the scene description, or where the last
+  /// frame saw it. Tells identical objects apart; unset, they are assigned in the scene's order.
+  std::optional<Eigen::Vector2d> prior_xy;
 };
 
 /// One per free object of `scene`, in the scene's order: the entity's own colour first, then the distinct
 /// colours its geoms paint themselves; mask areas from 40 px up to what its size can cover in a 640x480
-/// workcell view at 0.8 m or more.
+/// workcell view at 0.8 m or more; the prior is its nominal place.
 std::vector<LookFor> free_objects(const sim::SceneSpec& scene);
 std::vector<EntityAppearance> appearances(const std::vector<LookFor>& objects);
 
@@ -31,12 +35,21 @@ struct ObjectMatch {
   /// the three extents): a part of the robot or a fixture of the same colour is seldom the same shape.
   double max_size_mismatch = 0.5;
   double max_bottom_z_m = 0.4;  ///< objects rest on the table or a fixture: a box starting higher is not one
+  /// A candidate grown over depth (estimate_objects) reaches this far beyond half the object's footprint
+  /// diagonal from the candidate's centre, m.
+  double grow_margin_m = 0.01;
+  /// A grown candidate's box starts at most this high above the support (a plate, a stove's top): growing
+  /// a robot link's lit face gives a box of some object's size in the air.
+  double grown_max_bottom_m = 0.05;
 };
 
 /// One estimate per object from a segmenter's candidate masks: each candidate of the object is estimated,
 /// and the one whose box is closest to the object's size wins; no candidate that passes `match` means
 /// "not seen" (confidence 0) — better than a wrong place. Objects that share colours (two identical
-/// objects) never get the same candidate: the first in the scene's order chooses first.
+/// objects) never get the same candidate: the first in the scene's order chooses first, then identical
+/// objects (same colours and size) trade places when that brings them nearer their priors. With a known
+/// support height (params.support_z), an object not seen that way tries its candidates again grown over
+/// the depth image (grow_by_depth): colour finds only the lit top of a white or grey object.
 std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::vector<Mask>& candidates,
                                              const std::vector<LookFor>& objects, const CloudParams& params = {},
                                              const ObjectMatch& match = {});
