@@ -146,7 +146,8 @@ class Perception {
       for (std::size_t k = 0; k < estimates.size(); ++k) {
         const perception::EntityEstimate& e = estimates[k];
         if (e.confidence <= 0) continue;
-        ch.objects[k].prior_xy = e.centroid.head<2>();  // identical objects keep their identities as they move
+        // Identical objects keep their identities as they move (estimates come in the objects' order).
+        if (e.entity == ch.objects[k].appearance.entity) ch.objects[k].prior_xy = e.centroid.head<2>();
         msg::PerceivedEntity p;
         p.entity(e.entity);
         p.centroid({e.centroid.x(), e.centroid.y(), e.centroid.z()});

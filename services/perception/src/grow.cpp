@@ -39,7 +39,7 @@ cv::Mat1b grow_by_depth(const RgbdFrame& frame, const cv::Mat1b& seed, const Gro
       if (seed(v, u))
         if (const double d = depth_mm(u, v); d > 0) {
           const Eigen::Vector3d w = world(u, v, d);
-          if (w.z() > max_z) continue;
+          if (w.z() <= min_z || w.z() > max_z) continue;
           centre += w.head<2>();
           queue.emplace_back(u, v);
           out(v, u) = 255;

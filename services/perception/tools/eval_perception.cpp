@@ -137,9 +137,12 @@ int main(int argc, char** argv) {
             const Eigen::Vector3d d = seen ? Eigen::Vector3d(e->centroid - centre) : Eigen::Vector3d::Zero();
             if (csv.is_open()) {
               const auto n = std::count_if(candidates.begin(), candidates.end(), [&](const auto& m) { return m.entity == a.entity; });
-              csv << spec.name << ',' << seed << ',' << a.entity << ',' << kind << ',' << n << ',' << seen << ','
-                  << (seen ? e->confidence : 0) << ',' << d.norm() << ',' << d.head<2>().norm();
-              for (int i = 0; i < 3; ++i) csv << ',' << (seen ? e->size[i] : 0);
+              csv << spec.name << ',' << seed << ',' << a.entity << ',' << kind << ',' << n << ',' << seen << ',';
+              if (seen)  // an object not seen leaves its estimate's fields empty
+                csv << e->confidence << ',' << d.norm() << ',' << d.head<2>().norm() << ',' << e->size[0] << ','
+                    << e->size[1] << ',' << e->size[2];
+              else
+                csv << ",,,,,";
               for (int i = 0; i < 3; ++i) csv << ',' << (t ? 2 * t->half_extents[i] : 0);
               csv << '\n';
             }

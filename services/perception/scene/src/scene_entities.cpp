@@ -122,7 +122,7 @@ std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::
         // (a robot link the colour mask joined) and is dropped; a seed too small to estimate (a rim) grows.
         GrowParams g;
         g.support_z = *params.support_z;
-        g.max_height_m = o.size.z() + match.grown_max_bottom_m;
+        g.max_height_m = o.size.z() + match.seed_margin_m;
         g.max_radius_m = 0.5 * std::hypot(o.size.x(), o.size.y()) + match.grow_margin_m;
         g.min_depth_m = params.min_depth_m;
         g.max_depth_m = params.max_depth_m;
@@ -161,18 +161,25 @@ std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::
   if (params.support_z)
     for (std::size_t k = 0; k < objects.size(); ++k)
       if (out[k].confidence <= 0) out[k] = choose(objects[k], true);
-  // Identical objects (same colours, same size) are told apart by where they are expected: two of them
-  // trade estimates when that brings both nearer their priors in sum.
+  // Identical objects (same colours, same size) are told apart by where they are expected (pairwise: a
+  // cycle of three that no exchange of two improves stays; no scene has three identical objects). Two seen
+  // trade estimates when that lowers the sum of their distances to their priors; one seen goes to the
+  // object whose prior is nearer, so an object the hand hides does not lend its name to its twin.
+  const auto d = [](const EntityEstimate& e, const Eigen::Vector2d& xy) {
+    return (e.centroid.head<2>() - xy).norm();
+  };
   for (std::size_t i = 0; i < objects.size(); ++i)
     for (std::size_t j = i + 1; j < objects.size(); ++j) {
       const LookFor &a = objects[i], &b = objects[j];
-      if (!a.prior_xy || !b.prior_xy || out[i].confidence <= 0 || out[j].confidence <= 0 ||
-          a.appearance.rgb != b.appearance.rgb || !a.size.isApprox(b.size, 1e-9))
+      const bool seen_i = out[i].confidence > 0, seen_j = out[j].confidence > 0;
+      if (!a.prior_xy || !b.prior_xy || (!seen_i && !seen_j) || a.appearance.rgb != b.appearance.rgb ||
+          !a.size.isApprox(b.size, 1e-9))
         continue;
-      const auto d = [](const EntityEstimate& e, const Eigen::Vector2d& xy) {
-        return (e.centroid.head<2>() - xy).norm();
-      };
-      if (d(out[j], *a.prior_xy) + d(out[i], *b.prior_xy) < d(out[i], *a.prior_xy) + d(out[j], *b.prior_xy)) {
+      const bool trade = seen_i && seen_j ? d(out[j], *a.prior_xy) + d(out[i], *b.prior_xy) <
+                                                d(out[i], *a.prior_xy) + d(out[j], *b.prior_xy)
+                         : seen_i ? d(out[i], *b.prior_xy) < d(out[i], *a.prior_xy)
+                                  : d(out[j], *a.prior_xy) < d(out[j], *b.prior_xy);
+      if (trade) {
         std::swap(out[i], out[j]);
         std::swap(out[i].entity, out[j].entity);
       }

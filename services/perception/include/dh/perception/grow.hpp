@@ -20,10 +20,10 @@ struct GrowParams {
   double min_depth_m = 0.15, max_depth_m = 3.0;  ///< valid depth readings, as CloudParams
 };
 
-/// The seed's pixels with valid depth at most max_height_m above the support (frame-sized, nonzero = in),
-/// plus every pixel 4-connected to them through pixels with valid depth between min_height_m and
-/// max_height_m above the support, within max_radius_m horizontally of the kept seed's mean and less than
-/// max_step_m in depth from the neighbour they are reached from. A seed with no such pixel gives an empty
+/// The seed's pixels (frame-sized, nonzero = in) with valid depth between min_height_m and max_height_m
+/// above the support, plus every pixel 4-connected to them through pixels with valid depth in the same
+/// band, within max_radius_m horizontally of the kept seed's mean and less than max_step_m in depth from
+/// the neighbour they are reached from. A seed with no such pixel gives an empty
 /// mask. Throws std::invalid_argument on a bad frame or a seed of another size.
 cv::Mat1b grow_by_depth(const RgbdFrame& frame, const cv::Mat1b& seed, const GrowParams& params);
 

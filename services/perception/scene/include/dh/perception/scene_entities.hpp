@@ -41,13 +41,17 @@ struct ObjectMatch {
   /// A grown candidate's box starts at most this high above the support (a plate, a stove's top): growing
   /// a robot link's lit face gives a box of some object's size in the air.
   double grown_max_bottom_m = 0.05;
+  /// Of a candidate to grow, the pixels higher above the support than the object's height + this are
+  /// dropped first (a robot link above it that the colour mask joined).
+  double seed_margin_m = 0.05;
 };
 
 /// One estimate per object from a segmenter's candidate masks: each candidate of the object is estimated,
 /// and the one whose box is closest to the object's size wins; no candidate that passes `match` means
 /// "not seen" (confidence 0) — better than a wrong place. Objects that share colours (two identical
 /// objects) never get the same candidate: the first in the scene's order chooses first, then identical
-/// objects (same colours and size) trade places when that brings them nearer their priors. With a known
+/// objects (same colours and size) trade places when that lowers the sum of their distances to their
+/// priors, and one seen of two goes to the one whose prior is nearer. With a known
 /// support height (params.support_z), an object not seen that way tries its candidates again grown over
 /// the depth image (grow_by_depth): colour finds only the lit top of a white or grey object.
 std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::vector<Mask>& candidates,
