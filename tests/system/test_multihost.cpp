@@ -124,13 +124,22 @@ TEST(MultiHost, ACutSimulatorHostLinkLosesOnlyItsEpisodesWhichRunAgainElsewhere)
     ++per_key[campaign::to_string(campaign::key_of(r))];
   }
   const auto losses = store.losses();
-  ASSERT_GE(losses.size(), 1u) << "sim2 was running episodes when its link went down";
   // Each of sim2's 11 channels loses what it ran at the cut, and at most one more episode dispatched to it
-  // in the 2 s before its loss was noticed (its idle announcement crossed the cut).
-  EXPECT_LE(losses.size(), 22u) << "only what sim2's 11 channels were given is lost";
+  // in the 2 s before its loss was noticed (its idle announcement crossed the cut). An episode the governor
+  // itself ends as infrastructure (10 s without an observation; seen once in CI on 2 loaded cores, on
+  // either host) is a loss too, rerun the same way: counted here, not attributed to the cut.
+  std::size_t cut_losses = 0;
+  for (const auto& l : losses)
+    if (l.reason.find("lost on channel") != std::string::npos) {
+      ++cut_losses;
+      EXPECT_EQ(l.worker, "sim2") << l.reason;
+      EXPECT_NE(l.reason.find("worker sim2 lost"), std::string::npos) << l.reason;
+    } else {
+      EXPECT_NE(l.reason.find("no next observation"), std::string::npos) << l.worker << ": " << l.reason;
+    }
+  EXPECT_GE(cut_losses, 1u) << "sim2 was running episodes when its link went down";
+  EXPECT_LE(cut_losses, 22u) << "only what sim2's 11 channels were given is lost";
   for (const auto& l : losses) {
-    EXPECT_EQ(l.worker, "sim2");
-    EXPECT_NE(l.reason.find("worker sim2 lost"), std::string::npos) << l.reason;
     const auto key = campaign::to_string(campaign::key_of(l));
     EXPECT_EQ(per_key[key], 1u) << key << " is recorded once, by its rerun";
     for (const auto& r : rows)
