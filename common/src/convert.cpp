@@ -1,5 +1,10 @@
 #include "dh/common/convert.hpp"
 
+#include "dh/common/command.hpp"
+#include "dh/common/seam_event.hpp"
+#include "dh/msg/command.h"
+#include "dh/msg/robot.h"
+
 #include <algorithm>
 
 namespace dh::convert {
@@ -48,6 +53,7 @@ Observation from_msg(const msg::Observation& m) {
   std::copy_n(m.dq().begin(), 7, o.dq.begin());
   o.entities = from_msg(m.entities());
   o.goal_holds = m.task_predicate();
+  o.episode_id = m.episode_id();
   return o;
 }
 
@@ -115,3 +121,10 @@ SceneEstimate from_msg(const msg::SceneEstimate& m) {
 }
 
 }  // namespace dh::convert
+
+// The DDS-free codes mirror the IDL enums value for value: the shells cast between them.
+static_assert(static_cast<int>(dh::msg::STATE_CANCELLED) == static_cast<int>(dh::CommandState::Cancelled));
+static_assert(static_cast<int>(dh::msg::STATE_ACCEPTED) == static_cast<int>(dh::CommandState::Accepted));
+static_assert(static_cast<int>(dh::msg::FAILURE_PERCEPTION_LOST) == static_cast<int>(dh::FailureCode::PerceptionLost));
+static_assert(static_cast<int>(dh::msg::SEAM_REJECTED_CHANNEL) == static_cast<int>(dh::SeamEventKind::RejectedChannel));
+static_assert(static_cast<int>(dh::msg::SEAM_SAFETY_HOLD) == static_cast<int>(dh::SeamEventKind::SafetyHold));

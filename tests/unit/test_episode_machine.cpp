@@ -160,3 +160,40 @@ TEST_F(Machine, TheBareArmWaitsBrieflyForThePolicysAnnouncement) {
   EXPECT_EQ(end.end->outcome, "gave_up");
   EXPECT_NE(end.end->reason.find("vla_act"), std::string::npos) << end.end->reason;
 }
+
+// Recovery is chosen by the failure's code: the same code under any wording picks the same recovery, and
+// a reason that says "grasp missed" without the code does not pick regrasp.
+TEST_F(Machine, RecoveryIsChosenByTheFailureCodeNotItsWords) {
+  struct Case {
+    FailureCode code;
+    std::string reason;
+    std::string recovery;
+  };
+  const std::vector<Case> cases = {
+      {FailureCode::GraspMissed, "grasp missed: the jaw closed on nothing", "regrasp"},
+      {FailureCode::GraspMissed, "la pince s'est fermée sur le vide", "regrasp"},
+      {FailureCode::GraspSlipped, "", "regrasp"},
+      {FailureCode::ObjectDropped, "xyzzy", "regrasp"},
+      {FailureCode::EntityLost, "grasp missed, slipped and dropped", "keyframe_return"},
+      {FailureCode::None, "grasp missed", "keyframe_return"},
+  };
+  for (const auto& c : cases) {
+    TearDown();
+    SetUp();
+    for (const char* name : {"regrasp", "keyframe_return", "release_retreat"}) {
+      gov::CapabilityInfo r = test::pick_place_info(std::string(name) + "@a");
+      r.capability = name;
+      r.arguments = name == std::string("regrasp") ? std::vector<std::string>{"object"} : std::vector<std::string>{};
+      r.preconditions = {};
+      registry.announce(r);
+    }
+    Effects fx = m->on_observation(test::scene_observation(0), t0);
+    fx = m->on_advice(good(fx.plan_request->request_id), t0);
+    ASSERT_TRUE(fx.command);
+    m->on_status({"ep/c0", "pick_place@a", CommandState::Accepted, "", "", 0, 0, 0}, t0);
+    m->on_observation(test::scene_observation(5), t0);
+    fx = m->on_status({"ep/c0", "pick_place@a", CommandState::Failed, c.reason, "close", 5, 5, 0.3, c.code}, t0);
+    ASSERT_TRUE(fx.command) << to_string(c.code) << " / " << c.reason;
+    EXPECT_EQ(fx.command->capability, c.recovery) << to_string(c.code) << " / " << c.reason;
+  }
+}

@@ -27,6 +27,7 @@
 #include "dh/common/event_queue.hpp"
 #include "dh/common/log.hpp"
 #include "dh/common/paths.hpp"
+#include "dh/common/seam_event.hpp"
 #include "dh/common/service.hpp"
 #include "dh/common/topics.hpp"
 #include "dh/gov/episode.hpp"
@@ -148,7 +149,7 @@ class Governor {
     auto* mc = machine(s.channel(), s.episode_id());
     if (!mc) return;
     gov::CommandStatus st{s.command_id(), s.instance(), static_cast<gov::CommandState>(s.state()), s.reason(),
-                          s.stage(), s.step(), s.steps_used(), s.progress()};
+                          s.stage(), s.step(), s.steps_used(), s.progress(), static_cast<FailureCode>(s.failure())};
     apply(s.channel(), mc->on_status(st, gov::Clock::now()));
   }
   void handle(const Announced& a) {
@@ -172,11 +173,8 @@ class Governor {
     if (auto* mc = machine(v.channel(), v.episode_id())) mc->on_verdict(v.step(), v.predicate(), v.value());
   }
   void handle(const msg::SeamEvent& e) {
-    static const char* kinds[] = {"rejected_lease", "rejected_budget", "rejected_command", "rejected_step",
-                                  "safety_hold",    "workspace_clamp", "action_clamped",   "rejected_channel"};
-    const auto kind = static_cast<std::size_t>(e.kind());
     if (auto* mc = machine(e.channel(), e.episode_id()))
-      mc->on_seam_event(e.step(), e.command_id(), kind < std::size(kinds) ? kinds[kind] : "unknown_kind", e.reason());
+      mc->on_seam_event({e.step(), e.command_id(), static_cast<SeamEventKind>(e.kind()), e.reason()});
   }
   void handle(const msg::SceneEstimate& m) {
     auto* mc = machine(m.channel(), m.episode_id());
@@ -269,6 +267,7 @@ class Governor {
       c.budget_steps(g.budget_steps);
       c.lease_until_step(g.lease_until_step);
       c.grounding(arms_.at(ch.machine->spec().arm).grounding);
+      c.decision_period(g.decision_period);
       command_.write(c);
       log_->info("channel={} dispatch {} -> {} budget={}", channel, g.command_id, g.instance, g.budget_steps);
     }

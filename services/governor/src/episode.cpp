@@ -4,19 +4,6 @@
 
 namespace dh::gov {
 
-const char* to_string(CommandState s) {
-  switch (s) {
-    case CommandState::Accepted: return "accepted";
-    case CommandState::Refused: return "refused";
-    case CommandState::Running: return "running";
-    case CommandState::Completed: return "completed";
-    case CommandState::Failed: return "failed";
-    case CommandState::Expired: return "expired";
-    case CommandState::Cancelled: return "cancelled";
-  }
-  return "?";
-}
-
 namespace {
 nlohmann::json bindings_json(const Bindings& b) {
   nlohmann::json j = nlohmann::json::object();
@@ -50,6 +37,7 @@ nlohmann::json EpisodeMachine::obs_summary(const Observation& o) const {
 }
 
 Effects EpisodeMachine::on_observation(const Observation& obs, Clock::time_point now) {
+  arrived_ = std::chrono::steady_clock::now();
   if (phase_ == Phase::Ended) return {};
   latch_.record(obs.step, obs.goal_holds);
   last_obs_ = obs;
@@ -88,6 +76,7 @@ Observation EpisodeMachine::perceived_scene() {
 }
 
 Effects EpisodeMachine::on_scene_estimate(const SceneEstimate& estimate, Clock::time_point now) {
+  arrived_ = std::chrono::steady_clock::now();
   if (!world_ || estimate.episode_id != spec_.episode_id) return {};
   world_->on_estimate(estimate);
   if (phase_ != Phase::AwaitingPerception) return {};
@@ -117,6 +106,7 @@ Effects EpisodeMachine::request_plan(const std::string& why, Clock::time_point n
 }
 
 Effects EpisodeMachine::on_advice(const Advice& advice, Clock::time_point now) {
+  arrived_ = std::chrono::steady_clock::now();
   if (phase_ != Phase::Planning || advice.request_id != pending_request_) {
     evidence_.append("governor", "advice_ignored",
                      {{"request_id", advice.request_id}, {"reason", "not the pending request"}});
@@ -200,6 +190,7 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
   ++commands_;
   refusals_in_row_ = 0;
   if (config_.mode == ExecutorMode::Bare) g.command->budget_steps = remaining;  // the rest of the episode
+  g.command->decision_period = config_.decision_period;
   const Command& c = *g.command;
   evidence_.append("governor", "grounding",
                    {{"step", last_obs_.step}, {"result", "grounded"}, {"command_id", c.command_id},
@@ -240,13 +231,14 @@ Effects EpisodeMachine::refuse(Refusal r, const std::string& reason, Clock::time
 }
 
 Effects EpisodeMachine::on_status(const CommandStatus& st, Clock::time_point now) {
+  arrived_ = std::chrono::steady_clock::now();
   if (phase_ != Phase::Running || !running_ || st.command_id != running_->command_id) return {};
   const bool terminal = st.state != CommandState::Accepted && st.state != CommandState::Running;
   if (!acknowledged_ || terminal) {
     evidence_.append(st.instance.empty() ? "capability" : st.instance, "command_status",
                      {{"step", st.step}, {"command_id", st.command_id}, {"state", to_string(st.state)},
-                      {"reason", st.reason}, {"stage", st.stage}, {"steps_used", st.steps_used},
-                      {"progress", st.progress}});
+                      {"reason", st.reason}, {"failure", to_string(st.failure)}, {"stage", st.stage},
+                      {"steps_used", st.steps_used}, {"progress", st.progress}});
   }
   acknowledged_ = true;
   if (st.progress > last_progress_) last_progress_ = st.progress;
@@ -273,11 +265,12 @@ Effects EpisodeMachine::finish_command(const CommandStatus& st, Clock::time_poin
   }
   else if (st.state == CommandState::Expired) phase = CommandPhase::Expired;
   if (phase != CommandPhase::Completed && !recovering_) count_failure();
-  if (phase != CommandPhase::Completed) last_failure_ = st.reason;
+  if (phase != CommandPhase::Completed) last_failure_ = st.failure;
   return decide_now(phase, std::string("command ") + to_string(st.state), now);
 }
 
 Effects EpisodeMachine::on_capability_lost(const std::string& instance, Clock::time_point now) {
+  arrived_ = std::chrono::steady_clock::now();
   if (phase_ == Phase::Ended) return {};  // the episode's record is closed
   evidence_.append("governor", "capability_lost", {{"step", last_obs_.step}, {"instance", instance}});
   if (phase_ != Phase::Running || !running_ || running_->instance != instance) return {};
@@ -292,9 +285,8 @@ void EpisodeMachine::on_verdict(std::uint32_t step, const std::string& predicate
   evidence_.append("sim_worker", "verdict_event", {{"step", step}, {"predicate", predicate}, {"value", value}});
 }
 
-void EpisodeMachine::on_seam_event(std::uint32_t step, const std::string& command_id, const std::string& kind,
-                                   const std::string& reason) {
-  evidence_.append("seam", kind, {{"step", step}, {"command_id", command_id}, {"reason", reason}});
+void EpisodeMachine::on_seam_event(const SeamEvent& e) {
+  evidence_.append("seam", to_string(e.kind), {{"step", e.step}, {"command_id", e.command_id}, {"reason", e.reason}});
 }
 
 std::string EpisodeMachine::step_key() const {
@@ -320,9 +312,8 @@ std::optional<std::string> EpisodeMachine::substitute() const {
 std::string EpisodeMachine::recovery_for() const {
   const bool holding = last_obs_.holding();
   const bool one_finger = last_obs_.contact_left != last_obs_.contact_right;
-  const bool grasp_lost = last_failure_.find("grasp missed") != std::string::npos ||
-                          last_failure_.find("slipped") != std::string::npos ||
-                          last_failure_.find("dropped") != std::string::npos;
+  const bool grasp_lost = last_failure_ == FailureCode::GraspMissed || last_failure_ == FailureCode::GraspSlipped ||
+                          last_failure_ == FailureCode::ObjectDropped;
   const bool has_object = !recovery_object().empty();
   // A misaligned contact is re-seated, a missed or lost grasp taken again (the interrupted pick and place
   // then goes on from the lift); otherwise let go of what is held, or go back to a safe pose.
@@ -372,8 +363,10 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
                     {"progress", s.progress}, {"stagnant", s.stagnant_decisions},
                     {"failures", s.failures_of_step}, {"capability", cap},
                     {"command_id", running_ ? running_->command_id : ""}, {"state", to_json(s)},
-                    // From the governor taking the triggering event to this decision.
-                    {"latency_ns", std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - now).count()}});
+                    // From the triggering event's arrival at this core to this decision (real time, whatever
+                    // clock the event's `now` is on: the in-process bus runs on a step clock).
+                    {"latency_ns", std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                       std::chrono::steady_clock::now() - arrived_).count()}});
   Effects fx;
   const auto fast = [&](Advice a) {
     a.refused = false;
@@ -485,6 +478,7 @@ Effects EpisodeMachine::end(bool success, const std::string& outcome_in, const s
 }
 
 Effects EpisodeMachine::on_tick(Clock::time_point now) {
+  arrived_ = std::chrono::steady_clock::now();
   if (phase_ == Phase::Ended || now < deadline_) return {};
   if (phase_ == Phase::AwaitingCapability) return ground_and_dispatch(*last_advice_, now);  // refused once the wait is over
   if (phase_ == Phase::AwaitingPerception) {

@@ -1,17 +1,20 @@
 #include "dh/inproc/stack.hpp"
 
+#include <map>
+#include <optional>
 #include <stdexcept>
 
 #include "dh/cap/library.hpp"
 #include "dh/gov/config.hpp"
+#include "dh/inproc/bus.hpp"
 #include "dh/planner/rules.hpp"
 #include "dh/sim/scene.hpp"
-#include "dh/sim/seam.hpp"
 
 namespace dh::inproc {
 
 Stack::Stack(const std::filesystem::path& config_dir)
-    : config_(gov::load_config(config_dir / "governor.yaml")), arms_(load_arms(config_dir / "governor.yaml")) {
+    : config_(gov::load_config(config_dir / "governor.yaml")), arms_(load_arms(config_dir / "governor.yaml")),
+      host_({}, config_.perception_limits) {
   for (auto& def : cap::all_capabilities()) add_capability(std::move(def), config_dir / "library");
 }
 
@@ -27,6 +30,7 @@ void Stack::add_capability(cap::CapabilityDef def, const std::filesystem::path& 
   info.cost_steps = static_cast<std::uint32_t>(d.cost_steps);
   info.started_ns = 1;
   registry_.announce(info);
+  host_.serve({def, info.instance});
   defs_.insert_or_assign(def.name, std::move(def));
 }
 
@@ -50,103 +54,73 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   cell.reset(seed, task.goal);
   std::filesystem::remove(evidence_path);
   EvidenceWriter evidence(evidence_path);
-  gov::EpisodeSpec spec{0, task.suite + "/" + std::to_string(task.id) + "/" + std::to_string(seed), task.instruction,
-                        arm, task.budget_steps};
-  gov::EpisodeMachine machine(spec, gov::for_arm(config_, find_arm(arms_, arm)), registry_, evidence,
-                              gov::Clock::now());
+  const std::string episode_id = task.suite + "/" + std::to_string(task.id) + "/" + std::to_string(seed);
+  gov::EpisodeSpec spec{0, episode_id, task.instruction, arm, task.budget_steps};
+  SeamChannel seam(cell, spec.channel, episode_id, task.budget_steps);
+  cap::Clock::time_point now = step_time(0);
+  gov::EpisodeMachine machine(spec, gov::for_arm(config_, find_arm(arms_, arm)), registry_, evidence, now);
 
-  std::uint32_t step = 0;
-  auto observe = [&] {
-    Observation o = cell.observe();
-    o.step = step;
-    o.budget_steps = task.budget_steps;
-    return o;
-  };
-  Observation obs = observe();
-
-  struct Running {
-    gov::Command command;
-    std::unique_ptr<cap::Skill> skill;
-    std::uint32_t used = 0;
-  };
-  std::optional<Running> running;
-  std::vector<cap::Keyframe> keyframes;
-  sim::LeaseState lease;
   std::optional<gov::EpisodeEnd> end;
+  std::optional<cap::ActionOut> action;  ///< the host's answer to the current step
+  std::map<std::string, gov::Command> dispatched;  ///< by command id
 
-  // Routes the machine's effects the way the node publishes them; plans and refusals at the capability
-  // come back at once, as they would within the same control step over DDS.
-  std::function<void(gov::Effects)> apply = [&](gov::Effects fx) {
-    if (fx.cancel_command && running && running->command.command_id == *fx.cancel_command) running.reset();
-    if (fx.lease) {
-      lease = {true, fx.lease->command_id, fx.lease->valid_until_step, fx.lease->budget_until_step, fx.lease->revoked, false};
-    }
+  std::function<void(cap::HostEffects)> from_host;
+  // Routes the governor's effects the way the DDS shells carry them, at once (one control step).
+  std::function<void(gov::Effects)> from_governor = [&](gov::Effects fx) {
+    if (fx.cancel_command)
+      from_host(host_.on_cancel({spec.channel, episode_id, *fx.cancel_command, dispatched[*fx.cancel_command].instance}));
+    if (fx.lease)
+      seam.on_lease({true, fx.lease->command_id, fx.lease->valid_until_step, fx.lease->budget_until_step,
+                     fx.lease->revoked, false});
     if (fx.end) end = fx.end;
     if (fx.command) {
-      const gov::Command& c = *fx.command;
-      if (!obs.holding())
-        keyframes.push_back({obs.step, obs.ee_p, obs.ee_q});
-      gov::CommandStatus st{c.command_id, c.instance, gov::CommandState::Accepted, "", "", obs.step, 0, 0};
-      std::unique_ptr<cap::Skill> skill;
-      try {
-        skill = defs_.at(c.capability).make(c.theta);
-        if (auto why = skill->check(c.args, obs, static_cast<int>(c.budget_steps))) {
-          st.state = gov::CommandState::Refused;
-          st.reason = *why;
-        }
-      } catch (const std::invalid_argument& e) {
-        st.state = gov::CommandState::Refused;
-        st.reason = std::string("malformed command: ") + e.what();
-      }
-      if (st.state == gov::CommandState::Accepted) {
-        skill->start(c.args, obs, cap::SkillContext{keyframes});
-        running = Running{c, std::move(skill), 0};
-      }
-      apply(machine.on_status(st, gov::Clock::now()));
+      const gov::Command& g = *fx.command;
+      dispatched[g.command_id] = g;
+      cap::CommandStart c{spec.channel, episode_id, g.command_id, g.capability, g.instance, g.args, g.theta,
+                          g.start_step, g.budget_steps, g.decision_period, cap::Grounding::State};
+      from_host(host_.on_start(c, now));
     }
     if (fx.plan_request) {
       const auto& r = *fx.plan_request;
       const planner::PlannerAdvice a = planner::plan_rules({r.instruction, r.scene, r.capabilities, r.history});
       gov::Advice adv{r.request_id, a.refused, a.capability, a.args, a.rationale, a.reason, "rules", a.done, {}};
       for (const auto& s : a.rest) adv.rest.push_back({s.capability, s.args});
-      apply(machine.on_advice(adv, gov::Clock::now()));
+      from_governor(machine.on_advice(adv, now));
     }
   };
+  from_host = [&](cap::HostEffects hx) {
+    for (const auto& s : hx.statuses)
+      if (s.episode_id == episode_id)  // not a command left over from an earlier episode
+        from_governor(machine.on_status({s.command_id, s.instance, s.state, s.reason, s.stage, s.step, s.steps_used,
+                                       s.progress, s.failure}, now));
+    for (const auto& a : hx.actions) action = a;
+  };
 
-  apply(machine.on_observation(obs, gov::Clock::now()));
+  bool fresh = true;  // the seam stepped: its observation is new to every core
   while (!end) {
-    if (!running) throw std::logic_error("episode machine waits with no command running at step " + std::to_string(step));
-    const cap::SkillStep s = running->skill->next(obs);
-    if (s.status != cap::SkillStatus::Running) {
-      const bool ok = s.status == cap::SkillStatus::Completed;
-      gov::CommandStatus st{running->command.command_id, running->command.instance,
-                            ok ? gov::CommandState::Completed : gov::CommandState::Failed, s.reason, s.stage, obs.step,
-                            running->used, s.progress};
-      running.reset();
-      apply(machine.on_status(st, gov::Clock::now()));
-      continue;
+    const Observation obs = seam.observe();
+    if (fresh) {
+      action.reset();
+      from_governor(machine.on_observation(obs, now));
+      from_host(host_.on_observation(obs, now));
     }
-    const auto admitted = sim::admit_action(running->command.command_id, obs.step, step, task.budget_steps, lease, true);
-    if (admitted.decision != sim::Admission::Apply) {
-      gov::CommandStatus st{running->command.command_id, running->command.instance, gov::CommandState::Expired,
-                            admitted.reason, s.stage, obs.step, running->used, s.progress};
-      running.reset();
-      apply(machine.on_status(st, gov::Clock::now()));
-      continue;
+    // Nothing moves this step: wait, as a stalled channel would, for the governor's next deadline (a
+    // deadline acts by ending the episode or by changing what runs, so a few waits settle it).
+    for (int waits = 0; !end && !(action && action->step == obs.step); ++waits) {
+      if (waits == 4)
+        throw std::logic_error("episode " + episode_id + " stands still at step " + std::to_string(obs.step) +
+                               ": no action and no end after the governor's deadlines");
+      now = std::max(now, machine.deadline());
+      from_host(host_.on_tick(now));
+      from_governor(machine.on_tick(now));
     }
-    if (tap.on_action) tap.on_action(obs, running->command.capability, s.action);
-    std::array<double, 7> applied = s.action;
+    if (end) break;
+    if (tap.on_action) tap.on_action(obs, dispatched[action->command_id].capability, action->a);
+    std::array<double, 7> applied = action->a;
     if (tap.perturb) tap.perturb(applied);
-    for (const auto& e : cell.step(applied))
-      machine.on_seam_event(step, running->command.command_id,
-                            e.kind == sim::StepEvent::SafetyHold ? "SEAM_SAFETY_HOLD" : "SEAM_ACTION_CLAMPED", e.reason);
-    ++step;
-    ++running->used;
-    apply(machine.on_status({running->command.command_id, running->command.instance, gov::CommandState::Running, "",
-                             s.stage, step, running->used, s.progress},
-                            gov::Clock::now()));
-    obs = observe();
-    apply(machine.on_observation(obs, gov::Clock::now()));
+    for (const auto& e : seam.apply(*action, applied, fresh)) machine.on_seam_event(e);
+    action.reset();
+    if (fresh) now += std::chrono::milliseconds(50);
   }
   return {end->success, end->outcome, end->reason, end->steps, end->decisions, end->refusals, evidence_path};
 }

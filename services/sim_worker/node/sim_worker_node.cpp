@@ -271,11 +271,7 @@ class Channel {
     msg::Action a = *pending_;
     pending_.reset();
     if (r.decision != sim::Admission::Apply) {
-      const auto kind = r.decision == sim::Admission::RejectBudget  ? msg::SEAM_REJECTED_BUDGET
-                        : r.decision == sim::Admission::RejectLease ? msg::SEAM_REJECTED_LEASE
-                        : r.decision == sim::Admission::RejectStep  ? msg::SEAM_REJECTED_STEP
-                                                                    : msg::SEAM_REJECTED_COMMAND;
-      seam_event(a.step(), a.command_id(), kind, r.reason);
+      seam_event(a.step(), a.command_id(), static_cast<msg::SeamEventKind>(sim::seam_event_kind(r.decision)), r.reason);
       log_->warn("channel={} step={} action rejected: {}", id_, a.step(), r.reason);
       return;
     }
@@ -295,11 +291,7 @@ class Channel {
     physics_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
     last_sign_of_life_ = Clock::now();
     for (const auto& e : events)
-      seam_event(step_, a.command_id(),
-                 e.kind == sim::StepEvent::SafetyHold       ? msg::SEAM_SAFETY_HOLD
-                 : e.kind == sim::StepEvent::WorkspaceClamp ? msg::SEAM_WORKSPACE_CLAMP
-                                                            : msg::SEAM_ACTION_CLAMPED,
-                 e.reason);
+      seam_event(step_, a.command_id(), static_cast<msg::SeamEventKind>(sim::seam_event_kind(e.kind)), e.reason);
     ++step_;
     publish_observation();
   }

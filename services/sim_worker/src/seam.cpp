@@ -42,4 +42,13 @@ const char* admission_name(Admission a) {
   return "?";
 }
 
+SeamEventKind seam_event_kind(Admission a) {
+  switch (a) {
+    case Admission::RejectBudget: return SeamEventKind::RejectedBudget;
+    case Admission::RejectLease: return SeamEventKind::RejectedLease;
+    case Admission::RejectCommand: return SeamEventKind::RejectedCommand;
+    default: return SeamEventKind::RejectedStep;
+  }
+}
+
 }  // namespace dh::sim

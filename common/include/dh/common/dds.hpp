@@ -25,27 +25,11 @@
 #include <string>
 #include <thread>
 
+#include "dh/common/ports.hpp"
+
 namespace dh::dds {
 
 namespace fdds = eprosima::fastdds::dds;
-
-/// The QoS classes of DESIGN.md §3.
-enum class Qos {
-  Announce,    ///< reliable, transient-local, liveliness MANUAL_BY_TOPIC lease 1 s (a Heartbeat asserts it)
-  Command,     ///< reliable, keep-last 1 per channel
-  Status,      ///< reliable, keep-last 16
-  Lease,       ///< reliable, keep-last 1, deadline 1 s
-  Action,      ///< reliable, keep-last 1
-  Observation, ///< reliable, transient-local, keep-last 1
-  Verdict,     ///< reliable, keep-all
-  Planner,     ///< reliable, keep-last 8
-  Episode,     ///< reliable, transient-local, keep-last 1 per channel
-  ChannelStatus, ///< as Episode, plus liveliness MANUAL_BY_TOPIC lease kChannelLivelinessSec (a Heartbeat
-                 ///< asserts it): a dead or cut-off simulator worker is noticed by campaigns
-  Camera,      ///< reliable, transient-local, keep-last 1 per channel and camera (150 KB samples)
-  Rgbd,        ///< RGB-D frames (~1.5 MB): see qos_for for the choice and its measurement
-  RgbdRequest, ///< reliable, volatile, keep-last 8 (asks for one RGB-D frame)
-};
 
 struct QosPair {
   fdds::DataWriterQos writer;

@@ -30,6 +30,7 @@ struct Observation {
   std::array<double, 7> q{}, dq{};
   std::vector<EntityState> entities;
   bool goal_holds = false;  ///< the benchmark predicate at this step
+  std::string episode_id;   ///< the episode the step belongs to (with `step`, what cores order by)
 
   /// The jaw holds something: both fingers touch and the jaw is not shut on itself.
   bool holding() const { return contact_left && contact_right && gripper_opening > 0.002; }

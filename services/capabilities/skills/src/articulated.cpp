@@ -62,12 +62,13 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
     done.reason = "already in the asked state";
     return done;
   }
-  auto fail = [&](const std::string& why) {
+  auto fail = [&](FailureCode code, const std::string& why) {
     out.status = SkillStatus::Failed;
+    out.failure = code;
     out.reason = why;
     return out;
   };
-  if (!part) return fail("part '" + part_ + "' left the observation");
+  if (!part) return fail(FailureCode::EntityLost, "part '" + part_ + "' left the observation");
   bool move_finished = false;
   std::array<double, 7> move_action{};
   switch (stage_) {
@@ -94,7 +95,7 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
       break;
     case Stage::Close:
       if (m_.done()) {
-        if (obs.gripper_opening < 0.003) return fail("handle missed: the jaw closed on nothing");
+        if (obs.gripper_opening < 0.003) return fail(FailureCode::HandleMissed, "handle missed: the jaw closed on nothing");
         stage_ = Stage::Move;
         begin_move(obs);
       }
@@ -109,7 +110,7 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
       break;
     case Stage::Retreat:
       if (m_.done()) {
-        if (auto why = verify(*part)) return fail(*why);
+        if (auto why = verify(*part)) return fail(FailureCode::StateNotReached, *why);
         stage_ = Stage::Done;
       }
       break;
@@ -117,7 +118,7 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
       break;
   }
   if (stage_ == Stage::Move) {
-    if (grasps() && obs.gripper_opening < 0.003) return fail("lost the handle while moving the part");
+    if (grasps() && obs.gripper_opening < 0.003) return fail(FailureCode::HandleLost, "lost the handle while moving the part");
     move_action = move_step(obs, move_finished);
     if (move_finished) {
       if (grasps()) {

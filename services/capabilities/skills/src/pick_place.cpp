@@ -303,13 +303,12 @@ SkillStep PickPlaceSkill::next(const Observation& obs) {
   SkillStep out;
   out.stage = stage_name(stage_);
   const EntityState* o = obs.entity(object_);
-  if (!o || (!grasp_only_ && !obs.entity(target_))) {
+  if (!o || (!grasp_only_ && !obs.entity(target_)))
+    return failed_step(FailureCode::EntityLost, "entity '" + (o ? target_ : object_) + "' left the observation",
+                       out.stage);
+  auto fail = [&](FailureCode code, const std::string& why) {
     out.status = SkillStatus::Failed;
-    out.reason = "entity '" + (o ? target_ : object_) + "' left the observation";
-    return out;
-  }
-  auto fail = [&](const std::string& why) {
-    out.status = SkillStatus::Failed;
+    out.failure = code;
     out.reason = why;
     return out;
   };
@@ -325,7 +324,7 @@ SkillStep PickPlaceSkill::next(const Observation& obs) {
       break;
     case Stage::Close:
       if (m_.done()) {
-        if (obs.gripper_opening < 0.002) return fail("grasp missed: the jaw closed on nothing");
+        if (obs.gripper_opening < 0.002) return fail(FailureCode::GraspMissed, "grasp missed: the jaw closed on nothing");
         if (grasp_only_) return completed_step();
         enter(Stage::Lift, obs);
       }
@@ -333,13 +332,13 @@ SkillStep PickPlaceSkill::next(const Observation& obs) {
     case Stage::Lift:
       if (m_.done()) {
         if (o->p[2] - object_z0_ < 0.5 * (m_.to().z() - m_.from().z()))
-          return fail("object did not rise with the tool (slipped from the jaw)");
+          return fail(FailureCode::GraspSlipped, "object did not rise with the tool (slipped from the jaw)");
         enter(Stage::Carry, obs);
       }
       break;
     case Stage::Carry:
       if (!(obs.contact_left || obs.contact_right) || obs.gripper_opening < 0.002)
-        return fail("object dropped during the carry");
+        return fail(FailureCode::ObjectDropped, "object dropped during the carry");
       if (m_.done()) enter(Stage::Lower, obs);
       break;
     case Stage::Lower:

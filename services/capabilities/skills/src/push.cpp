@@ -98,13 +98,14 @@ SkillStep PushSkill::next(const Observation& obs) {
   const EntityState* o = obs.entity(object_);
   const EntityState* t = obs.entity(target_);
   static constexpr const char* names[] = {"approach", "descent", "push", "back_off", "retreat", "done"};
-  auto fail = [&](const std::string& why) {
+  auto fail = [&](FailureCode code, const std::string& why) {
     out.status = SkillStatus::Failed;
+    out.failure = code;
     out.reason = why;
     out.stage = names[static_cast<int>(stage_)];
     return out;
   };
-  if (!o || !t) return fail("entity '" + (o ? target_ : object_) + "' left the observation");
+  if (!o || !t) return fail(FailureCode::EntityLost, "entity '" + (o ? target_ : object_) + "' left the observation");
   const Eigen::Vector2d now(o->p[0], o->p[1]);
   switch (stage_) {
     case Stage::Approach:
@@ -136,12 +137,12 @@ SkillStep PushSkill::next(const Observation& obs) {
           back_off(obs);
           break;
         }
-        return fail("push ran out of its " + std::to_string(steps(p_.push_max_steps)) + " steps " +
+        return fail(FailureCode::PushExhausted, "push ran out of its " + std::to_string(steps(p_.push_max_steps)) + " steps " +
                     std::to_string(left) + " m short of '" + target_ + "'");
       }
       const double along = (now - object0_).dot(dir_);
       const Eigen::Vector2d ee(obs.ee_p[0], obs.ee_p[1]);
-      if ((now - ee).dot(dir_) < 0) return fail("object slid off the pusher (it is no longer ahead of the pads)");
+      if ((now - ee).dot(dir_) < 0) return fail(FailureCode::ContactLost, "object slid off the pusher (it is no longer ahead of the pads)");
       if (reference_ - along < 0.03) reference_ = std::min(travel_, reference_ + p_.max_speed * 0.05);
       const Eigen::Vector2d side(-dir_.y(), dir_.x());
       const Eigen::Vector2d centre = object0_ + dir_ * reference_ + side * (now - object0_).dot(side);

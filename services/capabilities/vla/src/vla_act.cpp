@@ -44,26 +44,18 @@ SkillStep VlaActSkill::next(const Observation& obs) {
       waited_ = 0;
     } catch (const SourceNotReady& e) {
       if (++waited_ > steps(p_.max_wait_steps)) {
-        s.status = SkillStatus::Failed;
-        s.stage = "wait";
-        s.reason = std::string("policy not ready for ") + std::to_string(waited_) + " steps: " + e.what();
-        return s;
+        return failed_step(FailureCode::PolicyNotReady,
+                           std::string("policy not ready for ") + std::to_string(waited_) + " steps: " + e.what(), "wait");
       }
       s.action[6] = gripper_command_;  // hold still, keep the jaw as it was
       s.stage = "wait";
       ++used_;
       return s;
     } catch (const std::exception& e) {
-      s.status = SkillStatus::Failed;
-      s.stage = "infer";
-      s.reason = std::string("policy: ") + e.what();
-      return s;
+      return failed_step(FailureCode::PolicyError, std::string("policy: ") + e.what(), "infer");
     }
     if (chunk_.empty()) {
-      s.status = SkillStatus::Failed;
-      s.stage = "infer";
-      s.reason = "policy returned no actions";
-      return s;
+      return failed_step(FailureCode::PolicyError, "policy returned no actions", "infer");
     }
     next_ = 0;
   }

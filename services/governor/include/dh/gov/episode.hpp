@@ -13,6 +13,7 @@
 #include "dh/common/evidence.hpp"
 #include "dh/common/observation.hpp"
 #include "dh/common/perceived_world.hpp"
+#include "dh/common/seam_event.hpp"
 #include "dh/gov/decide.hpp"
 #include "dh/gov/grounding.hpp"
 #include "dh/gov/registry.hpp"
@@ -83,8 +84,10 @@ class EpisodeMachine {
   /// The perception service's latest estimates for this episode (kept only under perception grounding);
   /// a step waiting for a fresh estimate is grounded with it.
   Effects on_scene_estimate(const SceneEstimate& estimate, Clock::time_point now);
-  void on_seam_event(std::uint32_t step, const std::string& command_id, const std::string& kind,
-                     const std::string& reason);
+  void on_seam_event(const SeamEvent& e);
+  /// When the wait in progress (planner, acknowledgement, next observation, ...) runs out: on_tick at or
+  /// after it acts. The in-process bus advances its clock to it when nothing else can happen.
+  Clock::time_point deadline() const { return deadline_; }
   /// Ends waits whose computed deadline passed (planner, acknowledgement, stalled steps).
   Effects on_tick(Clock::time_point now);
 
@@ -110,7 +113,7 @@ class EpisodeMachine {
   /// something in hand, else keyframe_return
   std::string recovery_for() const;
   std::string recovery_object() const;            ///< the interrupted step's object argument, or ""
-  std::string last_failure_;                      ///< the reason of the last command that did not complete
+  FailureCode last_failure_ = FailureCode::None;  ///< why the last command that did not complete failed
   Effects end(bool success, const std::string& outcome, const std::string& reason);
   Effects stop_command();  ///< cancel + revoking lease for the running command, if any
   /// `next` after stopping: the stop's cancel and revocation ride along unless `next` sets its own.
@@ -124,6 +127,7 @@ class EpisodeMachine {
   EvidenceWriter& evidence_;
   Phase phase_ = Phase::WaitingFirstObservation;
   Clock::time_point deadline_;
+  std::chrono::steady_clock::time_point arrived_;  ///< when the event being handled reached the core
   Clock::time_point capability_wait_until_;  ///< the bare arm waits this long for vla_act's announcement
   std::string deadline_what_;
 

@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "dh/common/command.hpp"
+
 namespace dh::gov {
 
 using Bindings = std::vector<std::pair<std::string, std::string>>;  ///< role -> entity, in order
@@ -40,6 +42,7 @@ struct Command {
   Bindings args;
   std::map<std::string, double> theta;
   std::uint32_t start_step = 0, budget_steps = 0, lease_until_step = 0;
+  std::uint32_t decision_period = 10;  ///< the episode's; the capability reports progress at least this often
 };
 
 struct Lease {
@@ -48,8 +51,8 @@ struct Lease {
   bool revoked = false;
 };
 
-enum class CommandState { Accepted, Refused, Running, Completed, Failed, Expired, Cancelled };
-const char* to_string(CommandState s);
+using dh::CommandState;
+using dh::to_string;
 
 struct CommandStatus {
   std::string command_id, instance;
@@ -57,6 +60,7 @@ struct CommandStatus {
   std::string reason, stage;
   std::uint32_t step = 0, steps_used = 0;
   double progress = 0;
+  FailureCode failure = FailureCode::None;
 };
 
 }  // namespace dh::gov

@@ -1,7 +1,7 @@
-// The whole stack in one process, without DDS: the governor's episode machine, the rules planner, every
-// capability's skill and the MuJoCo workcell, wired exactly as the services wire them (the seam's
-// admission, keyframes at command starts, status on the observation a command ends at). For developing
-// skills and rules quickly and for in-process tests; campaign figures come from `dh campaign` over DDS.
+// The whole stack in one process, without DDS, on the in-process bus (bus.hpp): the governor's episode
+// machine, the rules planner, the capability host core serving every capability, and the seam over a
+// MuJoCo workcell — the cores the services run, in lock-step. For developing skills and rules, training
+// and in-process tests; campaign figures come from `dh campaign` over DDS.
 #pragma once
 
 #include <array>
@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "dh/cap/descriptor.hpp"
+#include "dh/cap/host_core.hpp"
 #include "dh/common/arms.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/gov/episode.hpp"
@@ -55,6 +56,7 @@ class Stack {
   std::map<std::string, ArmSpec> arms_;
   std::map<std::string, cap::CapabilityDef> defs_;
   gov::Registry registry_;
+  cap::HostCore host_;  ///< every capability's instance "<name>@inproc"
   std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  ///< by scene key
 };
 

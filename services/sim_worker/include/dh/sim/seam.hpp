@@ -5,6 +5,8 @@
 #include <cstdint>
 #include <string>
 
+#include "dh/common/seam_event.hpp"
+
 namespace dh::sim {
 
 /// The lease the governor last granted on a channel.
@@ -39,5 +41,8 @@ AdmissionResult admit_action(const std::string& command_id, std::uint32_t action
                              const LeaseState& lease, bool grace_elapsed);
 
 const char* admission_name(Admission a);
+
+/// The seam event a refusal is recorded as (Apply and WaitForLease are not refusals: RejectedStep).
+SeamEventKind seam_event_kind(Admission a);
 
 }  // namespace dh::sim

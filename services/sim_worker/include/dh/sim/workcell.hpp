@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "dh/common/observation.hpp"
+#include "dh/common/seam_event.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/sim/predicates.hpp"
 #include "dh/sim/safety.hpp"
@@ -31,6 +32,12 @@ struct StepEvent {
   enum Kind { SafetyHold, WorkspaceClamp, ActionClamped } kind;
   std::string reason;
 };
+
+inline SeamEventKind seam_event_kind(StepEvent::Kind k) {
+  return k == StepEvent::SafetyHold       ? SeamEventKind::SafetyHold
+         : k == StepEvent::WorkspaceClamp ? SeamEventKind::WorkspaceClamp
+                                          : SeamEventKind::ActionClamped;
+}
 
 class Workcell {
  public:

@@ -12,6 +12,7 @@
 #include <utility>
 #include <vector>
 
+#include "dh/common/command.hpp"
 #include "dh/common/observation.hpp"
 
 namespace dh::cap {
@@ -27,7 +28,18 @@ struct SkillStep {
   std::string stage;
   std::string reason;
   double progress = 0;
+  FailureCode failure = FailureCode::None;  ///< set with Failed
 };
+
+/// The step that ends a skill with a failure.
+inline SkillStep failed_step(FailureCode code, std::string reason, std::string stage) {
+  SkillStep s;
+  s.status = SkillStatus::Failed;
+  s.failure = code;
+  s.reason = std::move(reason);
+  s.stage = std::move(stage);
+  return s;
+}
 
 /// The step that ends a skill with success.
 inline SkillStep completed_step() {

@@ -1,0 +1,36 @@
+// What the robot seam refused or corrected: one code per kind, the same values in the same order as
+// idl/robot.idl SeamEventKind, and one name per code for the evidence (over DDS and in process alike).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+namespace dh {
+
+enum class SeamEventKind {
+  RejectedLease,
+  RejectedBudget,
+  RejectedCommand,
+  RejectedStep,
+  SafetyHold,
+  WorkspaceClamp,
+  ActionClamped,
+  RejectedChannel,  ///< an action or lease for a channel no simulator worker serves
+};
+
+inline const char* to_string(SeamEventKind k) {
+  static const char* names[] = {"rejected_lease", "rejected_budget", "rejected_command", "rejected_step",
+                                "safety_hold",    "workspace_clamp", "action_clamped",   "rejected_channel"};
+  const auto i = static_cast<std::size_t>(k);
+  return i < std::size(names) ? names[i] : "unknown_kind";
+}
+
+struct SeamEvent {
+  std::uint32_t step = 0;
+  std::string command_id;
+  SeamEventKind kind = SeamEventKind::RejectedStep;
+  std::string reason;
+};
+
+}  // namespace dh
