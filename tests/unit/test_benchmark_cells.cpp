@@ -122,7 +122,7 @@ TEST(BenchmarkCells, EveryOpenGoalRegionCanBeReachedFromAbove) {
         std::array<double, 7> a{0, 0, 0, 0, 0, 0, -1};
         error = 0;
         for (int k = 0; k < 3; ++k) {
-          a[k] = std::clamp((target[k] - o.ee_p[k]) / sim::kMaxDeltaPos, -1.0, 1.0);
+          a[k] = std::clamp((target[k] - o.ee_p[k]) / robot::kMaxDeltaPosM, -1.0, 1.0);
           error += (target[k] - o.ee_p[k]) * (target[k] - o.ee_p[k]);
         }
         error = std::sqrt(error);

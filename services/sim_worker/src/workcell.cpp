@@ -1,5 +1,7 @@
 #include "dh/sim/workcell.hpp"
 
+#include "dh/common/robot_contract.hpp"
+
 #include <mujoco/mujoco.h>
 
 #include <Eigen/Dense>
@@ -186,12 +188,12 @@ std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
     }
 
   const double* p = d_->site_xpos + 3 * ids_->tcp_site;
-  std::array<double, 3> p_goal{p[0] + kMaxDeltaPos * a[0], p[1] + kMaxDeltaPos * a[1],
-                               p[2] + kMaxDeltaPos * a[2]};
+  std::array<double, 3> p_goal{p[0] + robot::kMaxDeltaPosM * a[0], p[1] + robot::kMaxDeltaPosM * a[1],
+                               p[2] + robot::kMaxDeltaPosM * a[2]};
   if (clamp_to_workspace(p_goal, limits_))
     events.push_back({StepEvent::WorkspaceClamp, "position target clamped into the workspace box"});
   // Rotation target: world-frame delta (axis-angle) applied to the current orientation.
-  const Eigen::Vector3d rv(kMaxDeltaRot * a[3], kMaxDeltaRot * a[4], kMaxDeltaRot * a[5]);
+  const Eigen::Vector3d rv(robot::kMaxDeltaRotRad * a[3], robot::kMaxDeltaRotRad * a[4], robot::kMaxDeltaRotRad * a[5]);
   Eigen::Quaterniond delta = Eigen::Quaterniond::Identity();
   if (rv.norm() > 1e-12) delta = Eigen::AngleAxisd(rv.norm(), rv.normalized());
   const auto q_goal_rot = geo::wxyz(delta * geo::quat(tcp_quat(d_)));
@@ -205,7 +207,7 @@ std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
     const double vmax = kRefSpeedFraction * limits_.joint_speed;
     v_ref[i] = std::clamp((q_goal[i] - q0[i]) / period, -vmax, vmax);
   }
-  d_->ctrl[ids_->gripper_act] = 0.04 * (1.0 - a[6]) / 2.0;
+  d_->ctrl[ids_->gripper_act] = robot::finger_target(a[6]);
 
   bool hold = false;
   std::array<double, 7> q_hold{};

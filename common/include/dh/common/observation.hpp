@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include "dh/common/robot_contract.hpp"
+
 namespace dh {
 
 struct EntityState {
@@ -33,7 +35,7 @@ struct Observation {
   std::string episode_id;   ///< the episode the step belongs to (with `step`, what cores order by)
 
   /// The jaw holds something: both fingers touch and the jaw is not shut on itself.
-  bool holding() const { return contact_left && contact_right && gripper_opening > 0.002; }
+  bool holding() const { return contact_left && contact_right && gripper_opening > robot::kJawShutM; }
   /// `o` is what the jaw holds: holding, with `o` at the tool (within its half size and 1 cm) and below it.
   bool in_jaw(const EntityState& o) const {
     return holding() && std::hypot(ee_p[0] - o.p[0], ee_p[1] - o.p[1]) < std::max(o.half_extents[0], o.half_extents[1]) + 0.01 &&

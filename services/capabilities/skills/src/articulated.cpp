@@ -95,7 +95,7 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
       break;
     case Stage::Close:
       if (m_.done()) {
-        if (obs.gripper_opening < 0.003) return fail(FailureCode::HandleMissed, "handle missed: the jaw closed on nothing");
+        if (obs.gripper_opening < robot::kJawShutM) return fail(FailureCode::HandleMissed, "handle missed: the jaw closed on nothing");
         stage_ = Stage::Move;
         begin_move(obs);
       }
@@ -118,7 +118,7 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
       break;
   }
   if (stage_ == Stage::Move) {
-    if (grasps() && obs.gripper_opening < 0.003) return fail(FailureCode::HandleLost, "lost the handle while moving the part");
+    if (grasps() && obs.gripper_opening < robot::kJawShutM) return fail(FailureCode::HandleLost, "lost the handle while moving the part");
     move_action = move_step(obs, move_finished);
     if (move_finished) {
       if (grasps()) {
@@ -197,7 +197,7 @@ void SlideDrawerSkill::begin_move(const Observation& obs) {
   const double dist = aim - d.joint + (open_ ? p_.pull_slack : -p_.push_slack);
   const Eigen::Vector3d to = geo::vec(obs.ee_p) + Eigen::Vector3d(f.x(), f.y(), 0) * dist;
   m_.go(obs, to, q_,
-        std::clamp(steps(1.6 * std::abs(dist) / (p_.slide_speed * 0.05)), steps(p_.slide_min_steps),
+        std::clamp(steps(1.6 * std::abs(dist) / (p_.slide_speed * robot::kControlPeriodS)), steps(p_.slide_min_steps),
                    steps(p_.slide_max_steps)));
 }
 

@@ -4,12 +4,9 @@
 #include <numbers>
 
 #include "dh/common/geometry.hpp"
+#include "dh/common/robot_contract.hpp"
 
 namespace dh::cap {
-
-namespace {
-constexpr double kMaxDeltaPos = 0.05, kMaxDeltaRot = 0.5;  // OSC_POSE scaling of the seam
-}
 
 void Motion::go(const Observation& obs, const Eigen::Vector3d& to, const Eigen::Quaterniond& q_to, int steps) {
   from_ = geo::vec(obs.ee_p);
@@ -35,8 +32,8 @@ std::array<double, 7> Motion::advance(const Observation& obs, double grip) {
 std::array<double, 7> action_towards(const Observation& obs, const Eigen::Vector3d& p, const Eigen::Quaterniond& q,
                                      double grip) {
   std::array<double, 7> a{};
-  const Eigen::Vector3d dp = (p - geo::vec(obs.ee_p)) / kMaxDeltaPos;
-  const Eigen::Vector3d dr = geo::rotvec_between(geo::quat(obs.ee_q), q) / kMaxDeltaRot;
+  const Eigen::Vector3d dp = (p - geo::vec(obs.ee_p)) / robot::kMaxDeltaPosM;
+  const Eigen::Vector3d dr = geo::rotvec_between(geo::quat(obs.ee_q), q) / robot::kMaxDeltaRotRad;
   for (int i = 0; i < 3; ++i) {
     a[i] = std::clamp(dp[i], -1.0, 1.0);
     a[3 + i] = std::clamp(dr[i], -1.0, 1.0);

@@ -260,7 +260,7 @@ void PickPlaceSkill::enter(Stage s, const Observation& obs) {
       const Eigen::Vector3d to(over.x() + grasp_offset_.x(), over.y() + grasp_offset_.y(), ee.z());
       const double dist = (to - ee).norm();
       m_.go(obs, to, grasp_q_,
-            std::clamp(static_cast<int>(std::ceil(dist / (p_.max_speed * 0.05) * 1.9)), steps(p_.carry_min_steps),
+            std::clamp(static_cast<int>(std::ceil(dist / (p_.max_speed * robot::kControlPeriodS) * 1.9)), steps(p_.carry_min_steps),
                        steps(p_.carry_max_steps)));
       break;
     }
@@ -324,7 +324,7 @@ SkillStep PickPlaceSkill::next(const Observation& obs) {
       break;
     case Stage::Close:
       if (m_.done()) {
-        if (obs.gripper_opening < 0.002) return fail(FailureCode::GraspMissed, "grasp missed: the jaw closed on nothing");
+        if (obs.gripper_opening < robot::kJawShutM) return fail(FailureCode::GraspMissed, "grasp missed: the jaw closed on nothing");
         if (grasp_only_) return completed_step();
         enter(Stage::Lift, obs);
       }
@@ -337,7 +337,7 @@ SkillStep PickPlaceSkill::next(const Observation& obs) {
       }
       break;
     case Stage::Carry:
-      if (!(obs.contact_left || obs.contact_right) || obs.gripper_opening < 0.002)
+      if (!(obs.contact_left || obs.contact_right) || obs.gripper_opening < robot::kJawShutM)
         return fail(FailureCode::ObjectDropped, "object dropped during the carry");
       if (m_.done()) enter(Stage::Lower, obs);
       break;

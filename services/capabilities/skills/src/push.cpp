@@ -143,12 +143,12 @@ SkillStep PushSkill::next(const Observation& obs) {
       const double along = (now - object0_).dot(dir_);
       const Eigen::Vector2d ee(obs.ee_p[0], obs.ee_p[1]);
       if ((now - ee).dot(dir_) < 0) return fail(FailureCode::ContactLost, "object slid off the pusher (it is no longer ahead of the pads)");
-      if (reference_ - along < 0.03) reference_ = std::min(travel_, reference_ + p_.max_speed * 0.05);
+      if (reference_ - along < 0.03) reference_ = std::min(travel_, reference_ + p_.max_speed * robot::kControlPeriodS);
       const Eigen::Vector2d side(-dir_.y(), dir_.x());
       const Eigen::Vector2d centre = object0_ + dir_ * reference_ + side * (now - object0_).dot(side);
       Eigen::Vector2d to = centre - dir_ * (support(*o, dir_) + kPadThickness / 2 - p_.lead);
       // Before contact the tool closes the standoff at max_speed, not in one lunge.
-      const double reach = p_.lead + p_.max_speed * 0.05;
+      const double reach = p_.lead + p_.max_speed * robot::kControlPeriodS;
       if ((to - ee).norm() > reach) to = ee + (to - ee).normalized() * reach;
       ++total_steps_;
       out.stage = "push";

@@ -13,6 +13,7 @@
 #include "dh/common/evidence.hpp"
 #include "dh/common/observation.hpp"
 #include "dh/common/perceived_world.hpp"
+#include "dh/common/robot_contract.hpp"
 #include "dh/common/seam_event.hpp"
 #include "dh/gov/decide.hpp"
 #include "dh/gov/grounding.hpp"
@@ -24,7 +25,7 @@ namespace dh::gov {
 using Clock = std::chrono::steady_clock;
 
 struct GovernorConfig {
-  std::uint32_t decision_period = 10;  ///< control steps between decisions (2 Hz at 20 Hz)
+  std::uint32_t decision_period = robot::kDecisionPeriodSteps;  ///< control steps between decisions
   ExecutorMode mode = ExecutorMode::Full;
   DecisionLimits limits;
   int max_refusals = 4;                ///< refusals in a row before the episode is given up

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "dh/common/command.hpp"
+#include "dh/common/robot_contract.hpp"
 
 namespace dh::gov {
 
@@ -42,7 +43,7 @@ struct Command {
   Bindings args;
   std::map<std::string, double> theta;
   std::uint32_t start_step = 0, budget_steps = 0, lease_until_step = 0;
-  std::uint32_t decision_period = 10;  ///< the episode's; the capability reports progress at least this often
+  std::uint32_t decision_period = robot::kDecisionPeriodSteps;  ///< the episode's; progress comes at least this often
 };
 
 struct Lease {

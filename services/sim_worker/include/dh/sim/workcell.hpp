@@ -1,6 +1,5 @@
-// One MuJoCo workcell (one channel): physics at 2 ms, control at 20 Hz. An action is robosuite
-// OSC_POSE-like: Δposition × 0.05 m and Δrotation (axis-angle, world frame) × 0.5 rad from the current
-// tool pose, gripper -1 open … +1 close. A damped-least-squares IK turns the pose target into joint
+// One MuJoCo workcell (one channel): physics at 2 ms, control at 20 Hz. An action means what the robot
+// contract says (dh/common/robot_contract.hpp). A damped-least-squares IK turns the pose target into joint
 // targets, tracked by joint PD plus bias (gravity, Coriolis) compensation; the 50 Hz safety check
 // runs inside the step.
 #pragma once
@@ -23,8 +22,6 @@ struct mjData_;
 
 namespace dh::sim {
 
-inline constexpr double kMaxDeltaPos = 0.05;  ///< m per step at |a| = 1 (OSC_POSE output_max)
-inline constexpr double kMaxDeltaRot = 0.5;   ///< rad per step at |a| = 1
 inline constexpr int kSubsteps = 25;          ///< 20 Hz control over 2 ms physics
 inline constexpr int kSafetyEvery = 10;       ///< substeps between safety checks: 50 Hz
 

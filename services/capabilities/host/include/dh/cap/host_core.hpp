@@ -30,6 +30,7 @@
 #include "dh/common/observation.hpp"
 #include "dh/common/perceived_world.hpp"
 #include "dh/common/ports.hpp"
+#include "dh/common/robot_contract.hpp"
 
 namespace dh::cap {
 
@@ -44,7 +45,7 @@ struct CommandStart {
   Bindings args;
   Theta theta;  ///< the θ of the episode's library version
   std::uint32_t start_step = 0, budget_steps = 0;
-  std::uint32_t decision_period = 10;  ///< progress is reported at least this often (steps)
+  std::uint32_t decision_period = robot::kDecisionPeriodSteps;  ///< progress is reported at least this often (steps)
   Grounding grounding = Grounding::State;
 };
 

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "dh/common/robot_contract.hpp"
+
 #include "dh/cap/skill.hpp"
 
 namespace dh::cap {
@@ -40,8 +42,7 @@ class Motion {
 std::array<double, 7> action_towards(const Observation& obs, const Eigen::Vector3d& p, const Eigen::Quaterniond& q,
                                      double grip);
 
-/// Jaw command that holds the fingers `width` m apart (the seam maps -1 … +1 to 0.08 … 0 m).
-inline double grip_for_opening(double width) { return std::clamp(1.0 - width / 0.04, -1.0, 1.0); }
+using robot::grip_for_opening;
 /// Tool orientation pointing down with the jaw's closing axis (tool y) along the table direction `axis`,
 /// of the two such orientations the one nearer the observed tool yaw.
 Eigen::Quaterniond jaw_along(const Observation& obs, const Eigen::Vector2d& axis);
