@@ -54,7 +54,9 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   cell.reset(seed, task.goal);
   std::filesystem::remove(evidence_path);
   EvidenceWriter evidence(evidence_path);
-  const std::string episode_id = task.suite + "/" + std::to_string(task.id) + "/" + std::to_string(seed);
+  // Unique per run: the host core keeps a channel's keyframes for as long as its episode id stays the same.
+  const std::string episode_id =
+      task.suite + "/" + std::to_string(task.id) + "/" + std::to_string(seed) + "#" + std::to_string(++runs_);
   gov::EpisodeSpec spec{0, episode_id, task.instruction, arm, task.budget_steps};
   SeamChannel seam(cell, spec.channel, episode_id, task.budget_steps);
   cap::Clock::time_point now = step_time(0);

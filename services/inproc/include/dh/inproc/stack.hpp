@@ -57,6 +57,7 @@ class Stack {
   std::map<std::string, cap::CapabilityDef> defs_;
   gov::Registry registry_;
   cap::HostCore host_;  ///< every capability's instance "<name>@inproc"
+  std::uint64_t runs_ = 0;  ///< episodes run, for unique episode ids
   std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  ///< by scene key
 };
 
