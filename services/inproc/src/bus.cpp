@@ -46,9 +46,7 @@ void CommandRunner::begin_episode(const std::string& episode_id) {
 CommandOutcome CommandRunner::run(const std::string& capability, const cap::Bindings& args,
                                   const cap::Theta& theta, std::uint32_t budget_steps) {
   if (!seam_) throw std::logic_error("CommandRunner::run before begin_episode");
-  const cap::ServedCapability* served = nullptr;
-  for (const auto& s : host_.served())
-    if (s.def.name == capability) served = &s;
+  const cap::ServedCapability* served = host_.serving(capability);
   if (!served) throw std::invalid_argument("the host core serves no capability '" + capability + "'");
   cap::CommandStart c;
   c.episode_id = seam_->episode_id();

@@ -30,15 +30,14 @@ void Stack::add_capability(cap::CapabilityDef def, const std::filesystem::path& 
   info.cost_steps = static_cast<std::uint32_t>(d.cost_steps);
   info.started_ns = 1;
   registry_.announce(info);
-  host_.serve({def, info.instance});
-  defs_.insert_or_assign(def.name, std::move(def));
+  host_.serve({std::move(def), info.instance});
 }
 
 void Stack::set_parameters(const std::string& capability, const cap::Theta& theta) {
   auto info = registry_.newest_alive(capability);
   if (!info) throw std::invalid_argument("no capability '" + capability + "'");
   for (const auto& [k, v] : theta) info->parameters[k] = v;
-  info->cost_steps = static_cast<std::uint32_t>(defs_.at(capability).make(info->parameters)->cost_steps());
+  info->cost_steps = static_cast<std::uint32_t>(host_.serving(capability)->def.make(info->parameters)->cost_steps());
   registry_.announce(*info);
 }
 

@@ -50,7 +50,7 @@ CommandStart from_msg(const msg::Command& c) {
   s.command_id = c.command_id();
   s.capability = c.capability();
   s.instance = c.instance();
-  for (const auto& x : c.args()) s.args.emplace_back(x.role(), x.entity());
+  s.args = convert::from_msg(c.args());
   s.theta = convert::from_msg(c.theta());
   s.start_step = c.start_step();
   s.budget_steps = c.budget_steps();

@@ -59,18 +59,33 @@ const ServedCapability* HostCore::find(const std::string& instance) const {
   return nullptr;
 }
 
+const ServedCapability* HostCore::serving(const std::string& capability) const {
+  for (const auto& s : served_)
+    if (s.def.name == capability) return &s;
+  return nullptr;
+}
+
+PerceivedWorld* HostCore::world_for(const Observation& obs) {
+  const auto w = worlds_.find(obs.channel);
+  return w != worlds_.end() && w->second.latest()->episode_id == obs.episode_id ? &w->second : nullptr;
+}
+
+StatusReport HostCore::cancel(RunningMap::iterator it, std::string why) {
+  const auto o = last_obs_.find(it->first);
+  StatusReport s = status(it->second, CommandState::Cancelled, std::move(why),
+                          o != last_obs_.end() ? o->second.step : 0, it->second.steps_used);
+  running_.erase(it);
+  return s;
+}
+
 HostEffects HostCore::on_start(const CommandStart& c, Clock::time_point now) {
   HostEffects fx;
   record_keyframe(c);
   // A newer command on the channel supersedes whatever runs there (its CANCEL may have been overwritten
   // on the channel's key before it was read).
   if (auto it = running_.find(c.channel);
-      it != running_.end() && it->second.command.command_id != c.command_id) {
-    const auto o = last_obs_.find(c.channel);
-    fx.statuses.push_back(status(it->second, CommandState::Cancelled, "superseded by " + c.command_id,
-                                 o != last_obs_.end() ? o->second.step : 0, it->second.steps_used));
-    running_.erase(it);
-  }
+      it != running_.end() && it->second.command.command_id != c.command_id)
+    fx.statuses.push_back(cancel(it, "superseded by " + c.command_id));
   const ServedCapability* s = find(c.instance);
   if (!s) return fx;
   if (auto it = running_.find(c.channel); it != running_.end()) return fx;  // a redelivery of the running one
@@ -93,10 +108,7 @@ HostEffects HostCore::on_cancel(const CommandCancel& c) {
   if (!find(c.instance)) return fx;
   auto it = running_.find(c.channel);
   if (it == running_.end() || it->second.command.command_id != c.command_id) return fx;
-  const auto o = last_obs_.find(c.channel);
-  fx.statuses.push_back(status(it->second, CommandState::Cancelled, "cancelled by the governor",
-                               o != last_obs_.end() ? o->second.step : 0, it->second.steps_used));
-  running_.erase(it);
+  fx.statuses.push_back(cancel(it, "cancelled by the governor"));
   return fx;
 }
 
@@ -120,26 +132,20 @@ HostEffects HostCore::on_observation(const Observation& obs, Clock::time_point n
   if (last.episode_id != obs.episode_id) keyframes_.erase(obs.channel);
   last = obs;
   auto it = running_.find(obs.channel);
-  if (it == running_.end()) {
-    // Every observation goes through the channel's perceived world, so it sees each grasp and release.
-    if (auto w = worlds_.find(obs.channel);
-        w != worlds_.end() && w->second.latest()->episode_id == obs.episode_id) {
-      Observation seen = obs;
-      w->second.view(seen, {});
-    }
-    return {};
+  if (it != running_.end()) return step(it, obs, now);
+  // Every observation goes through the channel's perceived world, so it sees each grasp and release.
+  if (PerceivedWorld* world = world_for(obs)) {
+    Observation seen = obs;
+    world->view(seen, {});
   }
-  return step(it, obs, now);
+  return {};
 }
 
 HostEffects HostCore::step(RunningMap::iterator it, const Observation& observed, Clock::time_point now) {
   HostEffects fx;
   Running& r = it->second;
   Observation obs = observed;
-  PerceivedWorld* world = nullptr;
-  if (auto w = worlds_.find(obs.channel);
-      w != worlds_.end() && w->second.latest()->episode_id == obs.episode_id)
-    world = &w->second;
+  PerceivedWorld* world = world_for(obs);
   const bool same_episode = obs.episode_id == r.command.episode_id;
   const bool perceived = r.command.grounding == Grounding::Perception && same_episode;
   std::optional<Unperceived> unseen;

@@ -62,12 +62,7 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
     done.reason = "already in the asked state";
     return done;
   }
-  auto fail = [&](FailureCode code, const std::string& why) {
-    out.status = SkillStatus::Failed;
-    out.failure = code;
-    out.reason = why;
-    return out;
-  };
+  auto fail = [&](FailureCode code, const std::string& why) { return failed(out, code, why); };
   if (!part) return fail(FailureCode::EntityLost, "part '" + part_ + "' left the observation");
   bool move_finished = false;
   std::array<double, 7> move_action{};

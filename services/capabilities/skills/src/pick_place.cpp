@@ -304,14 +304,8 @@ SkillStep PickPlaceSkill::next(const Observation& obs) {
   out.stage = stage_name(stage_);
   const EntityState* o = obs.entity(object_);
   if (!o || (!grasp_only_ && !obs.entity(target_)))
-    return failed_step(FailureCode::EntityLost, "entity '" + (o ? target_ : object_) + "' left the observation",
-                       out.stage);
-  auto fail = [&](FailureCode code, const std::string& why) {
-    out.status = SkillStatus::Failed;
-    out.failure = code;
-    out.reason = why;
-    return out;
-  };
+    return failed(out, FailureCode::EntityLost, "entity '" + (o ? target_ : object_) + "' left the observation");
+  auto fail = [&](FailureCode code, const std::string& why) { return failed(out, code, why); };
   // Stage transitions driven by what is observed.
   switch (stage_) {
     case Stage::Approach:

@@ -99,11 +99,8 @@ SkillStep PushSkill::next(const Observation& obs) {
   const EntityState* t = obs.entity(target_);
   static constexpr const char* names[] = {"approach", "descent", "push", "back_off", "retreat", "done"};
   auto fail = [&](FailureCode code, const std::string& why) {
-    out.status = SkillStatus::Failed;
-    out.failure = code;
-    out.reason = why;
     out.stage = names[static_cast<int>(stage_)];
-    return out;
+    return failed(out, code, why);
   };
   if (!o || !t) return fail(FailureCode::EntityLost, "entity '" + (o ? target_ : object_) + "' left the observation");
   const Eigen::Vector2d now(o->p[0], o->p[1]);

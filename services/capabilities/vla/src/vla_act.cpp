@@ -44,18 +44,21 @@ SkillStep VlaActSkill::next(const Observation& obs) {
       waited_ = 0;
     } catch (const SourceNotReady& e) {
       if (++waited_ > steps(p_.max_wait_steps)) {
-        return failed_step(FailureCode::PolicyNotReady,
-                           std::string("policy not ready for ") + std::to_string(waited_) + " steps: " + e.what(), "wait");
+        s.stage = "wait";
+        return failed(s, FailureCode::PolicyNotReady,
+                      std::string("policy not ready for ") + std::to_string(waited_) + " steps: " + e.what());
       }
       s.action[6] = gripper_command_;  // hold still, keep the jaw as it was
       s.stage = "wait";
       ++used_;
       return s;
     } catch (const std::exception& e) {
-      return failed_step(FailureCode::PolicyError, std::string("policy: ") + e.what(), "infer");
+      s.stage = "infer";
+      return failed(s, FailureCode::PolicyError, std::string("policy: ") + e.what());
     }
     if (chunk_.empty()) {
-      return failed_step(FailureCode::PolicyError, "policy returned no actions", "infer");
+      s.stage = "infer";
+      return failed(s, FailureCode::PolicyError, "policy returned no actions");
     }
     next_ = 0;
   }

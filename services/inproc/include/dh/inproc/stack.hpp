@@ -54,7 +54,6 @@ class Stack {
 
   gov::GovernorConfig config_;
   std::map<std::string, ArmSpec> arms_;
-  std::map<std::string, cap::CapabilityDef> defs_;
   gov::Registry registry_;
   cap::HostCore host_;  ///< every capability's instance "<name>@inproc"
   std::uint64_t runs_ = 0;  ///< episodes run, for unique episode ids

@@ -105,7 +105,8 @@ class HostCore {
   std::size_t running() const { return running_.size(); }
   /// The tool poses recorded at command starts with an empty hand in the channel's current episode.
   const std::vector<Keyframe>& keyframes(std::uint32_t channel) const;
-  const std::deque<ServedCapability>& served() const { return served_; }
+  /// The instance serving `capability`, or null.
+  const ServedCapability* serving(const std::string& capability) const;
 
  private:
   struct Running {
@@ -122,6 +123,10 @@ class HostCore {
   using RunningMap = std::map<std::uint32_t, Running>;
 
   const ServedCapability* find(const std::string& instance) const;
+  /// The channel's perceived world when it is of `obs`'s episode, or null.
+  PerceivedWorld* world_for(const Observation& obs);
+  /// Ends the running command `it` as cancelled, with `why`, at the channel's last observed step.
+  StatusReport cancel(RunningMap::iterator it, std::string why);
   HostEffects step(RunningMap::iterator it, const Observation& obs, Clock::time_point now);
   /// θ, the skill's check and start on the start step's observation; false when refused.
   bool begin(Running& r, const Observation& obs, HostEffects& fx);

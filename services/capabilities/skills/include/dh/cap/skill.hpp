@@ -31,13 +31,11 @@ struct SkillStep {
   FailureCode failure = FailureCode::None;  ///< set with Failed
 };
 
-/// The step that ends a skill with a failure.
-inline SkillStep failed_step(FailureCode code, std::string reason, std::string stage) {
-  SkillStep s;
+/// `s` (its stage and progress so far) turned into the step that ends the skill with a failure.
+inline SkillStep failed(SkillStep s, FailureCode code, std::string reason) {
   s.status = SkillStatus::Failed;
   s.failure = code;
   s.reason = std::move(reason);
-  s.stage = std::move(stage);
   return s;
 }
 
