@@ -1,5 +1,6 @@
 #include "dh/common/paths.hpp"
 
+#include <cctype>
 #include <cstdlib>
 
 #include "dh/common/config.hpp"
@@ -40,6 +41,13 @@ fs::path dds_profile() {
 fs::path runs_dir() {
   if (fs::path p = env_path("DH_RUNS_DIR"); !p.empty()) return p;
   return fs::current_path() / "runs";
+}
+
+fs::path evidence_file(const fs::path& runs, const std::string& episode_id, const char* extension) {
+  std::string name = episode_id;
+  for (char& ch : name)
+    if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '-' && ch != '_' && ch != '.') ch = '_';
+  return runs / "evidence" / (name + extension);
 }
 
 }  // namespace dh::paths

@@ -39,11 +39,12 @@ TEST(Seam, RejectsWhenTheCommandBudgetIsSpent) {
   EXPECT_NE(r.reason.find("command budget"), std::string::npos);
 }
 
-TEST(Seam, WaitsForARenewalThenRejectsTheExpiredLease) {
-  EXPECT_EQ(admit_action("c0", 10, 10, 300, lease(10, 200), false).decision, Admission::WaitForLease);
-  const auto r = admit_action("c0", 10, 10, 300, lease(10, 200), true);
-  EXPECT_EQ(r.decision, Admission::RejectLease);
-  EXPECT_NE(r.reason.find("expired at step 10"), std::string::npos);
+TEST(Seam, HoldsAnActionPastItsLeaseHoweverLongItWaits) {
+  for (const bool grace_elapsed : {false, true}) {
+    const auto r = admit_action("c0", 10, 10, 300, lease(10, 200), grace_elapsed);
+    EXPECT_EQ(r.decision, Admission::WaitForLease);
+    EXPECT_NE(r.reason.find("expired at step 10"), std::string::npos);
+  }
 }
 
 TEST(Seam, RejectsARevokedLeaseAtOnce) {
@@ -52,12 +53,13 @@ TEST(Seam, RejectsARevokedLeaseAtOnce) {
   EXPECT_EQ(admit_action("c0", 12, 12, 300, l, false).decision, Admission::RejectLease);
 }
 
-TEST(Seam, RejectsWhenTheLeaseWriterWentSilent) {
+TEST(Seam, HoldsAStepValidActionWhileTheLeaseWriterIsSilent) {
   LeaseState l = lease(20, 200);
   l.writer_silent = true;
-  const auto r = admit_action("c0", 12, 12, 300, l, false);
-  EXPECT_EQ(r.decision, Admission::RejectLease);
-  EXPECT_NE(r.reason.find("deadline"), std::string::npos);
+  for (const bool grace_elapsed : {false, true})
+    EXPECT_EQ(admit_action("c0", 12, 12, 300, l, grace_elapsed).decision, Admission::WaitForLease);
+  l.revoked = true;  // a revocation still refuses
+  EXPECT_EQ(admit_action("c0", 12, 12, 300, l, false).decision, Admission::RejectLease);
 }
 
 TEST(Seam, AnUnknownCommandWaitsThenIsRejected) {

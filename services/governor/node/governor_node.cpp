@@ -8,7 +8,8 @@
 //         rt/dh/verdict, rt/dh/seam/event     recorded and latched
 //         rt/dh/command         (Command)     commands it did not write are recorded as foreign
 //         rt/dh/perception/scene (Observation) scene estimates, for arms that ground from perception
-// Writes  rt/dh/planner/request (Planner), rt/dh/command (Command), rt/dh/lease (Lease, deadline 1 s),
+// Writes  rt/dh/planner/request (Planner), rt/dh/command (Command), rt/dh/lease (Lease, deadline 1 s;
+//         the running episode's lease is written again every 250 ms, so the seam hears a live governor),
 //         rt/dh/episode/result  (Episode)
 // Evidence: one JSON-lines file per episode under --runs-dir/evidence/.
 // Parameters: --config FILE (default configs/governor.yaml), --runs-dir DIR (default DH_RUNS_DIR or ./runs),
@@ -56,12 +57,6 @@ struct ForeignCommand {
 using Event = std::variant<msg::EpisodeRequest, msg::Observation, msg::Advice, msg::CommandStatus, Announced,
                            LivelinessChange, msg::Verdict, msg::SeamEvent, ForeignCommand, msg::SceneEstimate>;
 
-std::string file_safe(std::string s) {
-  for (char& ch : s)
-    if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '-' && ch != '_' && ch != '.') ch = '_';
-  return s;
-}
-
 class Governor {
  public:
   Governor(dds::Participant& p, gov::GovernorConfig config, std::map<std::string, ArmSpec> arms,
@@ -91,8 +86,9 @@ class Governor {
       log_->warn("channel={} request {} rejected: {}", r.channel(), r.episode_id(), why);
       return;
     }
-    const auto path = runs_ / "evidence" / (file_safe(r.episode_id()) + ".jsonl");
+    const auto path = paths::evidence_file(runs_, r.episode_id(), ".jsonl");
     ch.machine.reset();
+    ch.lease.reset();
     ch.evidence = std::make_unique<EvidenceWriter>(path);
     ch.evidence->append("governor", "episode_request",
                         {{"suite", r.suite()}, {"task", r.task()}, {"seed", r.seed()}, {"cell", r.cell()},
@@ -209,6 +205,14 @@ class Governor {
     }
     for (auto& [id, ch] : channels_)
       if (ch.machine && !ch.machine->ended()) apply(id, ch.machine->on_tick(gov::Clock::now()));
+    // The lease topic's deadline tells the seam this governor is alive: a running episode's lease is
+    // written again well within it, also while no step (and so no renewal) comes.
+    const auto now = gov::Clock::now();
+    for (auto& [id, ch] : channels_)
+      if (ch.lease && ch.machine && !ch.machine->ended() && now - ch.lease_written >= kLeaseRewrite) {
+        lease_.write(*ch.lease);
+        ch.lease_written = now;
+      }
   }
 
  private:
@@ -219,7 +223,11 @@ class Governor {
     /// before the request does; it is kept until the request comes.
     std::optional<msg::Observation> early;
     std::optional<msg::SceneEstimate> early_scene;  ///< the same for perception's first scene estimate
+    std::optional<msg::Lease> lease;  ///< the last lease written for the running episode
+    gov::Clock::time_point lease_written;
   };
+  static constexpr auto kLeaseRewrite =
+      std::chrono::milliseconds(static_cast<int>(dds::kLeaseDeadlineSec * 1000 / 4));
 
   gov::EpisodeMachine* machine(std::uint32_t channel, const std::string& episode) {
     auto it = channels_.find(channel);
@@ -230,7 +238,7 @@ class Governor {
   }
 
   void apply(std::uint32_t channel, const gov::Effects& fx) {
-    const auto& ch = channels_[channel];
+    auto& ch = channels_[channel];
     const std::string& episode = ch.machine->spec().episode_id;
     if (fx.cancel_command) {
       msg::Command c;
@@ -250,6 +258,8 @@ class Governor {
       l.budget_until_step(fx.lease->budget_until_step);
       l.revoked(fx.lease->revoked);
       lease_.write(l);
+      ch.lease = l;
+      ch.lease_written = gov::Clock::now();
     }
     if (fx.command) {
       const auto& g = *fx.command;

@@ -57,22 +57,38 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   const std::string episode_id =
       task.suite + "/" + std::to_string(task.id) + "/" + std::to_string(seed) + "#" + std::to_string(++runs_);
   gov::EpisodeSpec spec{0, episode_id, task.instruction, arm, task.budget_steps};
-  SeamChannel seam(cell, spec.channel, episode_id, task.budget_steps);
+  sim::SeamCore seam(spec.channel, kBusSeam);
   cap::Clock::time_point now = step_time(0);
+  Observation obs = *seam.start(cell, episode_id, task.budget_steps, goal_text(task.goal), now,
+                                std::filesystem::path(evidence_path).replace_extension(".steps"))
+                         .observation;
   gov::EpisodeMachine machine(spec, gov::for_arm(config_, find_arm(arms_, arm)), registry_, evidence, now);
 
   std::optional<gov::EpisodeEnd> end;
   std::optional<cap::ActionOut> action;  ///< the host's answer to the current step
   std::map<std::string, gov::Command> dispatched;  ///< by command id
 
+  bool fresh = true;  // the seam stepped: its observation is new to every core
   std::function<void(cap::HostEffects)> from_host;
+  // The seam's effects: its refusals, corrections and verdict changes go to the governor (over DDS they are
+  // the seam and verdict topics); a new step is seen next round.
+  const auto deliver = [&](const sim::SeamEffects& sx) {
+    for (const auto& e : sx.events) machine.on_seam_event(e);
+    if (sx.verdict) machine.on_verdict(sx.verdict->step, sx.verdict->predicate, sx.verdict->value);
+    if (sx.ended) throw std::runtime_error("episode " + episode_id + ": " + *sx.ended);
+    if (!sx.observation) return;
+    obs = *sx.observation;
+    now += std::chrono::milliseconds(50);
+    fresh = true;
+  };
   // Routes the governor's effects the way the DDS shells carry them, at once (one control step).
   std::function<void(gov::Effects)> from_governor = [&](gov::Effects fx) {
     if (fx.cancel_command)
       from_host(host_.on_cancel({spec.channel, episode_id, *fx.cancel_command, dispatched[*fx.cancel_command].instance}));
     if (fx.lease)
-      seam.on_lease({true, fx.lease->command_id, fx.lease->valid_until_step, fx.lease->budget_until_step,
-                     fx.lease->revoked, false});
+      deliver(seam.on_lease({episode_id, fx.lease->command_id, fx.lease->valid_until_step,
+                             fx.lease->budget_until_step, fx.lease->revoked},
+                            now));
     if (fx.end) end = fx.end;
     if (fx.command) {
       const gov::Command& g = *fx.command;
@@ -97,10 +113,9 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
     for (const auto& a : hx.actions) action = a;
   };
 
-  bool fresh = true;  // the seam stepped: its observation is new to every core
   while (!end) {
-    const Observation obs = seam.observe();
     if (fresh) {
+      fresh = false;
       action.reset();
       from_governor(machine.on_observation(obs, now));
       from_host(host_.on_observation(obs, now));
@@ -114,14 +129,14 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
       now = std::max(now, machine.deadline());
       from_host(host_.on_tick(now));
       from_governor(machine.on_tick(now));
+      deliver(seam.on_tick(now));
     }
-    if (end) break;
+    if (end || fresh) continue;
     if (tap.on_action) tap.on_action(obs, dispatched[action->command_id].capability, action->a);
-    std::array<double, 7> applied = action->a;
-    if (tap.perturb) tap.perturb(applied);
-    for (const auto& e : seam.apply(*action, applied, fresh)) machine.on_seam_event(e);
+    sim::ActionIn applied{action->episode_id, action->command_id, action->step, action->a};
+    if (tap.perturb) tap.perturb(applied.a);
     action.reset();
-    if (fresh) now += std::chrono::milliseconds(50);
+    deliver(seam.on_action(applied, now));
   }
   return {end->success, end->outcome, end->reason, end->steps, end->decisions, end->refusals, evidence_path};
 }

@@ -17,10 +17,13 @@
 //                                           last episode's final state when idle) on its own thread, between
 //                                           steps, and answers with the request's id. Nothing is rendered,
 //                                           and no OpenGL context is made, until the first request.
-// Parameters: --channels K, --first-channel C, --lease-grace-ms (how long an action waits for a
-// lease renewal before it is rejected), --abandon-after-s (a running episode that has had no applied
+// The seam itself (admission, holds, abandonment) is sim::SeamCore (seam_core.hpp); this file carries its
+// events and effects over DDS and renders cameras.
+// Parameters: --channels K, --first-channel C, --lease-grace-ms (how long an action of a command without a
+// lease waits for one before it is refused), --abandon-after-s (a running episode that has had no applied
 // action, lease or request for this long is abandoned: its governor is gone; the channel goes idle and
-// says why), --name, --cameras agentview,wrist (default none: nothing is rendered), --camera-every N
+// says why), --name, --runs-dir (each episode's step log, for `dh replay`, goes to <runs>/evidence/
+// <episode>.steps beside the governor's evidence; default DH_RUNS_DIR or ./runs), --cameras agentview,wrist (default none: nothing is rendered), --camera-every N
 // (steps, default 5), --camera-size S (S x S pixels, default 224). Each channel renders on its own
 // thread with its own OpenGL context (EGL surfaceless); without one the worker does not start.
 // --rgbd-every N (steps, default 0 = only on request) also publishes every RGB-D camera's frame at
@@ -54,7 +57,7 @@
 #include "dh/msg/robotPubSubTypes.h"
 #include "dh/sim/camera.hpp"
 #include "dh/sim/rgbd.hpp"
-#include "dh/sim/seam.hpp"
+#include "dh/sim/seam_core.hpp"
 #include "dh/sim/workcell.hpp"
 
 namespace dh {
@@ -98,9 +101,8 @@ struct Rendering {
 class Channel {
  public:
   Channel(std::uint32_t id, std::string worker, const std::map<std::string, SuiteDef>& suites, Writers& w,
-          std::chrono::milliseconds grace, std::chrono::seconds abandon_after, Rendering rendering,
-          std::shared_ptr<spdlog::logger> log)
-      : id_(id), worker_(std::move(worker)), suites_(suites), w_(w), grace_(grace), abandon_after_(abandon_after),
+          sim::SeamSettings seam, std::filesystem::path runs, Rendering rendering, std::shared_ptr<spdlog::logger> log)
+      : id_(id), worker_(std::move(worker)), suites_(suites), w_(w), core_(id, seam), runs_(std::move(runs)),
         render_(std::move(rendering)), log_(std::move(log)) {}
 
   EventQueue<Event>& queue() { return queue_; }
@@ -118,8 +120,7 @@ class Channel {
     announce(msg::CHANNEL_IDLE);
     while (!shutdown_requested()) {
       if (auto e = queue_.pop(std::chrono::milliseconds(20))) std::visit([&](auto& ev) { handle(ev); }, *e);
-      try_pending();
-      abandon_if_orphaned();
+      publish(core_.on_tick(Clock::now()));
     }
     if (rgbd_frames_)
       log_->info("channel={} {} RGB-D frames, {:.1f} ms each to render, {:.1f} ms to publish", id_, rgbd_frames_,
@@ -136,7 +137,7 @@ class Channel {
     st.channel(id_);
     st.worker(worker_);
     st.state(s);
-    st.episode_id(episode_);
+    st.episode_id(core_.episode_id());
     st.last_episode_id(last_episode_);
     st.last_steps(last_steps_);
     st.last_physics_s(last_physics_s_);
@@ -145,12 +146,14 @@ class Channel {
   }
 
   void handle(msg::EpisodeRequest& r) {
-    if (r.episode_id() == episode_ || r.episode_id() == last_episode_) return;  // transient-local redelivery
-    if (!episode_.empty()) {
+    if (r.episode_id() == core_.episode_id() || r.episode_id() == last_episode_) return;  // transient-local redelivery
+    if (core_.running()) {
       // One client's request must not preempt another's episode; the governor answers it "rejected".
-      log_->warn("channel={} busy with episode={}; request {} ignored", id_, episode_, r.episode_id());
+      log_->warn("channel={} busy with episode={}; request {} ignored", id_, core_.episode_id(), r.episode_id());
       return;
     }
+    sim::Workcell* reset = nullptr;
+    std::string predicate;
     try {
       const TaskDef& task = find_task(suites_, r.suite(), r.task());
       auto& cell = cells_[sim::task_scene_key(task)];
@@ -161,14 +164,14 @@ class Channel {
       }
       const auto t0 = Clock::now();
       cell->reset(r.seed(), task.goal);
-      physics_s_ = std::chrono::duration<double>(Clock::now() - t0).count();
-      cell_ = cell.get();
-      shown_ = cell_;
-      goal_text_ = goal_text(task.goal);
-      if (render_.gl && (!rig_ || rig_->model() != cell_->model())) {
+      reset_s_ = std::chrono::duration<double>(Clock::now() - t0).count();
+      reset = cell.get();
+      shown_ = reset;
+      predicate = goal_text(task.goal);
+      if (render_.gl && (!rig_ || rig_->model() != reset->model())) {
         rig_.reset();  // one scene's GPU state at a time (a few MB each)
         const auto r0 = Clock::now();
-        rig_ = std::make_unique<sim::CameraRig>(*cell_, render_.cameras, render_.size, render_.size);
+        rig_ = std::make_unique<sim::CameraRig>(*reset, render_.cameras, render_.size, render_.size);
         log_->debug("channel={} camera rig for {} in {:.1f} ms", id_, sim::task_scene_key(task),
                     std::chrono::duration<double, std::milli>(Clock::now() - r0).count());
       }
@@ -177,18 +180,21 @@ class Channel {
       finish(r.episode_id(), e.what());
       return;
     }
-    episode_ = r.episode_id();
-    budget_ = r.budget_steps();
-    step_ = 0;
-    lease_ = {};
-    pending_.reset();
-    predicate_ = false;
     render_s_ = 0;
     images_ = 0;
-    last_sign_of_life_ = Clock::now();
-    log_->info("channel={} episode={} suite={} task={} seed={} started", id_, episode_, r.suite(), r.task(), r.seed());
+    sim::SeamEffects fx;
+    try {
+      fx = core_.start(*reset, r.episode_id(), r.budget_steps(), predicate, Clock::now(),
+                       paths::evidence_file(runs_, r.episode_id(), ".steps"));
+    } catch (const std::exception& e) {
+      log_->error("channel={} episode={} cannot start: {}", id_, r.episode_id(), e.what());
+      finish(r.episode_id(), e.what());
+      return;
+    }
+    log_->info("channel={} episode={} suite={} task={} seed={} started", id_, r.episode_id(), r.suite(), r.task(),
+               r.seed());
     announce(msg::CHANNEL_RUNNING);
-    publish_observation();
+    publish(fx);
   }
 
   /// One RGB-D frame of the state the channel shows now, answering `r` (an error frame when it cannot).
@@ -198,102 +204,70 @@ class Channel {
   }
 
   void handle(msg::Lease& l) {
-    if (l.episode_id() != episode_) return;
-    lease_.known = true;
-    lease_.command_id = l.command_id();
-    lease_.valid_until_step = l.valid_until_step();
-    lease_.budget_until_step = l.budget_until_step();
-    lease_.revoked = l.revoked();
-    lease_.writer_silent = false;
-    lease_at_ = Clock::now();
-    last_sign_of_life_ = lease_at_;
+    publish(core_.on_lease({l.episode_id(), l.command_id(), l.valid_until_step(), l.budget_until_step(), l.revoked()},
+                           Clock::now()));
   }
 
-  // The deadline event names no channel we can use, so each channel checks its own lease's age.
+  // The deadline event names no channel we can use, so the core checks its own lease's age.
   void handle(LeaseSilent&) {
-    const auto silent_for = std::chrono::duration<double>(Clock::now() - lease_at_).count();
-    if (lease_.known && !lease_.revoked && silent_for >= dds::kLeaseDeadlineSec) {
-      lease_.writer_silent = true;
-      log_->warn("channel={} lease writer missed its {} s deadline", id_, dds::kLeaseDeadlineSec);
-    }
+    if (core_.on_lease_silent(Clock::now()))
+      log_->warn("channel={} lease writer missed its {} s deadline; actions are held until it is heard", id_,
+                 dds::kLeaseDeadlineSec);
   }
 
   void handle(msg::Action& a) {
-    if (a.episode_id() != episode_ || !cell_) {
-      seam_event(a.step(), a.command_id(), msg::SEAM_REJECTED_COMMAND,
-                 "action for episode '" + a.episode_id() + "' which is not running on this channel");
-      return;
-    }
-    if (pending_)
-      seam_event(pending_->step(), pending_->command_id(), msg::SEAM_REJECTED_STEP, "superseded by a newer action");
-    pending_ = a;
-    pending_since_ = Clock::now();
+    sim::ActionIn in{a.episode_id(), a.command_id(), a.step(), {}};
+    std::copy_n(a.a().begin(), 7, in.a.begin());
+    publish(core_.on_action(in, Clock::now()));
   }
 
   void handle(msg::EpisodeResult& r) {
-    if (r.episode_id() != episode_) return;
-    log_->info("channel={} episode={} ended success={} steps={} physics_s={:.3f}", id_, episode_, r.success(),
-               r.steps(), physics_s_);
+    if (!core_.running() || r.episode_id() != core_.episode_id()) return;
+    log_->info("channel={} episode={} ended success={} steps={} physics_s={:.3f}", id_, r.episode_id(), r.success(),
+               r.steps(), reset_s_ + core_.physics_s());
     if (images_)
-      log_->info("channel={} episode={} {} camera images, {:.1f} ms each (render and publish)", id_, episode_,
+      log_->info("channel={} episode={} {} camera images, {:.1f} ms each (render and publish)", id_, r.episode_id(),
                  images_, 1e3 * render_s_ / images_);
-    finish(episode_, "");
+    finish(r.episode_id(), "");
+  }
+
+  /// Carries the core's effects out: refusals and corrections, the verdict, images, then the observation.
+  void publish(const sim::SeamEffects& fx) {
+    for (const auto& e : fx.events) {
+      seam_event(e.step, e.command_id, static_cast<msg::SeamEventKind>(e.kind), e.reason);
+      if (e.kind != SeamEventKind::SafetyHold && e.kind != SeamEventKind::WorkspaceClamp &&
+          e.kind != SeamEventKind::ActionClamped)
+        log_->info("channel={} step={} action refused: {}", id_, e.step, e.reason);
+    }
+    if (fx.verdict) {
+      msg::Verdict v;
+      v.channel(id_);
+      v.episode_id(core_.episode_id());
+      v.step(fx.verdict->step);
+      v.predicate(fx.verdict->predicate);
+      v.value(fx.verdict->value);
+      w_.verdict.write(v);
+    }
+    if (fx.observation) {
+      if (rig_ && core_.step() % render_.every == 0) publish_images();
+      if (render_.rgbd_every && core_.step() % render_.rgbd_every == 0)
+        for (const auto& c : render_.rgbd->cameras) publish_rgbd(c.camera.name, "");
+      w_.obs.write(convert::to_msg(*fx.observation, id_, core_.episode_id()));
+    }
+    if (fx.ended) {
+      log_->error("channel={} episode={} {}", id_, core_.episode_id(), *fx.ended);
+      finish(core_.episode_id(), *fx.ended);
+    }
   }
 
   /// The channel goes idle, reporting the episode it ran (or could not run, and why).
   void finish(const std::string& episode, const std::string& error) {
     last_episode_ = episode;
-    last_steps_ = error.empty() ? step_ : 0;
-    last_physics_s_ = error.empty() ? physics_s_ : 0;
+    last_steps_ = error.empty() ? core_.step() : 0;
+    last_physics_s_ = error.empty() ? reset_s_ + core_.physics_s() : 0;
     last_error_ = error;
-    cell_ = nullptr;
-    pending_.reset();
-    episode_.clear();
+    core_.end();
     announce(msg::CHANNEL_IDLE);
-  }
-
-  // A live governor ends an episode before this: its longest wait without leases is 4 refused plans
-  // of 10 s each (configs/governor.yaml), well under the 60 s default. So a dead governor is the cause.
-  // (A model-server planner waits longer: deploy/local_openai.yaml raises --abandon-after-s with it.)
-  void abandon_if_orphaned() {
-    if (episode_.empty() || Clock::now() - last_sign_of_life_ < abandon_after_) return;
-    const std::string why = "no lease, request or applied action for " + std::to_string(abandon_after_.count()) +
-                            " s (governor gone?); episode abandoned at step " + std::to_string(step_);
-    log_->error("channel={} episode={} {}", id_, episode_, why);
-    finish(episode_, why);
-  }
-
-  void try_pending() {
-    if (!pending_ || !cell_) return;
-    const bool grace_elapsed = Clock::now() - pending_since_ >= grace_;
-    const auto r = sim::admit_action(pending_->command_id(), pending_->step(), step_, budget_, lease_, grace_elapsed);
-    if (r.decision == sim::Admission::WaitForLease) return;
-    msg::Action a = *pending_;
-    pending_.reset();
-    if (r.decision != sim::Admission::Apply) {
-      seam_event(a.step(), a.command_id(), static_cast<msg::SeamEventKind>(sim::seam_event_kind(r.decision)), r.reason);
-      log_->warn("channel={} step={} action rejected: {}", id_, a.step(), r.reason);
-      return;
-    }
-    std::array<double, 7> act{};
-    std::copy_n(a.a().begin(), 7, act.begin());
-    const auto t0 = Clock::now();
-    std::vector<sim::StepEvent> events;
-    try {
-      events = cell_->step(act);
-    } catch (const std::exception& e) {
-      // The physics cannot go on (e.g. MuJoCo's contact buffer overflowed): the episode is lost to
-      // infrastructure; the governor's stalled-step deadline ends it and the channel says why.
-      log_->error("channel={} episode={} step={} physics failed: {}", id_, episode_, step_, e.what());
-      finish(episode_, std::string("physics failed at step ") + std::to_string(step_) + ": " + e.what());
-      return;
-    }
-    physics_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
-    last_sign_of_life_ = Clock::now();
-    for (const auto& e : events)
-      seam_event(step_, a.command_id(), static_cast<msg::SeamEventKind>(sim::seam_event_kind(e.kind)), e.reason);
-    ++step_;
-    publish_observation();
   }
 
   /// Every camera's image of the current state, before the observation of the same step.
@@ -303,8 +277,8 @@ class Channel {
       rig_->render(i, image_);
       image_msg_.channel(id_);
       image_msg_.camera(rig_->cameras()[i]);
-      image_msg_.episode_id(episode_);
-      image_msg_.step(step_);
+      image_msg_.episode_id(core_.episode_id());
+      image_msg_.step(core_.step());
       image_msg_.width(static_cast<std::uint32_t>(image_.width));
       image_msg_.height(static_cast<std::uint32_t>(image_.height));
       image_msg_.encoding("rgb8");
@@ -337,8 +311,8 @@ class Channel {
     rgbd_msg_.channel(id_);
     rgbd_msg_.camera(camera);
     rgbd_msg_.source("sim_worker " + worker_);
-    rgbd_msg_.episode_id(cell_ ? episode_ : std::string());
-    rgbd_msg_.step(step_);
+    rgbd_msg_.episode_id(core_.running() ? core_.episode_id() : std::string());
+    rgbd_msg_.step(core_.step());
     rgbd_msg_.request_id(request_id);
     rgbd_msg_.error("");
     rgbd_msg_.has_pose(false);
@@ -399,35 +373,15 @@ class Channel {
       rgbd_render_s_ += std::chrono::duration<double>(t1 - t0).count();
       rgbd_publish_s_ += std::chrono::duration<double>(t2 - t1).count();
       log_->debug("channel={} RGB-D frame {} step={} rendered in {:.1f} ms, published in {:.1f} ms", id_, request_id,
-                  step_, std::chrono::duration<double, std::milli>(t1 - t0).count(),
+                  core_.step(), std::chrono::duration<double, std::milli>(t1 - t0).count(),
                   std::chrono::duration<double, std::milli>(t2 - t1).count());
     }
-  }
-
-  void publish_observation() {
-    if (rig_ && step_ % render_.every == 0) publish_images();
-    if (render_.rgbd_every && step_ % render_.rgbd_every == 0)
-      for (const auto& c : render_.rgbd->cameras) publish_rgbd(c.camera.name, "");
-    Observation o = cell_->observe();
-    o.step = step_;
-    o.budget_steps = budget_;
-    if (o.goal_holds != predicate_) {
-      predicate_ = o.goal_holds;
-      msg::Verdict v;
-      v.channel(id_);
-      v.episode_id(episode_);
-      v.step(step_);
-      v.predicate(goal_text_);
-      v.value(predicate_);
-      w_.verdict.write(v);
-    }
-    w_.obs.write(convert::to_msg(o, id_, episode_));
   }
 
   void seam_event(std::uint32_t step, const std::string& command, msg::SeamEventKind kind, const std::string& why) {
     msg::SeamEvent e;
     e.channel(id_);
-    e.episode_id(episode_);
+    e.episode_id(core_.episode_id());
     e.step(step);
     e.command_id(command);
     e.kind(kind);
@@ -439,8 +393,8 @@ class Channel {
   std::string worker_;
   const std::map<std::string, SuiteDef>& suites_;
   Writers& w_;
-  std::chrono::milliseconds grace_;
-  std::chrono::seconds abandon_after_;
+  sim::SeamCore core_;
+  std::filesystem::path runs_;  ///< step logs go to runs_/evidence, beside the governor's evidence
   Rendering render_;
   std::unique_ptr<sim::CameraRig> rig_;  ///< the current cell's cameras (with --cameras)
   sim::Image image_;
@@ -456,36 +410,29 @@ class Channel {
   double rgbd_render_s_ = 0, rgbd_publish_s_ = 0;
   double render_s_ = 0;  ///< wall time rendering and publishing images in the running episode
   std::uint32_t images_ = 0;
-  Clock::time_point last_sign_of_life_;
   std::shared_ptr<spdlog::logger> log_;
   EventQueue<Event> queue_;
   std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  // one model per scene (and swap)
-  sim::Workcell* cell_ = nullptr;
-  std::string episode_, goal_text_, last_episode_, last_error_;
-  double physics_s_ = 0, last_physics_s_ = 0;  ///< wall time inside MuJoCo for the running / last episode
+  std::string last_episode_, last_error_;
+  double reset_s_ = 0, last_physics_s_ = 0;  ///< wall time inside MuJoCo: the reset, the last episode in all
   std::uint32_t last_steps_ = 0;
-  std::uint32_t budget_ = 0, step_ = 0;
-  sim::LeaseState lease_;
-  std::optional<msg::Action> pending_;
-  Clock::time_point pending_since_;
-  Clock::time_point lease_at_;
-  bool predicate_ = false;
 };
 
 int run(int argc, char** argv) {
   CLI::App app{"dh_sim_worker: MuJoCo workcell channels behind the robot seam"};
   unsigned channels = 1, first = 0, grace_ms = 1000, abandon_after_s = 60;
-  std::string name = "sim_worker";
+  std::string name = "sim_worker", runs;
   std::vector<std::string> cameras;
   unsigned camera_every = 5;
   int camera_size = sim::kDefaultCameraSize;
   unsigned rgbd_every = 0;
   app.add_option("--channels", channels, "number of channels (workcells) in this process")->check(CLI::Range(1, 64));
   app.add_option("--first-channel", first, "id of the first channel");
-  app.add_option("--lease-grace-ms", grace_ms, "wall time an action waits for a lease renewal");
+  app.add_option("--lease-grace-ms", grace_ms, "wall time an action of a command without a lease waits for one");
   app.add_option("--abandon-after-s", abandon_after_s, "end a running episode nothing has advanced for this long")
       ->check(CLI::PositiveNumber);
   app.add_option("--name", name, "worker name in channel announcements");
+  app.add_option("--runs-dir", runs, "where step logs go, under evidence/ (default: DH_RUNS_DIR or ./runs)");
   app.add_option("--cameras", cameras, "cameras to publish on rt/dh/camera: agentview,wrist (default: none)")
       ->delimiter(',')
       ->check(CLI::IsMember(sim::workcell_cameras()));
@@ -500,6 +447,7 @@ int run(int argc, char** argv) {
   auto log = make_logger("dh_sim_worker");
   return run_service(*log, [&] {
     const auto suites = load_suites(paths::config_dir());
+    const std::filesystem::path runs_dir = std::filesystem::absolute(runs.empty() ? paths::runs_dir() : std::filesystem::path(runs));
     // RGB-D cameras (configs/cameras.yaml) go into every model; they render only when asked.
     sim::CamerasConfig rgbd;
     const auto rgbd_file = paths::config_dir() / "cameras.yaml";
@@ -538,9 +486,9 @@ int run(int argc, char** argv) {
     for (unsigned i = 0; i < channels; ++i) {
       Rendering rendering{contexts.empty() ? nullptr : std::move(contexts[i]), cameras, camera_every, camera_size,
                           &rgbd, rgbd_every};
-      chans.push_back(std::make_unique<Channel>(first + i, name, suites, writers,
-                                                std::chrono::milliseconds(grace_ms),
-                                                std::chrono::seconds(abandon_after_s), std::move(rendering), log));
+      const sim::SeamSettings seam{std::chrono::milliseconds(grace_ms), std::chrono::seconds(abandon_after_s),
+                                   std::chrono::milliseconds(static_cast<int>(dds::kLeaseDeadlineSec * 1000))};
+      chans.push_back(std::make_unique<Channel>(first + i, name, suites, writers, seam, runs_dir, std::move(rendering), log));
     }
     auto route = [&](std::uint32_t ch) -> Channel* {
       return ch >= first && ch < first + channels ? chans[ch - first].get() : nullptr;

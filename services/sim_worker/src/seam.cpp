@@ -17,16 +17,14 @@ AdmissionResult admit_action(const std::string& command_id, std::uint32_t action
     return {Admission::RejectCommand, "no lease granted to command '" + command_id + "'" + at};
   }
   if (lease.revoked) return {Admission::RejectLease, "lease of '" + command_id + "' was revoked" + at};
-  if (lease.writer_silent)
-    return {Admission::RejectLease, "lease writer missed its deadline (governor silent)" + at};
   if (action_step >= lease.budget_until_step)
     return {Admission::RejectBudget, "command budget of '" + command_id + "' ends at step " +
                                          std::to_string(lease.budget_until_step) + at};
-  if (action_step >= lease.valid_until_step) {
-    if (!grace_elapsed) return {Admission::WaitForLease, ""};
-    return {Admission::RejectLease, "lease of '" + command_id + "' expired at step " +
-                                        std::to_string(lease.valid_until_step) + " and was not renewed" + at};
-  }
+  if (action_step >= lease.valid_until_step)
+    return {Admission::WaitForLease, "lease of '" + command_id + "' expired at step " +
+                                         std::to_string(lease.valid_until_step) + "; held until it is renewed"};
+  if (lease.writer_silent)
+    return {Admission::WaitForLease, "lease writer missed its deadline; held until it is heard again"};
   return {Admission::Apply, ""};
 }
 

@@ -57,6 +57,9 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
   m_ = compile_model(scene_mjcf(scene_, nominal), scene_.file.string()).release();
   d_ = mj_makeData(m_);
   ik_ = mj_makeData(m_);
+  std::vector<unsigned char> bytes(static_cast<std::size_t>(mj_sizeModel(m_)));
+  mj_saveModel(m_, nullptr, bytes.data(), static_cast<int>(bytes.size()));
+  model_hash_ = fnv1a64(bytes.data(), bytes.size());
   jacp_.resize(3 * m_->nv);
   jacr_.resize(3 * m_->nv);
 
@@ -330,6 +333,28 @@ Observation Workcell::observe() const {
   }
   o.goal_holds = goal_holds();
   return o;
+}
+
+StateDigest Workcell::digest() const {
+  const auto bytes = [](int n) { return static_cast<std::size_t>(n) * sizeof(mjtNum); };
+  StateDigest g;
+  std::uint64_t h = fnv1a64(&d_->time, sizeof d_->time);
+  h = fnv1a64(d_->qpos, bytes(m_->nq), h);
+  h = fnv1a64(d_->qvel, bytes(m_->nv), h);
+  h = fnv1a64(d_->act, bytes(m_->na), h);
+  h = fnv1a64(d_->ctrl, bytes(m_->nu), h);
+  g.state = fnv1a64(d_->qacc_warmstart, bytes(m_->nv), h);
+  g.aux = {fnv1a32(&d_->time, sizeof d_->time), fnv1a32(d_->act, bytes(m_->na)),
+           fnv1a32(d_->ctrl, bytes(m_->nu)), fnv1a32(d_->qacc_warmstart, bytes(m_->nv))};
+  g.joints.reserve(2 * m_->njnt);
+  for (int j = 0; j < m_->njnt; ++j) {
+    const int type = m_->jnt_type[j];
+    const int nq = type == mjJNT_FREE ? 7 : type == mjJNT_BALL ? 4 : 1;
+    const int nv = type == mjJNT_FREE ? 6 : type == mjJNT_BALL ? 3 : 1;
+    g.joints.push_back(fnv1a32(d_->qpos + m_->jnt_qposadr[j], bytes(nq)));
+    g.joints.push_back(fnv1a32(d_->qvel + m_->jnt_dofadr[j], bytes(nv)));
+  }
+  return g;
 }
 
 std::vector<double> Workcell::state() const {

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
 
 namespace dh::paths {
 
@@ -16,5 +17,9 @@ std::filesystem::path home();     ///< throws ConfigError when no checkout can b
 std::filesystem::path config_dir();
 std::filesystem::path dds_profile();
 std::filesystem::path runs_dir();
+/// An episode's evidence file under `runs`/evidence: the episode id made safe for a file name, then
+/// `extension` (".jsonl": the governor's records; ".steps": the seam's step log beside it).
+std::filesystem::path evidence_file(const std::filesystem::path& runs, const std::string& episode_id,
+                                    const char* extension);
 
 }  // namespace dh::paths

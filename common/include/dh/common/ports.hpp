@@ -3,6 +3,9 @@
 // DDS-free: the DDS shell maps a QoS role to Fast DDS QoS (dds.hpp, qos_for); the in-process bus ignores it.
 #pragma once
 
+#include <filesystem>
+#include <set>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -44,5 +47,11 @@ struct Port {
 };
 
 using Ports = std::vector<Port>;
+
+/// The rows of a service README's port table ("| in | rt/dh/... | dh::msg::... | Qos |"), as a core
+/// declares them and as a README lists them (lines starting "| in |" or "| out |"); a test compares the two.
+std::set<std::string> port_table(const Ports& ports);
+/// Throws std::runtime_error naming `readme` when it cannot be read.
+std::set<std::string> port_table(const std::filesystem::path& readme);
 
 }  // namespace dh

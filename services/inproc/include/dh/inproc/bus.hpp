@@ -3,9 +3,9 @@
 // product runs: the capability host core drives every skill; the seam admits every action (lease, budgets,
 // step) before the physics applies it.
 //
-// Per step: the seam's observation goes to the governor's core first (its decision, lease, command or
+// Per step: the seam core's observation goes to the governor's core first (its decision, lease, command or
 // cancel take effect at once, as within one control step over DDS), then to the capability host core,
-// whose action the seam admits and applies. When nothing can move (no action, no end), the clock jumps to
+// whose action the seam core admits and applies, exactly as the simulator worker's seam does over DDS. When nothing can move (no action, no end), the clock jumps to
 // the governor's next deadline, as a stalled channel would wait for it over DDS.
 #pragma once
 
@@ -18,40 +18,21 @@
 
 #include "dh/cap/host_core.hpp"
 #include "dh/common/seam_event.hpp"
-#include "dh/sim/seam.hpp"
+#include "dh/sim/seam_core.hpp"
 #include "dh/sim/workcell.hpp"
 
 namespace dh::inproc {
 
-/// The bus clock: an episode starts at the epoch, each control step adds 50 ms.
+/// The bus clock: an episode starts at the epoch, each control step adds 50 ms (the host core's and the
+/// seam core's clocks are both std::chrono::steady_clock).
 inline cap::Clock::time_point step_time(std::uint32_t step) {
   return cap::Clock::time_point{} + std::chrono::milliseconds(50) * step;
 }
 
-/// One simulator channel in process: the workcell, its step, the lease last granted, and admission.
-class SeamChannel {
- public:
-  SeamChannel(sim::Workcell& cell, std::uint32_t channel, std::string episode_id, std::uint32_t budget_steps);
-
-  /// The observation of the current step, stamped with channel, episode, step and budget.
-  Observation observe() const;
-  void on_lease(const sim::LeaseState& lease) { lease_ = lease; }
-  /// Admits `a` and, when admitted, applies `applied` (the action itself unless a tap perturbed it) for
-  /// one control step. Returns what the seam refused or corrected; `stepped` says whether physics ran.
-  std::vector<SeamEvent> apply(const cap::ActionOut& a, const std::array<double, 7>& applied, bool& stepped);
-
-  std::uint32_t step() const { return step_; }
-  const std::string& episode_id() const { return episode_; }
-  sim::Workcell& cell() { return cell_; }
-
- private:
-  sim::Workcell& cell_;
-  std::uint32_t channel_;
-  std::string episode_;
-  std::uint32_t budget_;
-  std::uint32_t step_ = 0;
-  sim::LeaseState lease_;
-};
+/// The seam's settings on the bus: a lease reaches the seam within its step (one thread), so an action of
+/// a command without one is refused at once instead of after a grace period.
+inline constexpr sim::SeamSettings kBusSeam{std::chrono::milliseconds(0), std::chrono::milliseconds(60000),
+                                            std::chrono::milliseconds(1000)};
 
 struct CommandOutcome {
   CommandState state = CommandState::Running;
@@ -79,7 +60,7 @@ class CommandRunner {
   sim::Workcell& cell_;
   cap::HostCore& host_;
   std::uint32_t episode_budget_;
-  std::optional<SeamChannel> seam_;
+  sim::SeamCore seam_{0, kBusSeam};
   int commands_ = 0;
 };
 

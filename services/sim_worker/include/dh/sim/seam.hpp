@@ -16,16 +16,16 @@ struct LeaseState {
   std::uint32_t valid_until_step = 0;   ///< actions of step t are admitted while t < this
   std::uint32_t budget_until_step = 0;  ///< the command's budget B ends here
   bool revoked = false;
-  bool writer_silent = false;  ///< the lease topic missed its DDS deadline (governor gone?)
+  bool writer_silent = false;  ///< the lease topic missed its DDS deadline: actions hold until it is heard
 };
 
 enum class Admission {
   Apply,
-  WaitForLease,  ///< not renewed yet: hold the action for at most the grace period
+  WaitForLease,  ///< hold: expired by step (until renewed), writer silent (until heard), or no lease yet
   RejectStep,    ///< not the step the channel is at (stale or from the future)
   RejectBudget,  ///< the episode's or the command's budget is spent
-  RejectLease,   ///< expired, revoked, or its writer went silent
-  RejectCommand, ///< no lease was ever granted to this command
+  RejectLease,   ///< revoked
+  RejectCommand, ///< no lease was granted to this command within the grace period
 };
 
 struct AdmissionResult {
@@ -35,7 +35,8 @@ struct AdmissionResult {
 
 /// Decides on the action of `command_id` for step `action_step` while the channel is at
 /// `current_step` with `episode_budget` steps in all. `grace_elapsed`: the action already waited the
-/// grace period for a renewal.
+/// grace period for a lease of its command. Admission is by step: a lease that is merely late (expired by
+/// step, or its writer silent) holds the action, it never refuses it.
 AdmissionResult admit_action(const std::string& command_id, std::uint32_t action_step,
                              std::uint32_t current_step, std::uint32_t episode_budget,
                              const LeaseState& lease, bool grace_elapsed);

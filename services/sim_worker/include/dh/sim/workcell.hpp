@@ -15,6 +15,7 @@
 #include "dh/common/suite.hpp"
 #include "dh/sim/predicates.hpp"
 #include "dh/sim/safety.hpp"
+#include "dh/sim/step_log.hpp"
 #include "dh/sim/scene.hpp"
 
 struct mjModel_;
@@ -62,8 +63,12 @@ class Workcell {
   double max_object_speed() const;
   const SceneSpec& scene() const { return scene_; }
   const SafetyLimits& limits() const { return limits_; }
-  /// Full physics state (qpos, qvel, act, time) for evidence and probes.
+  /// Full physics state (qpos, qvel, time) for tests that compare two states.
   std::vector<double> state() const;
+  /// The physics state in hashes (step_log.hpp): what `dh replay` compares step by step.
+  StateDigest digest() const;
+  /// A hash of the compiled model (scene, assets, options): a replay runs on the same model or says so.
+  std::uint64_t model_hash() const { return model_hash_; }
   /// The compiled model and its state, read by the camera renderer (camera.hpp).
   const mjModel_* model() const { return m_; }
   const mjData_* data() const { return d_; }
@@ -83,6 +88,7 @@ class Workcell {
   std::unique_ptr<Ids> ids_;
   std::unique_ptr<GoalEvaluator> goal_;      ///< resolved at reset
   std::vector<double> jacp_, jacr_;          ///< 3 x nv Jacobian buffers of the IK
+  std::uint64_t model_hash_ = 0;
 };
 
 }  // namespace dh::sim

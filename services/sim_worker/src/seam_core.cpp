@@ -1,0 +1,164 @@
+#include "dh/sim/seam_core.hpp"
+
+#include <mujoco/mujoco.h>
+
+#include "dh/common/topics.hpp"
+#include "dh/sim/workcell.hpp"
+
+namespace dh::sim {
+
+SeamCore::SeamCore(std::uint32_t channel, SeamSettings settings) : channel_(channel), settings_(settings) {}
+
+const Ports& SeamCore::ports() {
+  using enum PortDirection;
+  static const Ports p{
+      {In, topics::kEpisodeRequest, "dh::msg::EpisodeRequest", dds::Qos::Episode,
+       "reset the channel to suite/task/seed"},
+      {In, topics::kLease, "dh::msg::Lease", dds::Qos::Lease,
+       "the governor's grant for the running command; its deadline says the writer went silent"},
+      {In, topics::kAction, "dh::msg::Action", dds::Qos::Action, "one 7-d action per step, lock-step"},
+      {In, topics::kEpisodeResult, "dh::msg::EpisodeResult", dds::Qos::Episode, "the channel goes idle"},
+      {Out, topics::kObservation, "dh::msg::Observation", dds::Qos::Observation,
+       "after the reset (step 0) and after every applied action"},
+      {Out, topics::kVerdict, "dh::msg::Verdict", dds::Qos::Verdict, "every change of the task predicate"},
+      {Out, topics::kSeamEvent, "dh::msg::SeamEvent", dds::Qos::Status,
+       "refused actions and safety corrections, with reasons"},
+  };
+  return p;
+}
+
+SeamEffects SeamCore::start(Workcell& cell, std::string episode_id, std::uint32_t budget_steps,
+                            std::string predicate, SeamClock::time_point now,
+                            const std::filesystem::path& steps_file) {
+  cell_ = &cell;
+  episode_ = std::move(episode_id);
+  predicate_text_ = std::move(predicate);
+  budget_ = budget_steps;
+  step_ = 0;
+  lease_ = {};
+  pending_.clear();
+  predicate_ = false;
+  physics_s_ = 0;
+  lease_at_ = last_sign_of_life_ = now;
+  log_.reset();
+  if (!steps_file.empty())
+    log_ = std::make_unique<StepLogWriter>(
+        steps_file, StepLogHeader{cell.model_hash(), static_cast<std::uint32_t>(mj_version()),
+                                  static_cast<std::uint32_t>(cell.digest().joints.size() / 2)});
+  SeamEffects fx;
+  observe(fx, nullptr);
+  return fx;
+}
+
+void SeamCore::end() {
+  cell_ = nullptr;
+  pending_.clear();
+  lease_ = {};
+  log_.reset();
+}
+
+SeamEffects SeamCore::on_lease(const LeaseGrant& l, SeamClock::time_point now) {
+  if (!running() || l.episode_id != episode_) return {};
+  lease_ = {true, l.command_id, l.valid_until_step, l.budget_until_step, l.revoked, false};
+  lease_at_ = last_sign_of_life_ = now;
+  return admit(now);
+}
+
+SeamEffects SeamCore::on_action(const ActionIn& a, SeamClock::time_point now) {
+  SeamEffects fx;
+  if (!running() || a.episode_id != episode_) {
+    fx.events.push_back({a.step, a.command_id, SeamEventKind::RejectedCommand,
+                         "action for episode '" + a.episode_id + "' which is not running on this channel"});
+    return fx;
+  }
+  auto it = pending_.find(a.command_id);
+  if (it != pending_.end() && it->second.action.step != a.step)
+    fx.events.push_back({it->second.action.step, a.command_id, SeamEventKind::RejectedStep,
+                         "superseded by the same command's action for step " + std::to_string(a.step)});
+  // The same command answering the same step again (a re-send) keeps its place in the grace period.
+  const auto since = it != pending_.end() && it->second.action.step == a.step ? it->second.since : now;
+  pending_[a.command_id] = {a, since};
+  SeamEffects more = admit(now);
+  fx.events.insert(fx.events.end(), more.events.begin(), more.events.end());
+  fx.verdict = std::move(more.verdict);
+  fx.observation = std::move(more.observation);
+  fx.ended = std::move(more.ended);
+  return fx;
+}
+
+bool SeamCore::on_lease_silent(SeamClock::time_point now) {
+  if (!running() || !lease_.known || lease_.revoked || lease_.writer_silent) return false;
+  if (now - lease_at_ < settings_.lease_deadline) return false;
+  lease_.writer_silent = true;
+  return true;
+}
+
+SeamEffects SeamCore::on_tick(SeamClock::time_point now) {
+  if (!running()) return {};
+  if (now - last_sign_of_life_ >= settings_.abandon_after) {
+    SeamEffects fx;
+    fx.ended = "no lease, request or applied action for " +
+               std::to_string(std::chrono::duration_cast<std::chrono::seconds>(settings_.abandon_after).count()) +
+               " s (governor gone?); episode abandoned at step " + std::to_string(step_);
+    end();
+    return fx;
+  }
+  return admit(now);
+}
+
+SeamEffects SeamCore::admit(SeamClock::time_point now) {
+  SeamEffects fx;
+  for (auto it = pending_.begin(); running() && it != pending_.end();) {
+    const ActionIn& a = it->second.action;
+    const auto r = admit_action(a.command_id, a.step, step_, budget_, lease_,
+                                now - it->second.since >= settings_.grace);
+    if (r.decision == Admission::WaitForLease) {
+      ++it;
+      continue;
+    }
+    if (r.decision != Admission::Apply) {
+      fx.events.push_back({a.step, a.command_id, seam_event_kind(r.decision), r.reason});
+      it = pending_.erase(it);
+      continue;
+    }
+    const ActionIn applied = a;
+    pending_.erase(it);
+    const auto t0 = SeamClock::now();
+    std::vector<StepEvent> corrections;
+    try {
+      corrections = cell_->step(applied.a);
+    } catch (const std::exception& e) {
+      // The physics cannot go on (e.g. MuJoCo's contact buffer overflowed): the episode is lost to
+      // infrastructure; the governor's stalled-step deadline ends it and the channel says why.
+      fx.ended = "physics failed at step " + std::to_string(step_) + ": " + e.what();
+      end();
+      return fx;
+    }
+    physics_s_ += std::chrono::duration<double>(SeamClock::now() - t0).count();
+    last_sign_of_life_ = now;
+    for (const auto& e : corrections)
+      fx.events.push_back({step_, applied.command_id, seam_event_kind(e.kind), e.reason});
+    ++step_;
+    observe(fx, &applied);
+    // What else waits is for the step just applied: refused as stale on the next pass.
+    it = pending_.begin();
+  }
+  return fx;
+}
+
+void SeamCore::observe(SeamEffects& fx, const ActionIn* applied) {
+  if (log_) log_->append({step_, applied ? applied->command_id : std::string(), applied ? applied->a : std::array<double, 7>{},
+                          cell_->digest()});
+  observation_ = cell_->observe();
+  observation_.channel = channel_;
+  observation_.episode_id = episode_;
+  observation_.step = step_;
+  observation_.budget_steps = budget_;
+  if (observation_.goal_holds != predicate_) {
+    predicate_ = observation_.goal_holds;
+    fx.verdict = VerdictChange{step_, predicate_text_, predicate_};
+  }
+  fx.observation = observation_;
+}
+
+}  // namespace dh::sim

@@ -1,0 +1,106 @@
+#include "dh/sim/step_log.hpp"
+
+#include <cstring>
+#include <fstream>
+#include <stdexcept>
+
+namespace dh::sim {
+namespace {
+
+constexpr char kMagic[8] = {'D', 'H', 'S', 'T', 'E', 'P', 'S', '1'};
+
+// x86-64 and aarch64 are little-endian; the format says so for any other reader.
+template <typename T>
+void put(std::string& out, const T& v) {
+  out.append(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+
+struct Cursor {
+  const std::string& bytes;
+  std::size_t at = 0;
+  template <typename T>
+  bool get(T& v) {
+    if (at + sizeof(T) > bytes.size()) return false;
+    std::memcpy(&v, bytes.data() + at, sizeof(T));
+    at += sizeof(T);
+    return true;
+  }
+};
+
+}  // namespace
+
+std::uint64_t fnv1a64(const void* data, std::size_t n, std::uint64_t h) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ull;
+  return h;
+}
+
+std::uint32_t fnv1a32(const void* data, std::size_t n, std::uint32_t h) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x01000193u;
+  return h;
+}
+
+StepLogWriter::StepLogWriter(const std::filesystem::path& path, const StepLogHeader& header)
+    : path_(path), joints_(header.joints) {
+  std::filesystem::create_directories(path.parent_path());
+  file_ = std::fopen(path.c_str(), "wb");
+  if (!file_) throw std::runtime_error("cannot write the step log " + path.string() + ": " + std::strerror(errno));
+  std::string out(kMagic, sizeof kMagic);
+  put(out, header.model_hash);
+  put(out, header.mujoco_version);
+  put(out, header.joints);
+  std::fwrite(out.data(), 1, out.size(), file_);
+  std::fflush(file_);
+}
+
+StepLogWriter::~StepLogWriter() {
+  if (file_) std::fclose(file_);
+}
+
+void StepLogWriter::append(const StepRecord& r) {
+  if (r.digest.joints.size() != 2 * joints_)
+    throw std::logic_error("step log " + path_.string() + ": a digest of " + std::to_string(r.digest.joints.size()) +
+                           " joint hashes for " + std::to_string(joints_) + " joints");
+  std::string out;
+  put(out, r.step);
+  put(out, r.digest.state);
+  for (auto h : r.digest.joints) put(out, h);
+  for (auto h : r.digest.aux) put(out, h);
+  for (double a : r.action) put(out, a);
+  put(out, static_cast<std::uint16_t>(r.command_id.size()));
+  out += r.command_id;
+  std::fwrite(out.data(), 1, out.size(), file_);
+  std::fflush(file_);
+}
+
+StepLog read_step_log(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    throw std::runtime_error("no step log " + path.string() +
+                             " (the simulator worker writes it beside the evidence; copy it there from the worker's host)");
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (bytes.size() < sizeof kMagic || std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
+    throw std::runtime_error(path.string() + " is not a DynaHarness step log (no DHSTEPS1 header)");
+  Cursor c{bytes, sizeof kMagic};
+  StepLog log;
+  if (!c.get(log.header.model_hash) || !c.get(log.header.mujoco_version) || !c.get(log.header.joints))
+    throw std::runtime_error(path.string() + ": the step log's header is cut short");
+  for (;;) {
+    StepRecord r;
+    r.digest.joints.resize(2 * log.header.joints);
+    std::uint16_t n = 0;
+    bool ok = c.get(r.step) && c.get(r.digest.state);
+    for (auto& h : r.digest.joints) ok = ok && c.get(h);
+    for (auto& h : r.digest.aux) ok = ok && c.get(h);
+    for (auto& a : r.action) ok = ok && c.get(a);
+    ok = ok && c.get(n) && c.at + n <= bytes.size();
+    if (!ok) break;
+    r.command_id.assign(bytes.data() + c.at, n);
+    c.at += n;
+    log.records.push_back(std::move(r));
+  }
+  return log;
+}
+
+}  // namespace dh::sim

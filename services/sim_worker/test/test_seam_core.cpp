@@ -1,0 +1,235 @@
+// The seam core on a real workcell, event by event with the time passed in: what it applies, what it holds
+// and what it refuses. The sequences that stalled channels over DDS (docs/observation-stall.md) each have
+// a test here.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include "dh/common/paths.hpp"
+#include "dh/common/suite.hpp"
+#include "dh/sim/scene.hpp"
+#include "dh/sim/seam_core.hpp"
+#include "dh/sim/workcell.hpp"
+
+using namespace dh;
+using namespace std::chrono_literals;
+using sim::SeamClock;
+using sim::SeamCore;
+
+namespace {
+
+const SeamClock::time_point t0{};
+
+struct SeamCoreTest : ::testing::Test {
+  static void SetUpTestSuite() {
+    const auto suites = load_suites(paths::config_dir());
+    const TaskDef& t = find_task(suites, "goal", 0);
+    cell = new sim::Workcell(sim::load_task_scene(t));
+    goal = new std::vector<PredicateSpec>(t.goal);
+  }
+  static void TearDownTestSuite() {
+    delete cell;
+    delete goal;
+  }
+  void SetUp() override {
+    cell->reset(21, *goal);
+    const auto fx = seam.start(*cell, "ep", 300, "goal", t0);
+    ASSERT_TRUE(fx.observation);
+    EXPECT_EQ(fx.observation->step, 0u);
+  }
+  sim::SeamEffects lease(const std::string& command, std::uint32_t valid_until, SeamClock::time_point at,
+                         bool revoked = false) {
+    return seam.on_lease({"ep", command, valid_until, 200, revoked}, at);
+  }
+  sim::SeamEffects act(const std::string& command, std::uint32_t step, SeamClock::time_point at) {
+    return seam.on_action({"ep", command, step, {0, 0, 0, 0, 0, 0, -1}}, at);
+  }
+
+  static sim::Workcell* cell;
+  static std::vector<PredicateSpec>* goal;
+  SeamCore seam{3, sim::SeamSettings{1000ms, 60000ms, 1000ms}};
+};
+sim::Workcell* SeamCoreTest::cell = nullptr;
+std::vector<PredicateSpec>* SeamCoreTest::goal = nullptr;
+
+bool refused(const sim::SeamEffects& fx, const std::string& command, SeamEventKind kind) {
+  for (const auto& e : fx.events)
+    if (e.command_id == command && e.kind == kind) return true;
+  return false;
+}
+
+}  // namespace
+
+TEST_F(SeamCoreTest, StartsWithTheObservationOfStepZeroStamped) {
+  const Observation& o = seam.observation();
+  EXPECT_EQ(o.channel, 3u);
+  EXPECT_EQ(o.episode_id, "ep");
+  EXPECT_EQ(o.budget_steps, 300u);
+  EXPECT_TRUE(seam.running());
+}
+
+TEST_F(SeamCoreTest, AppliesALeasedActionAndGivesTheNextStep) {
+  lease("c0", 10, t0);
+  const auto fx = act("c0", 0, t0 + 50ms);
+  ASSERT_TRUE(fx.observation);
+  EXPECT_EQ(fx.observation->step, 1u);
+  EXPECT_EQ(seam.step(), 1u);
+  EXPECT_EQ(seam.held(), 0u);
+}
+
+// Suspect 1: the lease topic's deadline fired while the lease was valid by step. The action used to be
+// refused and nothing re-sent it; now it waits for the writer and goes when the writer is heard.
+TEST_F(SeamCoreTest, ASilentLeaseWriterHoldsAStepValidActionUntilItIsHeardAgain) {
+  lease("c0", 10, t0);
+  EXPECT_FALSE(seam.on_lease_silent(t0 + 500ms)) << "its own lease is younger than the deadline";
+  EXPECT_TRUE(seam.on_lease_silent(t0 + 1100ms));
+  auto fx = act("c0", 0, t0 + 1200ms);
+  EXPECT_FALSE(fx.observation);
+  EXPECT_TRUE(fx.events.empty()) << fx.events.front().reason;
+  fx = seam.on_tick(t0 + 5s);  // far past the grace: still held, not refused
+  EXPECT_FALSE(fx.observation);
+  EXPECT_TRUE(fx.events.empty());
+  fx = lease("c0", 10, t0 + 5100ms);  // the governor's lease written again
+  ASSERT_TRUE(fx.observation);
+  EXPECT_EQ(fx.observation->step, 1u);
+}
+
+// Suspect 2: the action of a decision step reaches the seam before the renewal of its lease, and the
+// renewal comes later than the grace period.
+TEST_F(SeamCoreTest, AnActionPastItsLeaseWaitsForTheRenewalHoweverLate) {
+  lease("c0", 1, t0);
+  ASSERT_TRUE(act("c0", 0, t0).observation);
+  auto fx = act("c0", 1, t0 + 50ms);
+  EXPECT_FALSE(fx.observation);
+  EXPECT_TRUE(fx.events.empty());
+  fx = seam.on_tick(t0 + 3s);
+  EXPECT_FALSE(fx.observation);
+  EXPECT_TRUE(fx.events.empty());
+  fx = lease("c0", 11, t0 + 3s);
+  ASSERT_TRUE(fx.observation);
+  EXPECT_EQ(fx.observation->step, 2u);
+}
+
+// Suspect 3: at a switch, the new command's first action arrives before its lease, then the old command's
+// late action for the same step. It used to take the single pending slot; now each command waits in its own.
+TEST_F(SeamCoreTest, AnOldCommandsLateActionDoesNotDisplaceTheNewOnes) {
+  lease("c0", 10, t0);
+  ASSERT_TRUE(act("c0", 0, t0).observation);
+  lease("c0", 1, t0 + 60ms, true);  // the governor revokes c0 ...
+  auto fx = act("c1", 1, t0 + 70ms);  // ... c1 answers step 1 before c1's lease is in
+  EXPECT_FALSE(fx.observation);
+  fx = act("c0", 1, t0 + 80ms);  // c0's late answer to the same step
+  EXPECT_TRUE(refused(fx, "c0", SeamEventKind::RejectedLease));
+  EXPECT_FALSE(fx.observation);
+  fx = lease("c1", 11, t0 + 90ms);
+  ASSERT_TRUE(fx.observation);
+  EXPECT_EQ(fx.observation->step, 2u);
+  EXPECT_EQ(seam.held(), 0u);
+}
+
+TEST_F(SeamCoreTest, AnActionOfACommandNeverLeasedIsRefusedAfterTheGrace) {
+  lease("c0", 10, t0);
+  EXPECT_FALSE(act("other", 0, t0).observation);
+  EXPECT_TRUE(seam.on_tick(t0 + 900ms).events.empty());
+  const auto fx = seam.on_tick(t0 + 1000ms);
+  EXPECT_TRUE(refused(fx, "other", SeamEventKind::RejectedCommand));
+  EXPECT_EQ(seam.held(), 0u);
+  EXPECT_EQ(seam.step(), 0u);
+}
+
+TEST_F(SeamCoreTest, ARevokedLeaseRefusesAtOnce) {
+  lease("c0", 10, t0, true);
+  const auto fx = act("c0", 0, t0);
+  EXPECT_TRUE(refused(fx, "c0", SeamEventKind::RejectedLease));
+  EXPECT_FALSE(fx.observation);
+}
+
+TEST_F(SeamCoreTest, StaleFutureAndForeignActionsAreRefusedWithReasons) {
+  lease("c0", 10, t0);
+  ASSERT_TRUE(act("c0", 0, t0).observation);
+  auto fx = act("c0", 0, t0 + 10ms);
+  ASSERT_TRUE(refused(fx, "c0", SeamEventKind::RejectedStep));
+  EXPECT_NE(fx.events.front().reason.find("channel is at step 1"), std::string::npos);
+  EXPECT_TRUE(refused(act("c0", 5, t0 + 20ms), "c0", SeamEventKind::RejectedStep));
+  fx = seam.on_action({"another-episode", "c0", 1, {}}, t0 + 30ms);
+  ASSERT_TRUE(refused(fx, "c0", SeamEventKind::RejectedCommand));
+  EXPECT_NE(fx.events.front().reason.find("another-episode"), std::string::npos);
+  EXPECT_EQ(seam.step(), 1u);
+}
+
+TEST_F(SeamCoreTest, AResentActionForTheSameStepReplacesTheHeldOne) {
+  lease("c0", 0, t0);  // expired by step: held
+  EXPECT_FALSE(act("c0", 0, t0).observation);
+  const auto fx = act("c0", 0, t0 + 100ms);
+  EXPECT_TRUE(fx.events.empty());
+  EXPECT_EQ(seam.held(), 1u);
+}
+
+TEST_F(SeamCoreTest, TheEpisodeBudgetEndsAdmission) {
+  seam.end();
+  cell->reset(21, *goal);
+  seam.start(*cell, "ep", 1, "goal", t0);
+  lease("c0", 10, t0);
+  ASSERT_TRUE(act("c0", 0, t0).observation);
+  EXPECT_TRUE(refused(act("c0", 1, t0 + 50ms), "c0", SeamEventKind::RejectedBudget));
+}
+
+TEST_F(SeamCoreTest, NothingForTheAbandonPeriodAbandonsTheEpisode) {
+  lease("c0", 10, t0);
+  EXPECT_FALSE(seam.on_tick(t0 + 59s).ended);
+  const auto fx = seam.on_tick(t0 + 60s);
+  ASSERT_TRUE(fx.ended);
+  EXPECT_NE(fx.ended->find("abandoned at step 0"), std::string::npos);
+  EXPECT_FALSE(seam.running());
+  EXPECT_EQ(seam.episode_id(), "ep") << "the last episode is still named";
+  EXPECT_TRUE(refused(act("c0", 0, t0 + 61s), "c0", SeamEventKind::RejectedCommand));
+}
+
+TEST(SeamCorePorts, MatchTheServiceReadme) {
+  const char* home = std::getenv("DH_HOME");
+  ASSERT_TRUE(home) << "DH_HOME names the checkout";
+  EXPECT_EQ(port_table(std::filesystem::path(home) / "services/sim_worker/README.md"), port_table(SeamCore::ports()));
+}
+
+// The step log the seam writes beside the evidence: one record per step, read back as written, and a
+// digest that tells the same state from a different one.
+TEST_F(SeamCoreTest, WritesAStepLogThatReadsBackAsWritten) {
+  const auto file = std::filesystem::path(::testing::TempDir()) / "seam_core_test.steps";
+  seam.end();
+  cell->reset(21, *goal);
+  const sim::StateDigest reset = cell->digest();
+  seam.start(*cell, "ep", 300, "goal", t0, file);
+  lease("c0", 10, t0);
+  ASSERT_TRUE(seam.on_action({"ep", "c0", 0, {0.5, 0, 0, 0, 0, 0, 1}}, t0).observation);
+  ASSERT_TRUE(seam.on_action({"ep", "c0", 1, {0, 0.5, 0, 0, 0, 0, 1}}, t0).observation);
+  const sim::StateDigest after = cell->digest();
+  seam.end();
+
+  const sim::StepLog log = sim::read_step_log(file);
+  EXPECT_EQ(log.header.model_hash, cell->model_hash());
+  EXPECT_EQ(log.header.joints * 2, reset.joints.size());
+  ASSERT_EQ(log.records.size(), 3u);
+  EXPECT_EQ(log.records[0].step, 0u);
+  EXPECT_EQ(log.records[0].command_id, "");
+  EXPECT_EQ(log.records[0].digest, reset);
+  EXPECT_EQ(log.records[2].command_id, "c0");
+  EXPECT_EQ(log.records[2].action[1], 0.5);
+  EXPECT_EQ(log.records[2].digest, after);
+  EXPECT_NE(reset.state, after.state);
+  EXPECT_NE(reset.joints, after.joints);
+
+  // A torn last record is dropped; a file that is not a step log is named.
+  std::filesystem::resize_file(file, std::filesystem::file_size(file) - 3);
+  EXPECT_EQ(sim::read_step_log(file).records.size(), 2u);
+  std::ofstream(file) << "not a step log";
+  try {
+    sim::read_step_log(file);
+    FAIL() << "read a file that is not a step log";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("seam_core_test.steps"), std::string::npos) << e.what();
+  }
+}
