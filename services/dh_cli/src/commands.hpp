@@ -12,6 +12,14 @@ namespace dh::cli {
 
 int cmd_tasks(bool json);
 
+struct ReplayArgs {
+  std::string evidence, library;
+  std::optional<std::uint32_t> from_command;
+  bool allow_drift = false, json = false;
+};
+/// Exit codes of its own: 0 identical, 3 diverged, 4 refused (a fingerprint differs), 2 bad input.
+int cmd_replay(const ReplayArgs& a);
+
 struct RunArgs {
   std::string suite, launch_file;
   unsigned task = 0, seed = 0, timeout_s = 180, ready_ms = 2500;

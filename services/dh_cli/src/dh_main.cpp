@@ -9,6 +9,9 @@
 //   dh seeds --fresh N --salt S              a fresh block of seeds nobody tuned on
 //   dh swap CAPABILITY [--library FILE]      start a new instance, then drain and stop the old ones
 //   dh train-policy [--config FILE]          demonstrations, then the embedded policy's weight file
+//   dh replay EVIDENCE [--from-command K] [--library DIR] [--json] [--allow-drift]
+//                                            re-runs a recorded episode in process and compares it step by
+//                                            step (exit 0 identical, 3 diverged, 4 a fingerprint differs)
 //   dh launch [FILE] [--host H] [--restart]  runs a deployment (a multi-host file: host H's share) until Ctrl-C
 //   dh dds-profile FILE --host H             writes host H's DDS profile, prints its path
 // Exit codes: 0 done (an episode that fails is a result), 1 infrastructure failure or interrupted
@@ -125,6 +128,18 @@ int main(int argc, char** argv) {
   auto* profile = app.add_subcommand("dds-profile", "write a host's DDS profile of a multi-host launch file, print its path");
   profile->add_option("file", deploy, "multi-host launch YAML")->required();
   profile->add_option("--host", host, "host name in the file")->required();
+  ReplayArgs replay_args;
+  auto* replay = app.add_subcommand("replay", "re-run a recorded episode in process and compare it step by step");
+  replay->add_option("evidence", replay_args.evidence, "the episode's evidence file (<episode>.jsonl; its step log "
+                                                       "<episode>.steps beside it)")->required();
+  replay->add_option("--from-command", replay_args.from_command,
+                     "replay up to the K-th dispatched command (from 0) and compare only its actions");
+  replay->add_option("--library", replay_args.library,
+                     "the capability descriptors whose θ must match the recording (default configs/library)");
+  replay->add_flag("--allow-drift", replay_args.allow_drift,
+                   "replay even when the model, MuJoCo or θ differs from the recording, and say what differs");
+  replay->add_flag("--json", replay_args.json,
+                   "one JSON object: identical, steps, first_divergence {step, body, quantity} or null, ...");
   CLI11_PARSE(app, argc, argv);
   rep.plots = !no_plots;
   try {
@@ -139,6 +154,7 @@ int main(int argc, char** argv) {
     if (*launch) return cmd_launch(deploy, host, restart, list);
     if (*profile) return cmd_dds_profile(deploy, host);
     if (*train) return cmd_train_policy(train_args);
+    if (*replay) return cmd_replay(replay_args);
   } catch (const dh::ConfigError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;

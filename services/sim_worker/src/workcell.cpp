@@ -57,8 +57,17 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
   m_ = compile_model(scene_mjcf(scene_, nominal), scene_.file.string()).release();
   d_ = mj_makeData(m_);
   ik_ = mj_makeData(m_);
-  std::vector<unsigned char> bytes(static_cast<std::size_t>(mj_sizeModel(m_)));
-  mj_saveModel(m_, nullptr, bytes.data(), static_cast<int>(bytes.size()));
+  // The hash is of the model without the RGB-D cameras a simulator worker adds (configs/cameras.yaml):
+  // they render, they do not move anything, and an in-process run has none.
+  ModelPtr bare;
+  if (!scene_.cameras.empty()) {
+    SceneSpec without = scene_;
+    without.cameras.clear();
+    bare = compile_model(scene_mjcf(without, nominal), scene_.file.string());
+  }
+  const mjModel* hashed = bare ? bare.get() : m_;
+  std::vector<unsigned char> bytes(static_cast<std::size_t>(mj_sizeModel(hashed)));
+  mj_saveModel(hashed, nullptr, bytes.data(), static_cast<int>(bytes.size()));
   model_hash_ = fnv1a64(bytes.data(), bytes.size());
   jacp_.resize(3 * m_->nv);
   jacr_.resize(3 * m_->nv);

@@ -1,0 +1,64 @@
+// Replay: an episode re-run in process from its evidence (<episode>.jsonl, the governor's records) and its
+// step log (<episode>.steps, the seam's). The workcell is reset to the recorded task and seed; every
+// recorded action goes through the seam core again, and after each step the physics state's digest is
+// compared with the recorded one. The capability host core is fed the same observations and the recorded
+// commands at their recorded steps, so the skills give their actions again, and each is compared, bit for
+// bit, with the one the seam applied. The first step that differs is named with the body and the
+// quantity (a joint's qpos or qvel, the solver's warm start, an action component, ...).
+//
+// Before it runs, the replay compares fingerprints: the compiled model's hash, MuJoCo's version and every
+// grounded command's θ against configs/library. A difference refuses the replay (FingerprintMismatch),
+// unless drift is allowed; then it is reported and the replay runs anyway.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace dh::inproc {
+
+struct ReplayOptions {
+  std::filesystem::path config_dir;          ///< suites, scenes, governor.yaml
+  std::filesystem::path library_dir;         ///< the descriptors whose θ is compared (default config_dir/library)
+  std::optional<std::uint32_t> from_command;  ///< K: replay up to the K-th dispatched command (0-based) and
+                                             ///< compare only its actions, to the last one it sent
+  bool allow_drift = false;                  ///< run despite differing fingerprints, and say which
+};
+
+struct Divergence {
+  std::uint32_t step = 0;
+  std::string body;      ///< the joint's body, "world" for the solver state, or the capability for actions
+  std::string quantity;  ///< e.g. "qpos:joint3", "qvel:bowl_joint", "qacc_warmstart", "action[2]"
+};
+
+struct ReplayReport {
+  std::string episode_id;
+  bool identical = false;
+  std::uint32_t steps = 0;           ///< steps replayed
+  std::uint32_t recorded_steps = 0;  ///< steps in the step log
+  std::uint32_t from_step = 0;       ///< with from_command: the command's start step
+  std::optional<Divergence> first_divergence;
+  std::uint32_t divergent_steps = 0;        ///< steps whose state or action differed
+  std::uint32_t actions_compared = 0;       ///< skill actions given again and compared with the record
+  std::vector<std::string> recorded_only;   ///< capabilities whose actions only the record has, and why
+  std::vector<std::string> drift;           ///< fingerprints that differ
+  bool verdicts_identical = true;           ///< the predicate changed at the recorded steps
+};
+
+/// A fingerprint differs and drift is not allowed; what() names each difference.
+struct FingerprintMismatch : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+/// Replays the episode of `evidence`. Throws std::runtime_error naming the file for missing or corrupt
+/// evidence, FingerprintMismatch as above.
+ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& options);
+
+nlohmann::json to_json(const ReplayReport& r);
+
+}  // namespace dh::inproc

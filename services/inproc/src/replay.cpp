@@ -1,0 +1,302 @@
+#include "dh/inproc/replay.hpp"
+
+#include <mujoco/mujoco.h>
+
+#include <cstring>
+#include <map>
+
+#include "dh/cap/descriptor.hpp"
+#include "dh/cap/host_core.hpp"
+#include "dh/cap/library.hpp"
+#include "dh/common/arms.hpp"
+#include "dh/common/evidence.hpp"
+#include "dh/common/suite.hpp"
+#include "dh/inproc/bus.hpp"
+#include "dh/sim/scene.hpp"
+#include "dh/sim/seam_core.hpp"
+#include "dh/sim/step_log.hpp"
+#include "dh/sim/workcell.hpp"
+
+namespace dh::inproc {
+namespace {
+
+using nlohmann::json;
+
+/// A command as the evidence recorded it: its grounding (capability, arguments, θ) and its dispatch.
+struct RecordedCommand {
+  std::string id, capability;
+  json args, theta;
+  std::uint32_t start_step = 0, budget_steps = 0;
+};
+
+struct Recorded {
+  std::string suite, arm, episode_id;
+  unsigned task = 0;
+  std::uint64_t seed = 0;
+  std::uint32_t budget_steps = 0, decision_period = 10;
+  std::vector<RecordedCommand> commands;    ///< in dispatch order
+  std::map<std::uint32_t, bool> verdicts;   ///< step -> value of each predicate change
+};
+
+[[noreturn]] void bad(const std::filesystem::path& evidence, const std::string& what) {
+  throw std::runtime_error("evidence " + evidence.string() + ": " + what);
+}
+
+Recorded read_recorded(const std::filesystem::path& evidence) {
+  if (!std::filesystem::exists(evidence)) bad(evidence, "no such file");
+  const std::vector<json> records = read_evidence(evidence);
+  Recorded r;
+  bool request = false, start = false;
+  std::map<std::string, RecordedCommand> grounded;
+  try {
+    for (const auto& e : records) {
+      const std::string kind = e.value("kind", "");
+      if (kind == "episode_request") {
+        request = true;
+        r.suite = e.at("suite").get<std::string>();
+        r.task = e.at("task").get<unsigned>();
+        r.seed = e.at("seed").get<std::uint64_t>();
+        r.arm = e.value("arm", "full");
+      } else if (kind == "episode_start") {
+        start = true;
+        r.episode_id = e.at("episode_id").get<std::string>();
+        r.budget_steps = e.at("budget_steps").get<std::uint32_t>();
+        r.decision_period = e.value("decision_period", 10u);
+      } else if (kind == "grounding" && e.value("result", "") == "grounded") {
+        RecordedCommand& c = grounded[e.at("command_id").get<std::string>()];
+        c.id = e.at("command_id").get<std::string>();
+        c.capability = e.at("capability").get<std::string>();
+        c.args = e.value("args", json::object());
+        c.theta = e.value("theta", json::object());
+      } else if (kind == "dispatch") {
+        const auto id = e.at("command_id").get<std::string>();
+        if (!grounded.count(id)) bad(evidence, "command " + id + " was dispatched without a grounding record");
+        RecordedCommand c = grounded.at(id);
+        c.start_step = e.at("step").get<std::uint32_t>();
+        c.budget_steps = e.at("budget_steps").get<std::uint32_t>();
+        r.commands.push_back(std::move(c));
+      } else if (kind == "verdict_event") {
+        r.verdicts[e.at("step").get<std::uint32_t>()] = e.at("value").get<bool>();
+      }
+    }
+  } catch (const json::exception& e) {
+    bad(evidence, std::string("a record lacks a field the replay needs: ") + e.what());
+  }
+  if (!request || !start) bad(evidence, "no episode_request or episode_start record (not a governor's evidence?)");
+  return r;
+}
+
+const cap::CapabilityDef* find_def(const std::vector<cap::CapabilityDef>& defs, const std::string& name) {
+  for (const auto& d : defs)
+    if (d.name == name) return &d;
+  return nullptr;
+}
+
+/// θ of each grounded capability against the library's descriptor; each difference named.
+std::vector<std::string> theta_drift(const Recorded& rec, const std::vector<cap::CapabilityDef>& defs,
+                                     const std::filesystem::path& library) {
+  std::vector<std::string> drift;
+  std::map<std::string, bool> checked;
+  for (const auto& c : rec.commands) {
+    if (checked[c.capability]) continue;
+    checked[c.capability] = true;
+    const cap::CapabilityDef* def = find_def(defs, c.capability);
+    if (!def) continue;  // reported as recorded-only
+    const auto file = library / (c.capability + ".yaml");
+    const cap::Theta now = cap::load_descriptor(file, *def).parameters;
+    for (const auto& [k, v] : c.theta.items()) {
+      const auto it = now.find(k);
+      if (it == now.end())
+        drift.push_back(c.capability + " θ " + k + " = " + v.dump() + " is recorded; " + file.string() + " has no " + k);
+      else if (!v.is_number() || v.get<double>() != it->second)
+        drift.push_back(c.capability + " θ " + k + " = " + v.dump() + " is recorded; " + file.string() + " has " +
+                        json(it->second).dump());
+    }
+    for (const auto& [k, v] : now)
+      if (!c.theta.contains(k))
+        drift.push_back(c.capability + " θ " + k + " = " + json(v).dump() + " in " + file.string() + " is not recorded");
+  }
+  return drift;
+}
+
+std::string joint_name(const mjModel* m, int j) {
+  const char* n = mj_id2name(m, mjOBJ_JOINT, j);
+  return n ? n : "joint" + std::to_string(j);
+}
+
+std::string body_name(const mjModel* m, int b) {
+  const char* n = mj_id2name(m, mjOBJ_BODY, b);
+  return n ? n : "body" + std::to_string(b);
+}
+
+/// Where two digests of the same model differ: the first joint and quantity, else the solver state.
+Divergence where(const mjModel* m, std::uint32_t step, const sim::StateDigest& got, const sim::StateDigest& want) {
+  for (std::size_t i = 0; i < got.joints.size() && i < want.joints.size(); ++i)
+    if (got.joints[i] != want.joints[i]) {
+      const int j = static_cast<int>(i / 2);
+      return {step, body_name(m, m->jnt_bodyid[j]), std::string(i % 2 ? "qvel:" : "qpos:") + joint_name(m, j)};
+    }
+  static const char* aux[] = {"time", "act", "ctrl", "qacc_warmstart"};
+  for (std::size_t i = 0; i < 4; ++i)
+    if (got.aux[i] != want.aux[i]) return {step, "world", aux[i]};
+  return {step, "world", "state"};
+}
+
+cap::Bindings bindings(const json& args) {
+  cap::Bindings b;
+  for (const auto& [k, v] : args.items()) b.emplace_back(k, v.is_string() ? v.get<std::string>() : v.dump());
+  return b;
+}
+
+cap::Theta theta(const json& t) {
+  cap::Theta th;
+  for (const auto& [k, v] : t.items())
+    if (v.is_number()) th[k] = v.get<double>();
+  return th;
+}
+
+}  // namespace
+
+ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& o) {
+  const Recorded rec = read_recorded(evidence);
+  const auto steps_file = std::filesystem::path(evidence).replace_extension(".steps");
+  const sim::StepLog log = sim::read_step_log(steps_file);
+  if (log.records.empty()) bad(steps_file, "the step log has no record of step 0");
+  if (o.from_command && *o.from_command >= rec.commands.size())
+    throw std::invalid_argument("--from-command " + std::to_string(*o.from_command) + ": the episode dispatched " +
+                                std::to_string(rec.commands.size()) + " command(s), numbered from 0");
+
+  const auto suites = load_suites(o.config_dir);
+  const TaskDef& task = find_task(suites, rec.suite, rec.task);
+  sim::Workcell cell(sim::load_task_scene(task));
+  const std::vector<cap::CapabilityDef> defs = cap::all_capabilities();
+  const auto arms = load_arms(o.config_dir / "governor.yaml");
+  const bool perception = find_arm(arms, rec.arm).grounding == "perception";
+
+  ReplayReport report;
+  report.episode_id = rec.episode_id;
+  report.recorded_steps = static_cast<std::uint32_t>(log.records.size() - 1);
+  if (cell.model_hash() != log.header.model_hash)
+    report.drift.push_back("the model of " + task.scene_file.filename().string() + " compiles to another hash than the recorded one (scene, "
+                           "assets or robot changed)");
+  if (static_cast<std::uint32_t>(mj_version()) != log.header.mujoco_version)
+    report.drift.push_back("MuJoCo " + std::to_string(mj_version()) + " replays a recording of MuJoCo " +
+                           std::to_string(log.header.mujoco_version));
+  const auto library = o.library_dir.empty() ? o.config_dir / "library" : o.library_dir;
+  for (auto& d : theta_drift(rec, defs, library)) report.drift.push_back(std::move(d));
+  if (!report.drift.empty() && !o.allow_drift) {
+    std::string what = "the replay would not run what was recorded (--allow-drift runs it anyway):";
+    for (const auto& d : report.drift) what += "\n  " + d;
+    throw FingerprintMismatch(what);
+  }
+
+  // Which commands the skills give again here, and which only the record has.
+  std::map<std::string, const RecordedCommand*> by_id;
+  std::vector<cap::ServedCapability> served;
+  for (const auto& c : rec.commands) {
+    by_id[c.id] = &c;
+    if (perception)
+      report.recorded_only.push_back(c.capability + " (grounded in perception estimates, which the replay does not re-make)");
+    else if (!find_def(defs, c.capability))
+      report.recorded_only.push_back(c.capability + " (not an analytic or recovery skill of this build)");
+  }
+  for (const auto& d : defs) served.push_back({d, d.name + "@replay"});
+  cap::HostCore host(served, PerceptionLimits{});
+  const auto rerun = [&](const RecordedCommand& c) { return !perception && find_def(defs, c.capability); };
+
+  cell.reset(rec.seed, task.goal);
+  sim::SeamCore seam(0, kBusSeam);
+  Observation obs = *seam.start(cell, rec.episode_id, rec.budget_steps, goal_text(task.goal), step_time(0)).observation;
+  const auto note = [&](const Divergence& d) {
+    ++report.divergent_steps;
+    if (!report.first_divergence) report.first_divergence = d;
+  };
+  if (cell.digest() != log.records[0].digest) note(where(cell.model(), 0, cell.digest(), log.records[0].digest));
+
+  // With --from-command K: the last step to replay is the last one K's actions led to.
+  std::uint32_t last = report.recorded_steps;
+  std::uint32_t compare_from = 0;
+  std::string only;
+  if (o.from_command) {
+    const RecordedCommand& k = rec.commands[*o.from_command];
+    only = k.id;
+    compare_from = report.from_step = k.start_step;
+    last = 0;
+    for (std::size_t i = 1; i < log.records.size(); ++i)
+      if (log.records[i].command_id == k.id) last = static_cast<std::uint32_t>(i);
+    if (last == 0) last = k.start_step;  // the command sent no action (refused, or ended at once)
+  }
+
+  std::map<std::uint32_t, bool> verdicts;
+  std::optional<cap::ActionOut> action;  // the skills' answer to the current step
+  const auto take = [&](const cap::HostEffects& fx) {
+    for (const auto& a : fx.actions) action = a;
+  };
+  take(host.on_observation(obs, step_time(0)));
+  std::size_t next = 0;
+  for (std::uint32_t i = 1; i <= last; ++i) {
+    const sim::StepRecord& r = log.records[i];
+    const std::uint32_t t = i - 1;  // the step the action answers
+    if (r.step != i) bad(steps_file, "record " + std::to_string(i) + " is for step " + std::to_string(r.step));
+    for (; next < rec.commands.size() && rec.commands[next].start_step <= t; ++next) {
+      const RecordedCommand& c = rec.commands[next];
+      if (!rerun(c)) continue;
+      cap::CommandStart s{0, rec.episode_id, c.id, c.capability, c.capability + "@replay", bindings(c.args),
+                          theta(c.theta), c.start_step, c.budget_steps, rec.decision_period, cap::Grounding::State};
+      take(host.on_start(s, step_time(t)));
+    }
+    const auto cmd = by_id.find(r.command_id);
+    if (cmd == by_id.end())
+      bad(evidence, "step " + std::to_string(i) + " was reached by an action of command '" + r.command_id +
+                        "', which the evidence never dispatched");
+    if (rerun(*cmd->second) && t >= compare_from && (only.empty() || r.command_id == only)) {
+      ++report.actions_compared;
+      if (!action || action->command_id != r.command_id || action->step != t) {
+        note({t, cmd->second->capability, "action (the skill gave none)"});
+      } else {
+        for (int k = 0; k < 7; ++k)
+          if (std::memcmp(&action->a[k], &r.action[k], sizeof(double)) != 0) {
+            note({t, cmd->second->capability, "action[" + std::to_string(k) + "]"});
+            break;
+          }
+      }
+    }
+    action.reset();
+    seam.on_lease({rec.episode_id, r.command_id, i, i, false}, step_time(t));
+    const sim::SeamEffects sx = seam.on_action({rec.episode_id, r.command_id, t, r.action}, step_time(t));
+    if (sx.ended) bad(evidence, "the replay could not step: " + *sx.ended);
+    if (!sx.observation)
+      bad(evidence, "the seam refused the recorded action of step " + std::to_string(t) + ": " +
+                        (sx.events.empty() ? std::string("held") : sx.events.front().reason));
+    if (sx.verdict) verdicts[sx.verdict->step] = sx.verdict->value;
+    obs = *sx.observation;
+    report.steps = i;
+    const sim::StateDigest got = cell.digest();
+    if (got != r.digest) note(where(cell.model(), i, got, r.digest));
+    take(host.on_observation(obs, step_time(i)));
+  }
+  if (!o.from_command) report.verdicts_identical = verdicts == rec.verdicts;
+  report.identical = !report.first_divergence && report.verdicts_identical;
+  return report;
+}
+
+nlohmann::json to_json(const ReplayReport& r) {
+  json j{{"episode_id", r.episode_id},
+         {"identical", r.identical},
+         {"steps", r.steps},
+         {"recorded_steps", r.recorded_steps},
+         {"from_step", r.from_step},
+         {"divergent_steps", r.divergent_steps},
+         {"actions_compared", r.actions_compared},
+         {"recorded_only", r.recorded_only},
+         {"drift", r.drift},
+         {"verdicts_identical", r.verdicts_identical},
+         {"first_divergence", nullptr}};
+  if (r.first_divergence)
+    j["first_divergence"] = {{"step", r.first_divergence->step},
+                             {"body", r.first_divergence->body},
+                             {"quantity", r.first_divergence->quantity}};
+  return j;
+}
+
+}  // namespace dh::inproc

@@ -1,0 +1,94 @@
+// Episodes recorded over DDS (every process of campaign_local.yaml: two simulator workers, the governor,
+// the planner, every capability family, perception) replay in process bit for bit: every state digest,
+// every skill action and every verdict as recorded. And `dh replay` refuses a changed θ.
+#include <nlohmann/json.hpp>
+
+#include <fstream>
+#include <map>
+#include <set>
+
+#include "dh/inproc/replay.hpp"
+#include "campaign_helpers.hpp"
+#include "harness.hpp"
+
+using namespace dh;
+
+namespace {
+// Five arms (vla_act has no weights in a fresh runs folder, so bare and the policy are not here) x the six
+// cells x two tasks: 60 episodes.
+constexpr const char* kArms = "full,static,seq,no-recovery,full-perception";
+constexpr const char* kCells = "goal,goal-task,goal-swap,long,long-task,long-swap";
+}  // namespace
+
+TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
+  itest::IsolatedEnv env;
+  const std::string dh = (paths::bin_dir() / "dh").string();
+  const auto db = env.runs / "c.db";
+  cli::Deployment deployment(cli::load_launch_file(paths::home() / "deploy" / "campaign_local.yaml"), paths::bin_dir(),
+                             env.runs / "logs");
+  const auto [out, status] =
+      itest::run_command(dh + " campaign --arms " + kArms + " --cells " + kCells + " --tasks 0,7 --seeds 21" +
+                         " --ready-timeout-ms 20000 --db " + db.string() + " 2>&1");
+  ASSERT_EQ(status, 0) << out;
+  const auto rows = campaign::CampaignDb::read_rows(db);
+  ASSERT_EQ(rows.size(), 60u);
+
+  std::set<std::string> arms, cells;
+  std::size_t identical = 0, compared = 0;
+  for (const auto& row : rows) {
+    ASSERT_FALSE(row.infrastructure) << row.episode_id << ": " << row.reason;
+    const auto r = inproc::replay(row.evidence_path, {paths::config_dir(), {}, std::nullopt, false});
+    EXPECT_TRUE(r.identical) << row.evidence_path << ": first divergence "
+                             << (r.first_divergence ? std::to_string(r.first_divergence->step) + " " +
+                                                          r.first_divergence->body + " " + r.first_divergence->quantity
+                                                    : "none")
+                             << (r.verdicts_identical ? "" : "; verdicts differ");
+    EXPECT_EQ(r.recorded_steps, row.steps) << row.evidence_path;
+    identical += r.identical;
+    compared += r.actions_compared;
+    if (row.arm == "full-perception") {
+      EXPECT_TRUE(r.recorded_only.size() > 0 || r.recorded_steps == 0) << "perception-grounded commands are not re-run";
+    } else {
+      EXPECT_EQ(r.actions_compared, r.recorded_steps) << row.evidence_path << ": every action from a skill again";
+    }
+    arms.insert(row.arm);
+    cells.insert(row.cell);
+  }
+  EXPECT_EQ(identical, rows.size());
+  EXPECT_EQ(arms.size(), 5u);
+  EXPECT_EQ(cells.size(), 6u);
+  std::printf("%zu episodes over DDS replayed, %zu identical, %zu skill actions compared\n", rows.size(), identical,
+              compared);
+
+  // The command line: one JSON object; a θ changed in a library copy refuses with exit 4 and names it.
+  const std::string evidence = rows.front().evidence_path;
+  auto [json_out, json_status] = itest::run_command(dh + " replay " + evidence + " --json");
+  EXPECT_EQ(json_status, 0) << json_out;
+  const auto j = nlohmann::json::parse(json_out);
+  EXPECT_TRUE(j["identical"].get<bool>());
+  EXPECT_TRUE(j["first_divergence"].is_null());
+  EXPECT_EQ(j["steps"].get<unsigned>(), rows.front().steps);
+
+  const auto library = env.runs / "library";
+  std::filesystem::copy(paths::config_dir() / "library", library);
+  for (const auto& file : std::filesystem::directory_iterator(library)) {
+    std::ifstream in(file.path());
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    in.close();
+    // Every descriptor's first θ value is raised by 1 %: any episode's grounded capability now differs.
+    const auto at = text.find("\nparameters:\n");
+    if (at == std::string::npos) continue;
+    const auto line = at + 13, colon = text.find(':', line), end = text.find_first_of("#\n", colon);
+    const double v = std::stod(text.substr(colon + 1, end - colon - 1));
+    text.replace(colon + 1, end - colon - 1, " " + std::to_string(v * 1.01 + 0.001) + " ");
+    std::ofstream(file.path()) << text;
+  }
+  auto [refused, refused_status] = itest::run_command(dh + " replay " + evidence + " --library " + library.string() + " 2>&1");
+  EXPECT_EQ(refused_status, 4) << refused;
+  EXPECT_NE(refused.find(" θ "), std::string::npos) << refused;
+  EXPECT_NE(refused.find("is recorded; " + library.string()), std::string::npos) << refused;
+  auto [drift, drift_status] =
+      itest::run_command(dh + " replay " + evidence + " --library " + library.string() + " --allow-drift 2>&1");
+  EXPECT_EQ(drift_status, 0) << drift;
+  EXPECT_NE(drift.find("drift (allowed)"), std::string::npos) << drift;
+}
