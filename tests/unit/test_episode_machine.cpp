@@ -197,3 +197,24 @@ TEST_F(Machine, RecoveryIsChosenByTheFailureCodeNotItsWords) {
     EXPECT_EQ(fx.command->capability, c.recovery) << to_string(c.code) << " / " << c.reason;
   }
 }
+
+// DDS does not order the status and observation topics: a progress report of step 10 can overtake the
+// observation of step 10. The decision at step 10 takes the reports of steps before 10 only, as it does
+// in process (where the host reports step 10 after the governor has seen it).
+TEST_F(Machine, AProgressReportThatOvertakesItsObservationIsNotSeenByThatStepsDecision) {
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  m->on_status({"ep/c0", "pick_place@a", CommandState::Accepted, "", "", 0, 0, 0}, t0);
+  for (std::uint32_t t = 1; t < 10; ++t) m->on_observation(test::scene_observation(t), t0);
+  m->on_status({"ep/c0", "pick_place@a", CommandState::Running, "", "lift", 9, 9, 0.09}, t0);
+  m->on_status({"ep/c0", "pick_place@a", CommandState::Running, "", "lift", 10, 10, 0.5}, t0);  // early
+  m->on_observation(test::scene_observation(10), t0);
+  for (std::uint32_t t = 11; t < 20; ++t) m->on_observation(test::scene_observation(t), t0);
+  m->on_observation(test::scene_observation(20), t0);
+  std::vector<double> progress;
+  for (const auto& r : read_evidence(file))
+    if (r["kind"] == "decision") progress.push_back(r["progress"].get<double>());
+  ASSERT_EQ(progress.size(), 2u);
+  EXPECT_EQ(progress[0], 0.09) << "the report of step 10 reached the decision of step 10";
+  EXPECT_EQ(progress[1], 0.5);
+}

@@ -170,7 +170,7 @@ class Governor {
   }
   void handle(const msg::SeamEvent& e) {
     if (auto* mc = machine(e.channel(), e.episode_id()))
-      mc->on_seam_event({e.step(), e.command_id(), static_cast<SeamEventKind>(e.kind()), e.reason()});
+      mc->on_seam_event({e.step(), e.command_id(), static_cast<SeamEventKind>(e.kind()), e.reason(), {}});
   }
   void handle(const msg::SceneEstimate& m) {
     auto* mc = machine(m.channel(), m.episode_id());

@@ -42,6 +42,7 @@ Effects EpisodeMachine::on_observation(const Observation& obs, Clock::time_point
   latch_.record(obs.step, obs.goal_holds);
   last_obs_ = obs;
   have_obs_ = true;
+  take_progress(obs.step, false);
   if (phase_ == Phase::WaitingFirstObservation) {
     evidence_.append("governor", "observation", obs_summary(obs));
     if (config_.mode == ExecutorMode::Bare) {
@@ -205,6 +206,7 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
   acknowledged_ = false;
   deferred_end_.reset();
   last_progress_ = 0;
+  progress_reports_.clear();
   progress_at_decision_ = 0;
   stagnant_ = 0;
   phase_ = Phase::Running;
@@ -241,7 +243,7 @@ Effects EpisodeMachine::on_status(const CommandStatus& st, Clock::time_point now
                       {"steps_used", st.steps_used}, {"progress", st.progress}});
   }
   acknowledged_ = true;
-  if (st.progress > last_progress_) last_progress_ = st.progress;
+  progress_reports_.emplace_back(st.step, st.progress);
   if (!terminal) {
     deadline_ = now + config_.step_stall_timeout;
     deadline_what_ = "next observation while '" + running_->command_id + "' runs";
@@ -256,6 +258,7 @@ Effects EpisodeMachine::on_status(const CommandStatus& st, Clock::time_point now
 }
 
 Effects EpisodeMachine::finish_command(const CommandStatus& st, Clock::time_point now) {
+  take_progress(st.step, true);
   history_.push_back(history::outcome_line(st.step, running_->capability, to_string(st.state), running_->args, st.reason));
   CommandPhase phase = CommandPhase::Failed;
   if (st.state == CommandState::Completed) phase = CommandPhase::Completed;
@@ -287,6 +290,14 @@ void EpisodeMachine::on_verdict(std::uint32_t step, const std::string& predicate
 
 void EpisodeMachine::on_seam_event(const SeamEvent& e) {
   evidence_.append("seam", to_string(e.kind), {{"step", e.step}, {"command_id", e.command_id}, {"reason", e.reason}});
+}
+
+void EpisodeMachine::take_progress(std::uint32_t step, bool through) {
+  std::erase_if(progress_reports_, [&](const auto& r) {
+    if (through ? r.first > step : r.first >= step) return false;
+    last_progress_ = std::max(last_progress_, r.second);
+    return true;
+  });
 }
 
 std::string EpisodeMachine::step_key() const {

@@ -234,7 +234,8 @@ class Channel {
   /// Carries the core's effects out: refusals and corrections, the verdict, images, then the observation.
   void publish(const sim::SeamEffects& fx) {
     for (const auto& e : fx.events) {
-      seam_event(e.step, e.command_id, static_cast<msg::SeamEventKind>(e.kind), e.reason);
+      seam_event(e.episode_id.empty() ? core_.episode_id() : e.episode_id, e.step, e.command_id,
+                 static_cast<msg::SeamEventKind>(e.kind), e.reason);
       if (e.kind != SeamEventKind::SafetyHold && e.kind != SeamEventKind::WorkspaceClamp &&
           e.kind != SeamEventKind::ActionClamped)
         log_->info("channel={} step={} action refused: {}", id_, e.step, e.reason);
@@ -378,10 +379,11 @@ class Channel {
     }
   }
 
-  void seam_event(std::uint32_t step, const std::string& command, msg::SeamEventKind kind, const std::string& why) {
+  void seam_event(const std::string& episode, std::uint32_t step, const std::string& command, msg::SeamEventKind kind,
+                  const std::string& why) {
     msg::SeamEvent e;
     e.channel(id_);
-    e.episode_id(core_.episode_id());
+    e.episode_id(episode);
     e.step(step);
     e.command_id(command);
     e.kind(kind);

@@ -68,13 +68,14 @@ SeamEffects SeamCore::on_action(const ActionIn& a, SeamClock::time_point now) {
   SeamEffects fx;
   if (!running() || a.episode_id != episode_) {
     fx.events.push_back({a.step, a.command_id, SeamEventKind::RejectedCommand,
-                         "action for episode '" + a.episode_id + "' which is not running on this channel"});
+                         "action for episode '" + a.episode_id + "' which is not running on this channel",
+                         a.episode_id});
     return fx;
   }
   auto it = pending_.find(a.command_id);
   if (it != pending_.end() && it->second.action.step != a.step)
     fx.events.push_back({it->second.action.step, a.command_id, SeamEventKind::RejectedStep,
-                         "superseded by the same command's action for step " + std::to_string(a.step)});
+                         "superseded by the same command's action for step " + std::to_string(a.step), {}});
   // The same command answering the same step again (a re-send) keeps its place in the grace period.
   const auto since = it != pending_.end() && it->second.action.step == a.step ? it->second.since : now;
   pending_[a.command_id] = {a, since};
@@ -117,7 +118,7 @@ SeamEffects SeamCore::admit(SeamClock::time_point now) {
       continue;
     }
     if (r.decision != Admission::Apply) {
-      fx.events.push_back({a.step, a.command_id, seam_event_kind(r.decision), r.reason});
+      fx.events.push_back({a.step, a.command_id, seam_event_kind(r.decision), r.reason, {}});
       it = pending_.erase(it);
       continue;
     }
@@ -137,7 +138,7 @@ SeamEffects SeamCore::admit(SeamClock::time_point now) {
     physics_s_ += std::chrono::duration<double>(SeamClock::now() - t0).count();
     last_sign_of_life_ = now;
     for (const auto& e : corrections)
-      fx.events.push_back({step_, applied.command_id, seam_event_kind(e.kind), e.reason});
+      fx.events.push_back({step_, applied.command_id, seam_event_kind(e.kind), e.reason, {}});
     ++step_;
     observe(fx, &applied);
     // What else waits is for the step just applied: refused as stale on the next pass.

@@ -158,6 +158,7 @@ TEST_F(SeamCoreTest, StaleFutureAndForeignActionsAreRefusedWithReasons) {
   fx = seam.on_action({"another-episode", "c0", 1, {}}, t0 + 30ms);
   ASSERT_TRUE(refused(fx, "c0", SeamEventKind::RejectedCommand));
   EXPECT_NE(fx.events.front().reason.find("another-episode"), std::string::npos);
+  EXPECT_EQ(fx.events.front().episode_id, "another-episode") << "recorded for the episode it named, not this one";
   EXPECT_EQ(seam.step(), 1u);
 }
 

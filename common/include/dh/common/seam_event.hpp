@@ -31,6 +31,7 @@ struct SeamEvent {
   std::string command_id;
   SeamEventKind kind = SeamEventKind::RejectedStep;
   std::string reason;
+  std::string episode_id;  ///< the episode the refused action named, when it is not the channel's own
 };
 
 }  // namespace dh

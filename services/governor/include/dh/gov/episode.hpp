@@ -120,6 +120,8 @@ class EpisodeMachine {
   /// `next` after stopping: the stop's cancel and revocation ride along unless `next` sets its own.
   static Effects then(const Effects& stop, Effects next);
   Effects finish_command(const CommandStatus& st, Clock::time_point now);
+  /// Folds the progress reports of steps before `step` (through it, with `through`) into last_progress_.
+  void take_progress(std::uint32_t step, bool through);
   nlohmann::json obs_summary(const Observation& o) const;
 
   EpisodeSpec spec_;
@@ -148,6 +150,10 @@ class EpisodeMachine {
   std::optional<CommandStatus> deferred_end_;  ///< a command end reported before its observation arrived
   bool acknowledged_ = false;
   double last_progress_ = 0, progress_at_decision_ = 0;
+  /// Progress reports (step, progress) not yet taken: a decision at step t takes those of steps before t,
+  /// whichever topic DDS delivered first, so it sees what it would in process (reports of step t come
+  /// after the observation of step t there).
+  std::vector<std::pair<std::uint32_t, double>> progress_reports_;
   std::uint32_t stagnant_ = 0;
   std::map<std::string, int> failures_;  ///< per capability and arguments
   std::vector<std::string> history_;
