@@ -2,6 +2,7 @@
 // source that is not ready, a failing source, actions clamped.
 #include <gtest/gtest.h>
 
+#include "dh/cap/descriptor.hpp"
 #include "dh/cap/vla_act.hpp"
 
 namespace dh::cap {
@@ -31,9 +32,16 @@ class ScriptedSource : public ActionSource {
 
 const Bindings kArgs{{"instruction", "put the bowl on the plate"}};
 
+/// The library's θ (configs/library/vla_act.yaml) with `changed` over it.
+Theta library_theta(const Theta& changed) {
+  Theta t = load_descriptor(default_descriptor_file("vla_act"), vla_act_def(std::make_shared<ScriptedSource>())).parameters;
+  for (const auto& [k, v] : changed) t[k] = v;
+  return t;
+}
+
 TEST(VlaActSkill, ExecutesPartOfEachChunkThenAsksAgain) {
   auto src = std::make_shared<ScriptedSource>();
-  VlaActSkill skill(src, {{"execute_steps", 3}});
+  VlaActSkill skill(src, library_theta({{"execute_steps", 3}}));
   Observation obs;
   EXPECT_TRUE(skill.check({}, obs, 100).has_value()) << "an instruction is required";
   ASSERT_FALSE(skill.check(kArgs, obs, 100));
@@ -55,7 +63,7 @@ TEST(VlaActSkill, ExecutesPartOfEachChunkThenAsksAgain) {
 
 TEST(VlaActSkill, EnsemblingAveragesTheChunksPredictionsForTheStep) {
   auto src = std::make_shared<ScriptedSource>();
-  VlaActSkill skill(src, {{"ensemble_decay", 1e-9}});  // equal weights
+  VlaActSkill skill(src, library_theta({{"ensemble_decay", 1e-9}}));  // equal weights
   Observation obs;
   skill.start(kArgs, obs, {});
   skill.next(obs);                        // chunk 0, its step 0: 0.00
@@ -67,7 +75,7 @@ TEST(VlaActSkill, EnsemblingAveragesTheChunksPredictionsForTheStep) {
 TEST(VlaActSkill, HoldsStillWhileTheSourceIsNotReadyAndFailsWhenItStaysSo) {
   auto src = std::make_shared<ScriptedSource>();
   src->not_ready = 2;
-  VlaActSkill skill(src, {{"max_wait_steps", 3}});
+  VlaActSkill skill(src, library_theta({{"max_wait_steps", 3}}));
   Observation obs;
   skill.start(kArgs, obs, {});
   for (int t = 0; t < 2; ++t) {
@@ -88,7 +96,7 @@ TEST(VlaActSkill, HoldsStillWhileTheSourceIsNotReadyAndFailsWhenItStaysSo) {
 TEST(VlaActSkill, AFailingSourceFailsTheCommandWithItsReasonAndActionsAreClamped) {
   auto src = std::make_shared<ScriptedSource>();
   src->calls = 500;  // x = 10·500 / 100 = 50: far out of range
-  VlaActSkill skill(src, {});
+  VlaActSkill skill(src, library_theta({}));
   Observation obs;
   skill.start(kArgs, obs, {});
   EXPECT_DOUBLE_EQ(skill.next(obs).action[0], 1.0);
@@ -100,4 +108,15 @@ TEST(VlaActSkill, AFailingSourceFailsTheCommandWithItsReasonAndActionsAreClamped
 }
 
 }  // namespace
+}  // namespace dh::cap
+
+namespace dh::cap {
+TEST(VlaActSkill, AThetaWithoutEveryParameterIsRefusedNamingTheMissingOnes) {
+  try {
+    VlaActSkill skill(std::make_shared<ScriptedSource>(), {{"execute_steps", 3}});
+    FAIL() << "a partial θ was taken";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("lacks ensemble_decay, cost_steps, max_wait_steps"), std::string::npos) << e.what();
+  }
+}
 }  // namespace dh::cap

@@ -25,12 +25,13 @@ void ParamTable::load(const Theta& theta) const {
       }
     if (!found) throw std::invalid_argument(capability_ + " has no parameter '" + name + "'");
   }
-}
-
-Theta ParamTable::to_map() const {
-  Theta t;
-  for (const auto& [n, p] : fields_) t[n] = *p;
-  return t;
+  // θ has no defaults in code: configs/library/<capability>.yaml gives every parameter.
+  std::string missing;
+  for (const auto& [n, p] : fields_)
+    if (!theta.count(n)) missing += (missing.empty() ? "" : ", ") + n;
+  if (!missing.empty())
+    throw std::invalid_argument(capability_ + " θ lacks " + missing + " (configs/library/" + capability_ +
+                                ".yaml gives every parameter)");
 }
 
 }  // namespace dh::cap

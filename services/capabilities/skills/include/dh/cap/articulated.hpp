@@ -16,45 +16,44 @@
 namespace dh::cap {
 
 struct DrawerParams {
-  double open_position = 0.155;  ///< m out at which the drawer counts open (aimed at)
-  double closed_position = -0.004;  ///< m: aimed at, a little past shut (the joint limit stops it)
-  double done_tolerance = 0.012;    ///< m from the aimed position that still completes
-  double hook_offset = 0.02;        ///< m from the bar's centre (behind it to open, before it to close) for the fist
-  double grasp_drop = 0.004;        ///< m the tool centre sits above the bar's centre
-  double pull_slack = 0.006;        ///< m the fist travels before it bears on the bar
-  double push_slack = 0.012;        ///< m the fist travels before it bears on the bar, plus a little past shut
-  double bar_clearance = 0.008;     ///< m between the fist and the bar's top as it comes in over the bar
-  double approach_distance = 0.06;  ///< m in front of the bar where the level approach starts
-  double retreat_rise = 0.1;        ///< m the fist rises as it backs off, clear of the drawer's walls
-  double slide_speed = 0.1;         ///< m/s
-  double approach_steps = 35, descent_steps = 20, slide_min_steps = 25, slide_max_steps = 60, retreat_steps = 20;
+  double open_position;      ///< m out at which the drawer counts open (aimed at)
+  double closed_position;    ///< m: aimed at, a little past shut (the joint limit stops it)
+  double done_tolerance;     ///< m from the aimed position that still completes
+  double hook_offset;        ///< m from the bar's centre (behind it to open, before it to close) for the fist
+  double grasp_drop;         ///< m the tool centre sits above the bar's centre
+  double pull_slack;         ///< m the fist travels before it bears on the bar
+  double push_slack;         ///< m the fist travels before it bears on the bar, plus a little past shut
+  double bar_clearance;      ///< m between the fist and the bar's top as it comes in over the bar
+  double approach_distance;  ///< m in front of the bar where the level approach starts
+  double retreat_rise;       ///< m the fist rises as it backs off, clear of the drawer's walls
+  double slide_speed;        ///< m/s
+  double approach_steps, descent_steps, slide_min_steps, slide_max_steps, retreat_steps;
   ParamTable table();
 };
 
 struct KnobParams {
-  double on_angle = 1.0;         ///< rad aimed at for on
-  double off_angle = -0.08;      ///< rad aimed at for off
-  double on_min = 0.55;          ///< rad from which the knob counts on
-  double off_max = 0.0;          ///< rad up to which the knob counts off
-  double contact_height = 0.006; ///< m above the knob's axis where the pads' lower edge sweeps
-  double lever_half_width = 0.007;
-  double standoff = 0.012;       ///< m between pad and lever before the sweep
-  double approach_height = 0.06;
-  double approach_steps = 30, descent_steps = 20, ramp_steps = 40, retreat_steps = 20;
+  double on_angle;        ///< rad aimed at for on
+  double off_angle;       ///< rad aimed at for off
+  double on_min;          ///< rad from which the knob counts on
+  double off_max;         ///< rad up to which the knob counts off
+  double contact_height;  ///< m above the knob's axis where the pads' lower edge sweeps
+  double lever_half_width;
+  double standoff;  ///< m between pad and lever before the sweep
+  double approach_height;
+  double approach_steps, descent_steps, ramp_steps, retreat_steps;
   ParamTable table();
 };
 
 struct DoorParams {
-  double hinge_radius = 0.3;      ///< m from the hinge line to the handle, along the door
-  double handle_standoff = 0.032; ///< m from the door's face to the handle
-  double open_angle = -1.5;       ///< rad aimed at for open
-  double closed_angle = 0.03;     ///< rad aimed at for closed (a little past shut: the limit stops it)
-  double open_max = -1.3;         ///< rad from which the door counts open
-  double closed_min = -0.005;     ///< rad from which the door counts closed
-  double grasp_opening = 0.04;
-  double approach_height = 0.13;   ///< m above the handle: over the door's top edge
-  double approach_steps = 35, descent_steps = 20, close_steps = 8, swing_steps = 70, release_steps = 8,
-         retreat_steps = 20;
+  double hinge_radius;     ///< m from the hinge line to the handle, along the door
+  double handle_standoff;  ///< m from the door's face to the handle
+  double open_angle;       ///< rad aimed at for open
+  double closed_angle;     ///< rad aimed at for closed (a little past shut: the limit stops it)
+  double open_max;         ///< rad from which the door counts open
+  double closed_min;       ///< rad from which the door counts closed
+  double grasp_opening;
+  double approach_height;  ///< m above the handle: over the door's top edge
+  double approach_steps, descent_steps, close_steps, swing_steps, release_steps, retreat_steps;
   ParamTable table();
 };
 
@@ -99,7 +98,7 @@ class ArticulatedSkill : public Skill {
 
 class SlideDrawerSkill : public ArticulatedSkill {
  public:
-  explicit SlideDrawerSkill(const Theta& theta = {});
+  explicit SlideDrawerSkill(const Theta& theta);
   std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
   void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
   int cost_steps() const override;
@@ -115,7 +114,7 @@ class SlideDrawerSkill : public ArticulatedSkill {
 
 class TurnKnobSkill : public ArticulatedSkill {
  public:
-  explicit TurnKnobSkill(const Theta& theta = {});
+  explicit TurnKnobSkill(const Theta& theta);
   std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
   void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
   int cost_steps() const override;
@@ -134,7 +133,7 @@ class TurnKnobSkill : public ArticulatedSkill {
 
 class SwingDoorSkill : public ArticulatedSkill {
  public:
-  explicit SwingDoorSkill(const Theta& theta = {});
+  explicit SwingDoorSkill(const Theta& theta);
   std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
   void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
   int cost_steps() const override;

@@ -14,17 +14,17 @@ namespace dh::cap {
 
 /// Revisable physical parameters θ (configs/library/pick_place.yaml); physical quantities only.
 struct PickPlaceParams {
-  double approach_height = 0.08;   ///< m above the grasp point before the descent
-  double corridor_height = 0.16;   ///< m of the object's bottom above the table during the carry, at least
-  double corridor_clearance = 0.04;///< m above anything the carry passes over
-  double rim_grasp_depth = 0.022;  ///< m below a rim where the jaw closes
-  double place_clearance = 0.012;  ///< m between object bottom and target surface at release
-  double max_speed = 0.35;         ///< m/s of the tool at the fastest
-  double cavity_clearance = 0.006; ///< m between object bottom and a cavity's floor at release
-  double cavity_ceiling = 0.02;    ///< m of a cavity's ceiling below its fixture's top (assumed thickness)
-  double retreat_height = 0.1;
-  double approach_steps = 30, descent_steps = 30, close_steps = 10, lift_steps = 23, carry_min_steps = 60,
-         carry_max_steps = 80, lower_steps = 15, release_steps = 10, retreat_steps = 23;
+  double approach_height;     ///< m above the grasp point before the descent
+  double corridor_height;     ///< m of the object's bottom above the table during the carry, at least
+  double corridor_clearance;  ///< m above anything the carry passes over
+  double rim_grasp_depth;     ///< m below a rim where the jaw closes
+  double place_clearance;     ///< m between object bottom and target surface at release
+  double max_speed;           ///< m/s of the tool at the fastest
+  double cavity_clearance;    ///< m between object bottom and a cavity's floor at release
+  double cavity_ceiling;      ///< m of a cavity's ceiling below its fixture's top (assumed thickness)
+  double retreat_height;
+  double approach_steps, descent_steps, close_steps, lift_steps, carry_min_steps, carry_max_steps,
+      lower_steps, release_steps, retreat_steps;
 
   ParamTable table();
 };
@@ -42,7 +42,7 @@ class PickPlaceSkill : public Skill {
  public:
   /// `grasp_only`: the recovery skills regrasp and reseat — approach, descend and close on the object
   /// (argument `object` only), completing once it is held.
-  explicit PickPlaceSkill(const Theta& theta = {}, bool grasp_only = false);
+  explicit PickPlaceSkill(const Theta& theta, bool grasp_only = false);
   std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
   void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
   SkillStep next(const Observation& obs) override;

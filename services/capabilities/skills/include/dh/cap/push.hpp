@@ -10,22 +10,22 @@
 namespace dh::cap {
 
 struct PushParams {
-  double contact_fraction = 0.6;  ///< share of the object's width the pusher must span for a stable push
-  double push_opening = 0.03;     ///< m between the fingers while pushing (the pads span 2.8 cm more)
-  double push_height = 0.02;      ///< m above the object's bottom where the pads' lower edge runs
-  double standoff = 0.025;        ///< m between the pads and the object before the push
-  double approach_height = 0.08;
-  double max_speed = 0.12;        ///< m/s while pushing
-  double lead = 0.01;             ///< m the pads aim into the object, so they keep bearing on it
-  double done_distance = 0.015;   ///< m from the region's centre at which the push ends
-  double approach_steps = 35, descent_steps = 20, push_max_steps = 100, back_off_steps = 10, retreat_steps = 15;
+  double contact_fraction;  ///< share of the object's width the pusher must span for a stable push
+  double push_opening;      ///< m between the fingers while pushing (the pads span 2.8 cm more)
+  double push_height;       ///< m above the object's bottom where the pads' lower edge runs
+  double standoff;          ///< m between the pads and the object before the push
+  double approach_height;
+  double max_speed;      ///< m/s while pushing
+  double lead;           ///< m the pads aim into the object, so they keep bearing on it
+  double done_distance;  ///< m from the region's centre at which the push ends
+  double approach_steps, descent_steps, push_max_steps, back_off_steps, retreat_steps;
 
   ParamTable table();
 };
 
 class PushSkill : public Skill {
  public:
-  explicit PushSkill(const Theta& theta = {});
+  explicit PushSkill(const Theta& theta);
   std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
   void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
   SkillStep next(const Observation& obs) override;

@@ -12,15 +12,15 @@
 namespace dh::cap {
 
 struct KeyframeParams {
-  double lift = 0.05;          ///< m straight up before the return
-  double min_distance = 0.05;  ///< m: a keyframe nearer than this is not a return
-  double lift_steps = 15, return_steps = 45;
+  double lift;          ///< m straight up before the return
+  double min_distance;  ///< m: a keyframe nearer than this is not a return
+  double lift_steps, return_steps;
   ParamTable table();
 };
 
 class KeyframeReturnSkill : public Skill {
  public:
-  explicit KeyframeReturnSkill(const Theta& theta = {});
+  explicit KeyframeReturnSkill(const Theta& theta);
   std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
   void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
   SkillStep next(const Observation& obs) override;
@@ -35,14 +35,14 @@ class KeyframeReturnSkill : public Skill {
 };
 
 struct ReleaseRetreatParams {
-  double retreat_height = 0.08;
-  double release_steps = 10, retreat_steps = 20;
+  double retreat_height;
+  double release_steps, retreat_steps;
   ParamTable table();
 };
 
 class ReleaseRetreatSkill : public Skill {
  public:
-  explicit ReleaseRetreatSkill(const Theta& theta = {});
+  explicit ReleaseRetreatSkill(const Theta& theta);
   std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
   void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
   SkillStep next(const Observation& obs) override;

@@ -88,12 +88,12 @@ struct CapabilityDef {
 /// The entity (or symbol) bound to `role`, or "" when absent.
 std::string arg(const Bindings& args, const std::string& role);
 
-/// Named parameters with defaults: `from` overwrites the ones θ names and rejects unknown names.
+/// A skill's named parameters θ, pointing at its Params struct, which has no defaults: load() sets them all.
 class ParamTable {
  public:
   ParamTable(std::string capability, std::initializer_list<std::pair<const char*, double*>> fields);
+  /// Sets every field from `theta`; throws std::invalid_argument naming an unknown key or the missing ones.
   void load(const Theta& theta) const;
-  Theta to_map() const;
 
  private:
   std::string capability_;

@@ -47,18 +47,18 @@ class EmbeddedPolicy : public ActionSource {
 };
 
 struct VlaActParams {
-  double execute_steps = 5;  ///< actions of each chunk executed before the policy is asked again
+  double execute_steps;  ///< actions of each chunk executed before the policy is asked again
   /// > 0: temporal ensembling instead: the policy is asked every step and each action is the mean of
   /// every chunk's prediction for this step, weighted exp(-ensemble_decay · age in steps).
-  double ensemble_decay = 0;
-  double cost_steps = 100;   ///< the segment a hand-over nominally takes (budget ⌈1.5·cost⌉+10)
-  double max_wait_steps = 20;  ///< steps the hand may hold still waiting for a source that is not ready
+  double ensemble_decay;
+  double cost_steps;      ///< the segment a hand-over nominally takes (budget ⌈1.5·cost⌉+10)
+  double max_wait_steps;  ///< steps the hand may hold still waiting for a source that is not ready
   ParamTable table();
 };
 
 class VlaActSkill : public Skill {
  public:
-  VlaActSkill(std::shared_ptr<ActionSource> source, const Theta& theta = {});
+  VlaActSkill(std::shared_ptr<ActionSource> source, const Theta& theta);
   std::optional<std::string> check(const Bindings& args, const Observation& obs, int budget_steps) const override;
   void start(const Bindings& args, const Observation& obs, const SkillContext& ctx) override;
   SkillStep next(const Observation& obs) override;
