@@ -24,10 +24,16 @@ struct PerceivedCommands : ::testing::Test {
   std::mutex m;
   std::condition_variable cv;
   std::string instance;
+  std::vector<msg::Param> theta;
   std::vector<msg::CommandStatus> statuses;
   std::vector<std::uint32_t> action_steps;
   dds::Reader<msg::CapabilityAnnouncePubSubType> ann{p, topics::kAnnounce, dds::Qos::Announce,
-      {[this](const msg::CapabilityAnnounce& a, const auto&) { std::lock_guard l(m); instance = a.instance(); cv.notify_all(); }, {}, {}}};
+      {[this](const msg::CapabilityAnnounce& a, const auto&) {
+         std::lock_guard l(m);
+         instance = a.instance();
+         theta = a.parameters();  // the library's θ, which a command carries as the governor's does
+         cv.notify_all();
+       }, {}, {}}};
   dds::Reader<msg::CommandStatusPubSubType> status{p, topics::kCommandStatus, dds::Qos::Status,
       {[this](const msg::CommandStatus& s, const auto&) { std::lock_guard l(m); statuses.push_back(s); cv.notify_all(); }, {}, {}}};
   dds::Reader<msg::ActionPubSubType> actions{p, topics::kAction, dds::Qos::Action,
@@ -95,6 +101,7 @@ struct PerceivedCommands : ::testing::Test {
     args[1].role("target");
     args[1].entity("plate");
     c.args(args);
+    c.theta(theta);
     c.start_step(step);
     c.budget_steps(500);
     c.lease_until_step(step + 20);

@@ -218,3 +218,22 @@ TEST_F(Machine, AProgressReportThatOvertakesItsObservationIsNotSeenByThatStepsDe
   EXPECT_EQ(progress[0], 0.09) << "the report of step 10 reached the decision of step 10";
   EXPECT_EQ(progress[1], 0.5);
 }
+
+// A completion reported for a decision step before that step's observation: the step's decision comes
+// first, then the completion, in the same order as in process.
+TEST_F(Machine, ACompletionAtADecisionStepIsFinishedAfterThatStepsDecision) {
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  m->on_status({"ep/c0", "pick_place@a", CommandState::Accepted, "", "", 0, 0, 0}, t0);
+  for (std::uint32_t t = 1; t < 20; ++t) m->on_observation(test::scene_observation(t), t0);
+  fx = m->on_status({"ep/c0", "pick_place@a", CommandState::Completed, "", "done", 20, 20, 1}, t0);
+  EXPECT_FALSE(fx.plan_request) << "waits for the observation of step 20";
+  fx = m->on_observation(test::scene_observation(20), t0);
+  ASSERT_TRUE(fx.plan_request) << "the completion asks for the next step";
+  std::vector<std::string> causes;
+  for (const auto& r : read_evidence(file))
+    if (r["kind"] == "decision") causes.push_back(r["cause"].get<std::string>());
+  ASSERT_EQ(causes.size(), 3u);
+  EXPECT_EQ(causes[1], "decision step");
+  EXPECT_EQ(causes[2], "command completed");
+}

@@ -57,16 +57,28 @@ Effects EpisodeMachine::on_observation(const Observation& obs, Clock::time_point
     return request_plan("episode start", now);
   }
   if (phase_ != Phase::Running) return {};
+  std::optional<CommandStatus> ended;
   if (deferred_end_ && obs.step >= deferred_end_->step) {
-    const CommandStatus st = *deferred_end_;
+    ended = deferred_end_;
     deferred_end_.reset();
-    return finish_command(st, now);
   }
   deadline_ = now + config_.step_stall_timeout;
   deadline_what_ = "next observation while '" + running_->command_id + "' runs";
-  if (obs.step % config_.decision_period != 0 || obs.step <= running_->start_step) return {};
-  evidence_.append("governor", "observation", obs_summary(obs));
-  return decide_now(CommandPhase::Running, "decision step", now);
+  Effects fx;
+  if (obs.step % config_.decision_period == 0 && obs.step > running_->start_step) {
+    evidence_.append("governor", "observation", obs_summary(obs));
+    fx = decide_now(CommandPhase::Running, "decision step", now);
+  }
+  // A command that ended at this step is finished after the step's decision, as in process, where its
+  // report comes after the governor has seen the observation (over DDS it may come first and wait).
+  if (!ended || phase_ != Phase::Running || !running_ || running_->command_id != ended->command_id) return fx;
+  Effects after = finish_command(*ended, now);
+  if (!after.plan_request) after.plan_request = fx.plan_request;
+  if (!after.command) after.command = fx.command;
+  if (!after.lease) after.lease = fx.lease;  // a later lease supersedes on the channel's key
+  if (!after.cancel_command) after.cancel_command = fx.cancel_command;
+  if (!after.end) after.end = fx.end;
+  return after;
 }
 
 Observation EpisodeMachine::perceived_scene() {

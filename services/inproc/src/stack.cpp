@@ -33,14 +33,6 @@ void Stack::add_capability(cap::CapabilityDef def, const std::filesystem::path& 
   host_.serve({std::move(def), info.instance});
 }
 
-void Stack::set_parameters(const std::string& capability, const cap::Theta& theta) {
-  auto info = registry_.newest_alive(capability);
-  if (!info) throw std::invalid_argument("no capability '" + capability + "'");
-  for (const auto& [k, v] : theta) info->parameters[k] = v;
-  info->cost_steps = static_cast<std::uint32_t>(host_.serving(capability)->def.make(info->parameters)->cost_steps());
-  registry_.announce(*info);
-}
-
 sim::Workcell& Stack::cell_for(const TaskDef& task) {
   auto& c = cells_[sim::task_scene_key(task)];
   if (!c) c = std::make_unique<sim::Workcell>(sim::load_task_scene(task));

@@ -53,7 +53,13 @@ double rim_radius(const EntityState& e) {
   return std::min(e.half_extents[0], e.half_extents[1]) - 0.0035;
 }
 
-ParamTable PickPlaceParams::table() {
+ParamTable PickPlaceParams::table(bool grasp_only) {
+  // The recovery skills regrasp and reseat approach, descend and close only: these are all they read.
+  if (grasp_only)
+    return ParamTable("pick_place (grasp only: regrasp, reseat)",
+                      {{"approach_height", &approach_height}, {"corridor_clearance", &corridor_clearance},
+                       {"rim_grasp_depth", &rim_grasp_depth}, {"approach_steps", &approach_steps},
+                       {"descent_steps", &descent_steps}, {"close_steps", &close_steps}});
   return ParamTable("pick_place", {{"approach_height", &approach_height}, {"corridor_height", &corridor_height},
                                    {"corridor_clearance", &corridor_clearance}, {"rim_grasp_depth", &rim_grasp_depth},
                                    {"place_clearance", &place_clearance}, {"max_speed", &max_speed},
@@ -65,7 +71,9 @@ ParamTable PickPlaceParams::table() {
                                    {"release_steps", &release_steps}, {"retreat_steps", &retreat_steps}});
 }
 
-PickPlaceSkill::PickPlaceSkill(const Theta& theta, bool grasp_only) : grasp_only_(grasp_only) { p_.table().load(theta); }
+PickPlaceSkill::PickPlaceSkill(const Theta& theta, bool grasp_only) : grasp_only_(grasp_only) {
+  p_.table(grasp_only).load(theta);
+}
 
 int PickPlaceSkill::cost_steps() const {
   if (grasp_only_) return steps(p_.approach_steps + p_.descent_steps + p_.close_steps);

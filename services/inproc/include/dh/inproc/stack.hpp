@@ -46,8 +46,6 @@ class Stack {
                      const std::filesystem::path& evidence, const StepTap& tap = {});
   /// Serves one more capability, described by `library_dir`/<name>.yaml, e.g. vla_act with a loaded policy.
   void add_capability(cap::CapabilityDef def, const std::filesystem::path& library_dir);
-  /// Replaces a capability's θ (as `dh swap --library` would with a new descriptor).
-  void set_parameters(const std::string& capability, const cap::Theta& theta);
 
  private:
   sim::Workcell& cell_for(const TaskDef& task);

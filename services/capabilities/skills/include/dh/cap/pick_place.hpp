@@ -26,7 +26,8 @@ struct PickPlaceParams {
   double approach_steps, descent_steps, close_steps, lift_steps, carry_min_steps, carry_max_steps,
       lower_steps, release_steps, retreat_steps;
 
-  ParamTable table();
+  /// `grasp_only`: the part regrasp and reseat read (the other fields stay unset and unread).
+  ParamTable table(bool grasp_only);
 };
 
 /// A target region inside a fixture that stands over it and has a door (a microwave's inside): it is
