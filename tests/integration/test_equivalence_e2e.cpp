@@ -40,15 +40,7 @@ std::vector<std::string> normalised(const std::filesystem::path& file) {
 
 TEST(Equivalence, EightyEpisodesOverDdsAndInProcessAreTheSame) {
   itest::IsolatedEnv env;
-  const std::string dh = (paths::bin_dir() / "dh").string();
-  const auto db = env.runs / "c.db";
-  cli::Deployment deployment(cli::load_launch_file(paths::home() / "deploy" / "campaign_local.yaml"), paths::bin_dir(),
-                             env.runs / "logs");
-  const auto [out, status] = itest::run_command(
-      dh + " campaign --cells goal-task,goal-swap,long-task,long-swap --tasks 0-9 --seeds 21-22 --ready-timeout-ms 20000 --db " +
-      db.string() + " 2>&1");
-  ASSERT_EQ(status, 0) << out;
-  const auto rows = campaign::CampaignDb::read_rows(db);
+  const auto rows = itest::local_campaign(env, "--cells goal-task,goal-swap,long-task,long-swap --tasks 0-9 --seeds 21-22");
   ASSERT_EQ(rows.size(), 80u);
 
   inproc::Stack stack(paths::config_dir());

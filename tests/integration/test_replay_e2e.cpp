@@ -23,14 +23,7 @@ constexpr const char* kCells = "goal,goal-task,goal-swap,long,long-task,long-swa
 TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
   itest::IsolatedEnv env;
   const std::string dh = (paths::bin_dir() / "dh").string();
-  const auto db = env.runs / "c.db";
-  cli::Deployment deployment(cli::load_launch_file(paths::home() / "deploy" / "campaign_local.yaml"), paths::bin_dir(),
-                             env.runs / "logs");
-  const auto [out, status] =
-      itest::run_command(dh + " campaign --arms " + kArms + " --cells " + kCells + " --tasks 0,7 --seeds 21" +
-                         " --ready-timeout-ms 20000 --db " + db.string() + " 2>&1");
-  ASSERT_EQ(status, 0) << out;
-  const auto rows = campaign::CampaignDb::read_rows(db);
+  const auto rows = itest::local_campaign(env, std::string("--arms ") + kArms + " --cells " + kCells + " --tasks 0,7 --seeds 21");
   ASSERT_EQ(rows.size(), 60u);
 
   std::set<std::string> arms, cells;

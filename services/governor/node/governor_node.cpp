@@ -90,9 +90,7 @@ class Governor {
     ch.machine.reset();
     ch.lease.reset();
     ch.evidence = std::make_unique<EvidenceWriter>(path);
-    ch.evidence->append("governor", "episode_request",
-                        {{"suite", r.suite()}, {"task", r.task()}, {"seed", r.seed()}, {"cell", r.cell()},
-                         {"arm", r.arm()}});
+    gov::record_request(*ch.evidence, r.suite(), r.task(), r.seed(), r.cell(), r.arm());
     const std::string arm = r.arm().empty() ? "full" : r.arm();
     gov::EpisodeSpec spec{r.channel(), r.episode_id(), r.instruction(), arm, r.budget_steps()};
     if (!arms_.count(arm)) {

@@ -72,13 +72,7 @@ Effects EpisodeMachine::on_observation(const Observation& obs, Clock::time_point
   // A command that ended at this step is finished after the step's decision, as in process, where its
   // report comes after the governor has seen the observation (over DDS it may come first and wait).
   if (!ended || phase_ != Phase::Running || !running_ || running_->command_id != ended->command_id) return fx;
-  Effects after = finish_command(*ended, now);
-  if (!after.plan_request) after.plan_request = fx.plan_request;
-  if (!after.command) after.command = fx.command;
-  if (!after.lease) after.lease = fx.lease;  // a later lease supersedes on the channel's key
-  if (!after.cancel_command) after.cancel_command = fx.cancel_command;
-  if (!after.end) after.end = fx.end;
-  return after;
+  return then(fx, finish_command(*ended, now));
 }
 
 Observation EpisodeMachine::perceived_scene() {
@@ -475,10 +469,19 @@ Effects EpisodeMachine::stop_command() {
   return fx;
 }
 
-Effects EpisodeMachine::then(const Effects& stop, Effects next) {
-  if (!next.cancel_command) next.cancel_command = stop.cancel_command;
-  // A new command's lease supersedes the revocation on the channel's lease key.
-  if (!next.lease) next.lease = stop.lease;
+void record_request(EvidenceWriter& evidence, const std::string& suite, std::uint32_t task, std::uint64_t seed,
+                    const std::string& cell, const std::string& arm) {
+  evidence.append("governor", "episode_request",
+                  {{"suite", suite}, {"task", task}, {"seed", seed}, {"cell", cell}, {"arm", arm}});
+}
+
+Effects EpisodeMachine::then(const Effects& first, Effects next) {
+  if (!next.cancel_command) next.cancel_command = first.cancel_command;
+  // A later lease supersedes an earlier one (a new command's, a revocation) on the channel's lease key.
+  if (!next.lease) next.lease = first.lease;
+  if (!next.command) next.command = first.command;
+  if (!next.plan_request) next.plan_request = first.plan_request;
+  if (!next.end) next.end = first.end;
   return next;
 }
 

@@ -45,9 +45,7 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   cell.reset(seed, task.goal);
   std::filesystem::remove(evidence_path);
   EvidenceWriter evidence(evidence_path);
-  // As the governor's shell records a request (the cell is the suite here).
-  evidence.append("governor", "episode_request",
-                  {{"suite", task.suite}, {"task", task.id}, {"seed", seed}, {"cell", task.suite}, {"arm", arm}});
+  gov::record_request(evidence, task.suite, task.id, seed, task.suite, arm);  // the cell is the suite here
   // Unique per run: the host core keeps a channel's keyframes for as long as its episode id stays the same.
   const std::string episode_id =
       task.suite + "/" + std::to_string(task.id) + "/" + std::to_string(seed) + "#" + std::to_string(++runs_);

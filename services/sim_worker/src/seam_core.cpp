@@ -72,18 +72,16 @@ SeamEffects SeamCore::on_action(const ActionIn& a, SeamClock::time_point now) {
                          a.episode_id});
     return fx;
   }
+  std::optional<SeamEvent> superseded;
   auto it = pending_.find(a.command_id);
   if (it != pending_.end() && it->second.action.step != a.step)
-    fx.events.push_back({it->second.action.step, a.command_id, SeamEventKind::RejectedStep,
-                         "superseded by the same command's action for step " + std::to_string(a.step), {}});
+    superseded = SeamEvent{it->second.action.step, a.command_id, SeamEventKind::RejectedStep,
+                           "superseded by the same command's action for step " + std::to_string(a.step), {}};
   // The same command answering the same step again (a re-send) keeps its place in the grace period.
   const auto since = it != pending_.end() && it->second.action.step == a.step ? it->second.since : now;
   pending_[a.command_id] = {a, since};
-  SeamEffects more = admit(now);
-  fx.events.insert(fx.events.end(), more.events.begin(), more.events.end());
-  fx.verdict = std::move(more.verdict);
-  fx.observation = std::move(more.observation);
-  fx.ended = std::move(more.ended);
+  fx = admit(now);
+  if (superseded) fx.events.insert(fx.events.begin(), std::move(*superseded));
   return fx;
 }
 

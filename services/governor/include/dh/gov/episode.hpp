@@ -72,6 +72,11 @@ struct Effects {
   std::optional<EpisodeEnd> end;
 };
 
+/// An episode's first evidence record, what was asked for, written by whoever takes the request (the
+/// governor's shell, the in-process stack) before the machine exists, and read by `dh replay`.
+void record_request(EvidenceWriter& evidence, const std::string& suite, std::uint32_t task, std::uint64_t seed,
+                    const std::string& cell, const std::string& arm);
+
 class EpisodeMachine {
  public:
   EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, const Registry& registry,
@@ -117,8 +122,8 @@ class EpisodeMachine {
   FailureCode last_failure_ = FailureCode::None;  ///< why the last command that did not complete failed
   Effects end(bool success, const std::string& outcome, const std::string& reason);
   Effects stop_command();  ///< cancel + revoking lease for the running command, if any
-  /// `next` after stopping: the stop's cancel and revocation ride along unless `next` sets its own.
-  static Effects then(const Effects& stop, Effects next);
+  /// `next` after `first` (a stop, a step's decision): what `next` does not set itself, `first`'s rides along.
+  static Effects then(const Effects& first, Effects next);
   Effects finish_command(const CommandStatus& st, Clock::time_point now);
   /// Folds the progress reports of steps before `step` (through it, with `through`) into last_progress_.
   void take_progress(std::uint32_t step, bool through);
