@@ -22,6 +22,22 @@ const char* to_string(CommandState s) {
   return "?";
 }
 
+const char* to_string(Outcome o) {
+  switch (o) {
+    case Outcome::Success:
+      return "success";
+    case Outcome::BudgetExhausted:
+      return "budget_exhausted";
+    case Outcome::GaveUp:
+      return "gave_up";
+    case Outcome::Infrastructure:
+      return "infrastructure";
+    case Outcome::Rejected:
+      return "rejected";
+  }
+  return "?";
+}
+
 const char* to_string(FailureCode c) {
   switch (c) {
     case FailureCode::None:

@@ -3,6 +3,7 @@
 #include "dh/common/command.hpp"
 #include "dh/common/seam_event.hpp"
 #include "dh/msg/command.h"
+#include "dh/msg/episode.h"
 #include "dh/msg/robot.h"
 
 #include <algorithm>
@@ -92,6 +93,18 @@ std::vector<msg::Binding> to_msg(const std::vector<std::pair<std::string, std::s
   return out;
 }
 
+PerceptionLimits from_msg(const msg::PerceptionLimits& m) {
+  return {m.max_age_steps(), m.min_confidence(), std::chrono::milliseconds(m.wait_ms())};
+}
+
+msg::PerceptionLimits to_msg(const PerceptionLimits& l) {
+  msg::PerceptionLimits m;
+  m.max_age_steps(l.max_age_steps);
+  m.min_confidence(l.min_confidence);
+  m.wait_ms(static_cast<std::uint32_t>(l.wait.count()));
+  return m;
+}
+
 std::map<std::string, double> from_msg(const std::vector<msg::Param>& p) {
   std::map<std::string, double> out;
   for (const auto& x : p) out[x.name()] = x.value();
@@ -125,6 +138,8 @@ SceneEstimate from_msg(const msg::SceneEstimate& m) {
 // The DDS-free codes mirror the IDL enums value for value: the shells cast between them.
 static_assert(static_cast<int>(dh::msg::STATE_CANCELLED) == static_cast<int>(dh::CommandState::Cancelled));
 static_assert(static_cast<int>(dh::msg::STATE_ACCEPTED) == static_cast<int>(dh::CommandState::Accepted));
+static_assert(static_cast<int>(dh::msg::OUTCOME_SUCCESS) == static_cast<int>(dh::Outcome::Success));
+static_assert(static_cast<int>(dh::msg::OUTCOME_REJECTED) == static_cast<int>(dh::Outcome::Rejected));
 static_assert(static_cast<int>(dh::msg::FAILURE_PERCEPTION_LOST) == static_cast<int>(dh::FailureCode::PerceptionLost));
 static_assert(static_cast<int>(dh::msg::SEAM_REJECTED_CHANNEL) == static_cast<int>(dh::SeamEventKind::RejectedChannel));
 static_assert(static_cast<int>(dh::msg::SEAM_SAFETY_HOLD) == static_cast<int>(dh::SeamEventKind::SafetyHold));

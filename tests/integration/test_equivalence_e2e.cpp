@@ -51,7 +51,7 @@ TEST(Equivalence, EightyEpisodesOverDdsAndInProcessAreTheSame) {
     const auto path = env.runs / "inproc" / (row.cell + "_" + std::to_string(row.task) + "_" + std::to_string(row.seed) + ".jsonl");
     const auto in = stack.run(find_task(suites, row.cell, row.task), row.seed, row.arm, path);
     EXPECT_EQ(in.success, row.success) << what;
-    EXPECT_EQ(in.outcome, row.outcome) << what;
+    EXPECT_EQ(to_string(in.outcome), row.outcome) << what;
     EXPECT_EQ(in.steps, row.steps) << what;
     const auto dds_records = normalised(row.evidence_path), inproc_records = normalised(path);
     std::vector<std::string> only_dds, only_inproc;

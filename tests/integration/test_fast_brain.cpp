@@ -51,19 +51,22 @@ TEST(FastBrain, ARefusedPushBecomesAPickAndPlaceAndTheLatchEndsTheEpisode) {
 // the lift with the bowl in the jaw, and the episode succeeds.
 TEST(FastBrain, AMissedGraspGetsARegraspAndTheResumedStepCompletes) {
   itest::IsolatedEnv env;
-  const auto library = env.runs / "pick_place_missing.yaml";
+  // The episode's library: the shipped one with pick_place's θ changed; it travels in the request, the
+  // running cap_pick_place serves it.
+  const auto library = env.runs / "library";
+  std::filesystem::copy(paths::config_dir() / "library", library);
   {
     std::ifstream in(paths::config_dir() / "library" / "pick_place.yaml");
-    std::ofstream out(library);
+    std::ofstream out(library / "pick_place.yaml");
     for (std::string line; std::getline(in, line);)
       out << (line.rfind("  rim_grasp_depth:", 0) == 0 ? "  rim_grasp_depth: -0.05" : line) << "\n";
   }
   cli::Deployment d({itest::service("sim_worker"), itest::service("governor"), itest::service("planner"),
-                     itest::service("cap_pick_place", {"--library", library.string()}), itest::service("cap_push"),
-                     itest::service("cap_recovery")},
+                     itest::service("cap_pick_place"), itest::service("cap_push"), itest::service("cap_recovery")},
                     paths::bin_dir(), env.runs / "logs");
   const auto [out, status] = itest::run_command((paths::bin_dir() / "dh").string() +
-                                                " run --suite goal --task 8 --seed 3 --json --ready-timeout-ms 20000");
+                                                " run --suite goal --task 8 --seed 3 --json --ready-timeout-ms 20000 "
+                                                "--library " + library.string());
   ASSERT_EQ(status, 0) << out;
   const auto j = json::parse(out);
   EXPECT_TRUE(j["success"].get<bool>()) << out;
@@ -79,6 +82,10 @@ TEST(FastBrain, AMissedGraspGetsARegraspAndTheResumedStepCompletes) {
     missed |= r.value("failure", "") == "grasp_missed";
   EXPECT_TRUE(missed);
   const auto grounded = of_kind(records, "grounding");
+  for (const auto& g : grounded) {
+    if (g["capability"] == "pick_place")
+      EXPECT_EQ(g["theta"]["rim_grasp_depth"].get<double>(), -0.05) << "the request's library, not the announced θ";
+  }
   EXPECT_TRUE(std::any_of(grounded.begin(), grounded.end(), [](const json& g) { return g["capability"] == "regrasp"; }));
   EXPECT_TRUE(d.exited().empty()) << "a service crashed";
 }

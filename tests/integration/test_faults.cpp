@@ -53,7 +53,7 @@ TEST(Faults, KilledCapabilityIsRecordedWithinItsLeaseAndTheEpisodeEnds) {
   const auto killed_at = std::chrono::system_clock::now();
   ASSERT_TRUE(itest::wait_until(m, cv, 20s, [&] { return result.has_value(); })) << "the episode hung";
   EXPECT_FALSE(result->success());
-  EXPECT_EQ(result->outcome(), "gave_up") << result->reason();
+  EXPECT_EQ(result->outcome(), msg::OUTCOME_GAVE_UP) << result->reason();
   EXPECT_LT(result->steps(), 200u) << "nothing moved after the loss";
 
   // The evidence file is intact (every line parses) and records the loss within the 1 s lease.

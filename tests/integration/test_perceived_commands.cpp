@@ -106,6 +106,8 @@ struct PerceivedCommands : ::testing::Test {
     c.budget_steps(500);
     c.lease_until_step(step + 20);
     c.grounding(grounding);
+    c.perception(convert::to_msg(PerceptionLimits{}));  // the episode's limits, as the governor sends them
+    c.decision_period(10);
     command.write(c);
   }
 

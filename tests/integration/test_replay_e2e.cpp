@@ -27,7 +27,7 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
   ASSERT_EQ(rows.size(), 60u);
 
   std::set<std::string> arms, cells;
-  std::size_t identical = 0, compared = 0;
+  std::size_t identical = 0, compared = 0, resumed = 0, resumed_mid = 0;
   for (const auto& row : rows) {
     ASSERT_FALSE(row.infrastructure) << row.episode_id << ": " << row.reason;
     const auto r = inproc::replay(row.evidence_path, {paths::config_dir(), {}, std::nullopt, false});
@@ -44,14 +44,23 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
     } else {
       EXPECT_EQ(r.actions_compared, r.recorded_steps) << row.evidence_path << ": every action from a skill again";
     }
+    // From the state recorded at the last command's start (mid-episode for most): the same again.
+    if (r.commands > 1) {
+      const auto k = inproc::replay(row.evidence_path, {paths::config_dir(), {}, r.commands - 1, false});
+      EXPECT_TRUE(k.identical) << row.evidence_path << " from command " << r.commands - 1;
+      resumed += k.identical;
+      resumed_mid += k.identical && k.from_step > 0;
+    }
     arms.insert(row.arm);
     cells.insert(row.cell);
   }
   EXPECT_EQ(identical, rows.size());
+  EXPECT_GE(resumed_mid, 20u) << "restored mid-episode states replay identically";
   EXPECT_EQ(arms.size(), 5u);
   EXPECT_EQ(cells.size(), 6u);
-  std::printf("%zu episodes over DDS replayed, %zu identical, %zu skill actions compared\n", rows.size(), identical,
-              compared);
+  std::printf("%zu episodes over DDS replayed, %zu identical, %zu skill actions compared; %zu replayed from their last "
+              "command's recorded state (%zu of them mid-episode), identical\n",
+              rows.size(), identical, compared, resumed, resumed_mid);
 
   // The command line: one JSON object; a θ changed in a library copy refuses with exit 4 and names it.
   const std::string evidence = rows.front().evidence_path;

@@ -3,6 +3,7 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
+#include "dh/common/command.hpp"
 #include "dh/common/dds.hpp"
 #include "dh/common/topics.hpp"
 #include "dh/msg/capabilityPubSubTypes.h"
@@ -115,7 +116,7 @@ TEST(TopicGarbage, ForeignCommandsAndActionsForMissingChannelsAreRejectedAndReco
   lease.write(stray_lease);
 
   ASSERT_TRUE(itest::wait_until(m, cv, 60s, [&] { return result.has_value(); })) << "the episode hung";
-  EXPECT_TRUE(result->success()) << result->outcome() << ": " << result->reason();
+  EXPECT_TRUE(result->success()) << to_string(static_cast<Outcome>(result->outcome())) << ": " << result->reason();
   {
     std::lock_guard l(m);
     std::set<std::uint32_t> rejected;

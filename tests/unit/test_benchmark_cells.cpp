@@ -59,7 +59,7 @@ TEST(BenchmarkCells, EveryCellAndTaskInstantiatesForSeeds1To60) {
   for (const auto& [key, tasks] : by_scene) {
     sim::Workcell cell(sim::load_task_scene(*tasks.front()));
     const std::string& cell_name = tasks.front()->suite;
-    std::vector<std::vector<double>> state(kSeeds + 1);
+    std::vector<sim::PhysicsState> state(kSeeds + 1);
     for (unsigned seed = 1; seed <= kSeeds; ++seed) {
       const std::string what = cell_name + "/" + std::to_string(tasks.front()->id) + " seed " + std::to_string(seed);
       ASSERT_NO_THROW(cell.reset(seed, tasks.front()->goal)) << what;
@@ -71,12 +71,12 @@ TEST(BenchmarkCells, EveryCellAndTaskInstantiatesForSeeds1To60) {
       for (const TaskDef* t : tasks)
         EXPECT_FALSE(cell.holds(t->goal)) << t->suite << "/" << t->id << " seed " << seed
                                           << ": the goal already holds in the initial state";
-      state[seed] = cell.state();
+      state[seed] = cell.physics_state();
     }
     // The goal does not change the initial state, so one task per scene key stands for all of them.
     for (unsigned seed = 1; seed <= kRepeatSeeds; ++seed) {
       cell.reset(seed, tasks.back()->goal);
-      EXPECT_EQ(cell.state(), state[seed]) << key << ": seed " << seed << " again";
+      EXPECT_EQ(cell.physics_state(), state[seed]) << key << ": seed " << seed << " again";
       EXPECT_NE(state[seed], state[seed + 1]) << key << ": seeds " << seed << " and " << seed + 1 << " give one state";
     }
   }

@@ -50,7 +50,7 @@ TEST_F(Machine, RefusalsAreRecordedAndEndTheEpisodeAfterTheLimit) {
   }
   ASSERT_TRUE(fx.end);
   EXPECT_FALSE(fx.end->success);
-  EXPECT_EQ(fx.end->outcome, "gave_up");
+  EXPECT_EQ(fx.end->outcome, Outcome::GaveUp);
   EXPECT_EQ(fx.end->refusals, static_cast<std::uint32_t>(config.max_refusals));
   const auto recs = read_evidence(file);
   const auto n = std::count_if(recs.begin(), recs.end(), [](const auto& r) {
@@ -87,7 +87,7 @@ TEST_F(Machine, AMissingAcknowledgementAndASilentPlannerHitTheirDeadlines) {
 TEST_F(Machine, NoFirstObservationIsAnInfrastructureFailure) {
   const Effects fx = m->on_tick(t0 + config.first_observation_timeout + 1ms);
   ASSERT_TRUE(fx.end);
-  EXPECT_EQ(fx.end->outcome, "infrastructure");
+  EXPECT_EQ(fx.end->outcome, Outcome::Infrastructure);
 }
 
 TEST_F(Machine, ACompletionReportedBeforeItsObservationWaitsForIt) {
@@ -157,7 +157,7 @@ TEST_F(Machine, TheBareArmWaitsBrieflyForThePolicysAnnouncement) {
   Effects end;
   for (auto t = t0; !end.end && t < t0 + config.ack_timeout + 1s; t += 50ms) end = lonely.on_tick(t);
   ASSERT_TRUE(end.end);
-  EXPECT_EQ(end.end->outcome, "gave_up");
+  EXPECT_EQ(end.end->outcome, Outcome::GaveUp);
   EXPECT_NE(end.end->reason.find("vla_act"), std::string::npos) << end.end->reason;
 }
 

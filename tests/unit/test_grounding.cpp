@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include "dh/gov/config.hpp"
 #include "dh/gov/grounding.hpp"
 #include "fixtures.hpp"
 
@@ -11,10 +12,11 @@ struct Grounding : ::testing::Test {
   Registry registry;
   Observation obs = test::scene_observation(40);
   std::set<std::string> masked;
+  std::map<std::string, std::map<std::string, double>> library;
   Advice advice{"p0", false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules", false, {}};
   void SetUp() override { registry.announce(test::pick_place_info()); }
   GroundingResult run(std::uint32_t remaining = 260) {
-    return ground({advice, registry, obs, remaining, masked, "ep/c0", 10});
+    return ground({advice, registry, obs, remaining, masked, "ep/c0", 10, library});
   }
 };
 }  // namespace
@@ -99,6 +101,19 @@ TEST_F(Grounding, HotSwapRoutesToTheNewestLiveInstance) {
   EXPECT_EQ(run().command->instance, "pick_place@a");
 }
 
+TEST_F(Grounding, ADrainingInstanceIsSkippedNotRefused) {
+  auto newer = test::pick_place_info("pick_place@b", 2);
+  newer.draining = true;
+  registry.announce(newer);
+  EXPECT_EQ(run().command->instance, "pick_place@a") << "the older instance takes the command";
+  EXPECT_TRUE(registry.alive("pick_place@b")) << "its running command goes on";
+  registry.set_alive("pick_place@a", false);
+  const auto g = run();
+  EXPECT_FALSE(g.command) << "no instance takes new commands";
+  EXPECT_EQ(g.refusal, Refusal::CapabilityNotAlive) << g.reason;
+  EXPECT_TRUE(registry.alive_capabilities().empty()) << "the planner is not offered it";
+}
+
 TEST(CommandBudget, NeverMoreThanWhatRemains) {
   EXPECT_EQ(command_budget(221, 100), 100u);
   EXPECT_EQ(command_budget(100, 1000), 160u);
@@ -115,4 +130,40 @@ TEST_F(Grounding, AHandHoldingSomethingElseIsRefusedButItsOwnObjectIsFine) {
   obs.ee_p = {0.01, -0.15, 0.04};  // the bowl (the command's object) is in the jaw: a regrasp took it
   g = run();
   EXPECT_TRUE(g.command) << g.reason;
+}
+
+TEST_F(Grounding, TheEpisodesLibraryGivesTheThetaInsteadOfTheAnnouncedOne) {
+  library["pick_place"] = {{"corridor_height", 0.2}, {"approach_height", 0.07}};
+  library["push"] = {{"contact_offset", 0.01}};
+  const auto g = run();
+  ASSERT_TRUE(g.command) << g.reason;
+  EXPECT_EQ(g.command->theta, library["pick_place"]) << "the library's θ, whole; not merged with the announced one";
+  library.erase("pick_place");
+  EXPECT_DOUBLE_EQ(run().command->theta.at("corridor_height"), 0.16) << "a capability the library lacks: announced θ";
+}
+
+TEST(Readiness, AnEpisodeWaitsForTheCapabilitiesItsArmMayUse) {
+  EpisodeSpec spec{0, "ep", "put the bowl on the plate", "full", 300};
+  spec.library = {{"pick_place", {}}, {"push", {}}, {"vla_act", {}}};
+  GovernorConfig full;
+  EXPECT_EQ(needed_capabilities(full, spec), (std::set<std::string>{"pick_place", "push", "vla_act"}));
+  GovernorConfig no_vla;
+  no_vla.masked = {"vla_act"};
+  EXPECT_EQ(needed_capabilities(no_vla, spec), (std::set<std::string>{"pick_place", "push"}));
+  GovernorConfig bare;
+  bare.mode = ExecutorMode::Bare;
+  EXPECT_EQ(needed_capabilities(bare, spec), (std::set<std::string>{"vla_act"}));
+
+  Registry registry;
+  registry.announce(test::pick_place_info());
+  EXPECT_EQ(registry.missing(needed_capabilities(no_vla, spec)), (std::vector<std::string>{"push"}));
+  auto draining = test::pick_place_info("push@a");
+  draining.capability = "push";
+  draining.draining = true;
+  registry.announce(draining);
+  EXPECT_EQ(registry.missing(needed_capabilities(no_vla, spec)), (std::vector<std::string>{"push"}))
+      << "a draining instance takes no new command: not ready";
+  draining.draining = false;
+  registry.announce(draining);
+  EXPECT_TRUE(registry.missing(needed_capabilities(no_vla, spec)).empty());
 }

@@ -21,7 +21,7 @@ struct SkillsPhysics : ::testing::Test {
       library[def.name] = cap::load_descriptor(cap::default_descriptor_file(def.name), def).parameters;
       served.push_back({def, def.name + "@inproc"});
     }
-    host = new cap::HostCore(served, {});
+    host = new cap::HostCore(served);
   }
   static void TearDownTestSuite() {
     delete suites;
@@ -107,11 +107,11 @@ TEST_F(SkillsPhysics, ARegraspTakesTheBowlAgainAndPickPlaceGoesOnFromTheLift) {
 TEST_F(SkillsPhysics, ASeedFixesTheInitialStateExactly) {
   const TaskDef& t = task("goal", 8);
   cell(t).reset(7, t.goal);
-  const auto a = cell(t).state();
+  const auto a = cell(t).physics_state();
   cell(t).reset(8, t.goal);
-  EXPECT_NE(a, cell(t).state());
+  EXPECT_NE(a, cell(t).physics_state());
   cell(t).reset(7, t.goal);
-  EXPECT_EQ(a, cell(t).state());
+  EXPECT_EQ(a, cell(t).physics_state());
 }
 
 TEST_F(SkillsPhysics, PickPlaceRefusesWhatItCannotAffordOrHold) {

@@ -119,4 +119,9 @@ TEST(VlaActSkill, AThetaWithoutEveryParameterIsRefusedNamingTheMissingOnes) {
     EXPECT_NE(std::string(e.what()).find("lacks ensemble_decay, cost_steps, max_wait_steps"), std::string::npos) << e.what();
   }
 }
+
+TEST(VlaActSkill, ItsAnnouncedVersionNamesWhatItRuns) {
+  const auto d = load_descriptor(default_descriptor_file("vla_act"), vla_act_def(std::make_shared<ScriptedSource>()));
+  EXPECT_NE(d.version.find("(scripted)"), std::string::npos) << d.version << ": the source is recorded with each grounding";
+}
 }  // namespace dh::cap

@@ -121,7 +121,8 @@ std::string to_json(const Plan& p) {
                         {"cells", p.cells},
                         {"tasks", p.tasks},
                         {"seeds", p.seeds},
-                        {"rerun_rule", p.rerun_rule}}
+                        {"rerun_rule", p.rerun_rule},
+                        {"library_version", p.library_version}}
       .dump();
 }
 
@@ -134,6 +135,7 @@ Plan plan_from_json(const std::string& json) {
     j.at("tasks").get_to(p.tasks);
     j.at("seeds").get_to(p.seeds);
     j.at("rerun_rule").get_to(p.rerun_rule);
+    p.library_version = j.value("library_version", "");  // not stored before the library travelled
     return p;
   } catch (const nlohmann::json::exception& e) {
     throw PlanError(std::string("stored plan is malformed (") + e.what() + "): " + json);
@@ -161,6 +163,8 @@ std::vector<std::string> plan_differences(const Plan& stored, const Plan& reques
   numbers("seeds", stored.seeds, requested.seeds);
   if (stored.rerun_rule != requested.rerun_rule)
     out.push_back("rerun rule: stored '" + stored.rerun_rule + "', requested '" + requested.rerun_rule + "'");
+  if (!stored.library_version.empty() && stored.library_version != requested.library_version)
+    out.push_back("library: stored " + stored.library_version + ", requested " + requested.library_version);
   return out;
 }
 

@@ -73,12 +73,12 @@ void Scheduler::result(const ResultInfo& r, Clock::time_point now) {
   rec.episode_id = r.episode_id;
   rec.success = r.success;
   rec.steps = r.steps;
-  rec.outcome = r.outcome;
+  rec.outcome = to_string(r.outcome);
   rec.reason = r.reason;
   rec.evidence_path = r.evidence_path;
   // "rejected": the governor refused the request itself (unknown arm, busy channel): not the agent's failure.
-  rec.infrastructure = r.outcome == "infrastructure" || r.outcome == "rejected";
-  rec.tick_limit = r.outcome == "budget_exhausted";
+  rec.infrastructure = lost_to_infrastructure(r.outcome);
+  rec.tick_limit = r.outcome == Outcome::BudgetExhausted;
   if (rec.infrastructure && rerun(rec)) {
     running_.erase(it);
     return;
@@ -93,7 +93,7 @@ void Scheduler::result(const ResultInfo& r, Clock::time_point now) {
 void Scheduler::lose(std::map<std::string, Running>::iterator it, const std::string& reason, Clock::time_point now) {
   EpisodeRecord rec = record_of(it->second, now);
   rec.episode_id = it->first;
-  rec.outcome = "infrastructure";
+  rec.outcome = to_string(Outcome::Infrastructure);
   rec.infrastructure = true;
   rec.reason = reason;
   if (!rerun(rec)) finishing_[it->first] = {std::move(rec), now};

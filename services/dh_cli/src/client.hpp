@@ -12,7 +12,11 @@
 #include <string>
 #include <vector>
 
+#include "dh/cap/library_theta.hpp"
 #include "dh/cli/launcher.hpp"
+#include "dh/common/arms.hpp"
+#include "dh/common/convert.hpp"
+#include "dh/gov/config.hpp"
 #include "dh/common/dds.hpp"
 #include "dh/msg/capabilityPubSubTypes.h"
 #include "dh/msg/episodePubSubTypes.h"
@@ -50,6 +54,30 @@ class Client {
   dds::Reader<msg::CapabilityAnnouncePubSubType> caps_;
   dds::Reader<msg::EpisodeResultPubSubType> results_;
 };
+
+/// Puts the library an episode runs into its request: version and θ by capability.
+inline void set_library(msg::EpisodeRequest& r, const cap::LibraryTheta& lib) {
+  r.library_version(lib.version);
+  std::vector<msg::CapabilityTheta> theta;
+  for (const auto& [capability, params] : lib.theta) {
+    msg::CapabilityTheta c;
+    c.capability(capability);
+    c.parameters(convert::to_msg(params));
+    theta.push_back(std::move(c));
+  }
+  r.library(std::move(theta));
+}
+
+/// Puts an episode's settings into its request: what `arm` of configs/governor.yaml means there (decision
+/// period, grounding, perception limits). The governor and the perception service take them from the
+/// request, so they need not read the arms; throws ConfigError for an unknown arm.
+inline void set_settings(msg::EpisodeRequest& r, const std::filesystem::path& config_dir, const std::string& arm) {
+  const gov::GovernorConfig c = gov::for_arm(gov::load_config(config_dir / "governor.yaml"),
+                                             find_arm(load_arms(config_dir / "governor.yaml"), arm));
+  r.decision_period_steps(c.decision_period);
+  r.grounding(c.perception ? "perception" : "state");
+  r.perception(convert::to_msg(c.perception_limits));
+}
 
 /// The capability a deployment must announce to be ready for `arms`: vla_act when every arm is the bare
 /// policy, else pick_place (the first one the embedded planner needs).

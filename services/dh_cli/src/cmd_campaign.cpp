@@ -70,7 +70,10 @@ void print_summary(const nlohmann::json& s) {
 int cmd_campaign(const CampaignArgs& a) {
   install_shutdown_handlers();
   const auto suites = load_suites(paths::config_dir());
-  const campaign::Plan plan = make_plan(a, suites);
+  const cap::LibraryTheta library =
+      cap::load_library_theta(a.library.empty() ? paths::config_dir() / "library" : std::filesystem::path(a.library));
+  campaign::Plan plan = make_plan(a, suites);
+  plan.library_version = library.version;
   if (a.db.empty()) throw campaign::PlanError("--db: missing (the campaign database file, e.g. runs/c1.db)");
   auto db = campaign::CampaignDb::open(a.db);
   const auto differences = db.declare_plan(plan);
@@ -156,7 +159,7 @@ int cmd_campaign(const CampaignArgs& a) {
         scheduler.channel_status(s.channel(), s.worker(), s.state() == msg::CHANNEL_IDLE, s.last_episode_id(),
                                  s.last_physics_s(), s.last_error(), now);
       for (const auto& r : news.results)
-        scheduler.result({r.episode_id(), r.success(), r.steps(), r.outcome(), r.reason(), r.evidence_path()}, now);
+        scheduler.result({r.episode_id(), r.success(), r.steps(), static_cast<Outcome>(r.outcome()), r.reason(), r.evidence_path()}, now);
       for (const auto& w : news.lost_workers) scheduler.worker_lost(w, now);
       if (!scheduler.conflict().empty()) throw std::runtime_error(scheduler.conflict());
       scheduler.expire(now);
@@ -186,6 +189,8 @@ int cmd_campaign(const CampaignArgs& a) {
         r.arm(d.key.arm);
         r.instruction(t.instruction);
         r.budget_steps(t.budget_steps);
+        set_library(r, library);
+        set_settings(r, paths::config_dir(), d.key.arm);
         client.request(r);
       }
       const bool changed = record(scheduler.take_finished(now));
@@ -207,7 +212,7 @@ int cmd_campaign(const CampaignArgs& a) {
     nlohmann::json out = summary;
     out["campaign"] = {{"db", a.db},           {"episodes", all.size()},     {"recorded_before", done_before},
                        {"ran_now", ran_now},    {"remaining", all.size() - done_before - ran_now},
-                       {"interrupted", interrupted}, {"rerun_rule", plan.rerun_rule}, {"reran", reran}, {"run_wall_s", run_wall_s}};
+                       {"interrupted", interrupted}, {"rerun_rule", plan.rerun_rule}, {"library_version", plan.library_version}, {"reran", reran}, {"run_wall_s", run_wall_s}};
     std::cout << out.dump() << "\n";
   } else {
     std::cout << (interrupted ? "campaign interrupted; rerun the same command to resume\n" : "campaign complete\n");

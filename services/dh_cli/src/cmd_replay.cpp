@@ -25,10 +25,10 @@ int cmd_replay(const ReplayArgs& a) {
   for (const auto& d : r.drift) std::cout << "drift (allowed): " << d << "\n";
   for (const auto& c : r.recorded_only) std::cout << "from the record only: " << c << "\n";
   std::cout << r.episode_id << ": " << r.steps << " of " << r.recorded_steps << " steps replayed"
-            << (a.from_command ? " (command " + std::to_string(*a.from_command) + " from step " +
-                                     std::to_string(r.from_step) + ")"
+            << (a.from_command ? " (command " + std::to_string(*a.from_command) + " of " + std::to_string(r.commands) +
+                                     ", from the state recorded at step " + std::to_string(r.from_step) + ")"
                                : std::string())
-            << ", " << r.actions_compared << " skill actions compared\n";
+            << ", " << r.actions_compared << " skill actions and " << r.states_checked << " whole states compared\n";
   if (r.identical) {
     std::cout << "identical: every state digest" << (r.actions_compared ? ", action" : "")
               << (a.from_command ? "" : " and verdict") << " as recorded\n";

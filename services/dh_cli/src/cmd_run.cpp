@@ -22,6 +22,8 @@ int cmd_run(const RunArgs& a) {
   const auto suites = load_suites(paths::config_dir());
   const TaskDef& t = find_task(suites, a.suite, a.task);
   find_arm(load_arms(paths::config_dir() / "governor.yaml"), a.arm);
+  const cap::LibraryTheta library =
+      cap::load_library_theta(a.library.empty() ? paths::config_dir() / "library" : std::filesystem::path(a.library));
   dds::Participant participant("dh_cli");
   Client client(participant);
   std::unique_ptr<Deployment> local;
@@ -37,6 +39,8 @@ int cmd_run(const RunArgs& a) {
   r.arm(a.arm);
   r.instruction(t.instruction);
   r.budget_steps(t.budget_steps);
+  set_library(r, library);
+  set_settings(r, paths::config_dir(), a.arm);
   const auto t0 = std::chrono::steady_clock::now();
   client.request(r);
   if (!a.json) std::cerr << "episode " << r.episode_id() << " on channel " << *ch << ": " << t.instruction << "\n";
@@ -48,14 +52,14 @@ int cmd_run(const RunArgs& a) {
   }
   if (a.json) {
     nlohmann::json j{{"success", res->success()}, {"steps", res->steps()}, {"evidence", res->evidence_path()},
-                     {"outcome", res->outcome()}, {"reason", res->reason()}, {"episode_id", res->episode_id()},
+                     {"outcome", to_string(static_cast<Outcome>(res->outcome()))}, {"reason", res->reason()}, {"episode_id", res->episode_id()},
                      {"suite", a.suite}, {"task", a.task}, {"seed", a.seed}, {"arm", a.arm}, {"channel", *ch},
                      {"budget", t.budget_steps}, {"decisions", res->decisions()}, {"refusals", res->refusals()},
                      {"wall_s", wall}};
     std::cout << j.dump() << "\n";
   } else {
     std::cout << (res->success() ? "SUCCESS" : "FAILURE") << "  " << a.suite << "/" << a.task << " seed " << a.seed
-              << "  steps " << res->steps() << "/" << t.budget_steps << "  outcome " << res->outcome() << " ("
+              << "  steps " << res->steps() << "/" << t.budget_steps << "  outcome " << to_string(static_cast<Outcome>(res->outcome())) << " ("
               << res->reason() << ")\n"
               << "evidence " << res->evidence_path() << "\n";
   }

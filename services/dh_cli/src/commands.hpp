@@ -21,7 +21,7 @@ struct ReplayArgs {
 int cmd_replay(const ReplayArgs& a);
 
 struct RunArgs {
-  std::string suite, launch_file;
+  std::string suite, launch_file, library;
   unsigned task = 0, seed = 0, timeout_s = 180, ready_ms = 2500;
   std::string arm = "full";
   std::optional<std::uint32_t> channel;
@@ -37,7 +37,7 @@ int cmd_launch(const std::string& file, const std::string& host, bool restart, b
 int cmd_dds_profile(const std::string& file, const std::string& host);
 
 struct CampaignArgs {
-  std::string arms = "full", cells = "goal", tasks, seeds, db, launch_file;
+  std::string arms = "full", cells = "goal", tasks, seeds, db, launch_file, library;
   unsigned fresh_seeds = 0;
   std::uint64_t salt = 1;
   unsigned ready_ms = 2500;

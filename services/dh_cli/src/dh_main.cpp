@@ -43,6 +43,9 @@ int main(int argc, char** argv) {
   run->add_option("--timeout", run_args.timeout_s, "seconds to wait for the episode's result");
   run->add_option("--ready-timeout-ms", run_args.ready_ms, "how long to look for a live deployment before starting one");
   run->add_option("--launch", run_args.launch_file, "launch file to start when no deployment answers");
+  run->add_option("--library", run_args.library,
+                  "capability library the episode runs (a folder of descriptors; default configs/library): its θ "
+                  "travels in the request");
   run->add_flag("--json", run_args.json, "one JSON object on stdout");
 
   CampaignArgs camp;
@@ -55,6 +58,9 @@ int main(int argc, char** argv) {
   campaign->add_option("--salt", camp.salt, "salt of the fresh seed block (default 1)");
   campaign->add_option("--db", camp.db, "campaign database (SQLite); rerun with the same file to resume")->required();
   campaign->add_option("--launch", camp.launch_file, "launch file to start when no deployment answers");
+  campaign->add_option("--library", camp.library,
+                       "capability library every episode runs (a folder of descriptors; default configs/library): "
+                       "its θ travels in each request, the running capability processes serve it");
   campaign->add_option("--ready-timeout-ms", camp.ready_ms, "how long to look for a live deployment before starting one");
   campaign->add_option("--start-allowance-s", camp.start_allowance_s,
                        "an episode is lost to infrastructure without a result after this + budget x per-step allowance");
@@ -130,10 +136,11 @@ int main(int argc, char** argv) {
   profile->add_option("--host", host, "host name in the file")->required();
   ReplayArgs replay_args;
   auto* replay = app.add_subcommand("replay", "re-run a recorded episode in process and compare it step by step");
-  replay->add_option("evidence", replay_args.evidence, "the episode's evidence file (<episode>.jsonl; its step log "
-                                                       "<episode>.steps beside it)")->required();
+  replay->add_option("evidence", replay_args.evidence, "the episode's evidence file (<episode>.jsonl; the seam's "
+                                                       "<episode>.steps and .states beside it)")->required();
   replay->add_option("--from-command", replay_args.from_command,
-                     "replay up to the K-th dispatched command (from 0) and compare only its actions");
+                     "restore the state recorded at the K-th dispatched command's start (from 0) and replay "
+                     "that command's actions");
   replay->add_option("--library", replay_args.library,
                      "the capability descriptors whose θ must match the recording (default configs/library)");
   replay->add_flag("--allow-drift", replay_args.allow_drift,

@@ -60,30 +60,50 @@ using Event = std::variant<msg::EpisodeRequest, msg::Observation, msg::Advice, m
 class Governor {
  public:
   Governor(dds::Participant& p, gov::GovernorConfig config, std::map<std::string, ArmSpec> arms,
-           std::filesystem::path runs, std::chrono::milliseconds startup_grace, std::shared_ptr<spdlog::logger> log)
+           std::filesystem::path runs, std::chrono::milliseconds ready_timeout, std::shared_ptr<spdlog::logger> log)
       : config_(std::move(config)), arms_(std::move(arms)), runs_(std::move(runs)), log_(std::move(log)),
         plan_(p, topics::kPlanRequest, dds::Qos::Planner),
         command_(p, topics::kCommand, dds::Qos::Command),
         lease_(p, topics::kLease, dds::Qos::Lease),
         result_(p, topics::kEpisodeResult, dds::Qos::Episode),
-        ready_at_(gov::Clock::now() + startup_grace) {}
+        ready_by_(gov::Clock::now() + ready_timeout) {}
 
   void handle(const msg::EpisodeRequest& r) {
-    // A governor that has just started has not heard every capability's announcement yet (they come on
-    // discovery); requests waiting for it (transient-local, e.g. after a restart) are held until then.
-    if (gov::Clock::now() < ready_at_) {
-      held_.push_back(r);
-      return;
-    }
     auto& ch = channels_[r.channel()];
     if (ch.machine && ch.machine->spec().episode_id == r.episode_id()) return;  // redelivery
     if (std::find(done_.begin(), done_.end(), r.episode_id()) != done_.end()) return;
+    const std::string arm = r.arm().empty() ? "full" : r.arm();
+    gov::EpisodeSpec spec{r.channel(), r.episode_id(), r.instruction(), arm, r.budget_steps(), r.library_version(), {}};
+    for (const auto& c : r.library()) spec.library[c.capability()] = convert::from_msg(c.parameters());
+    if (r.decision_period_steps() > 0) spec.decision_period = r.decision_period_steps();
+    if (!r.grounding().empty()) spec.grounding = r.grounding();
+    if (r.perception().max_age_steps() > 0) spec.perception = convert::from_msg(r.perception());
+    std::optional<gov::GovernorConfig> episode_config;
+    std::string why;
+    try {
+      episode_config = gov::for_request(gov::for_arm(config_, find_arm(arms_, arm)), spec);
+    } catch (const ConfigError& e) {
+      why = e.what();
+    }
+    // Readiness: the episode waits until every capability it may dispatch to has announced an instance
+    // that takes commands (they come on discovery, after this governor may have started), at most until
+    // --ready-timeout-ms after the start; then it runs with what there is and its evidence says what was
+    // missing. A request that names no library cannot say what it needs: it waits for that timeout.
+    const bool starting = gov::Clock::now() < ready_by_;
+    std::vector<std::string> missing;
+    if (episode_config)
+      missing = spec.library.empty() ? std::vector<std::string>{"(no library named: every announcement)"}
+                                     : registry_.missing(gov::needed_capabilities(*episode_config, spec));
+    if (!missing.empty() && starting) {
+      held_.push_back(r);
+      return;
+    }
     if (ch.machine && !ch.machine->ended()) {
       // One client's request must not preempt another's episode.
-      const std::string why = "channel " + std::to_string(r.channel()) + " is busy with episode " +
-                              ch.machine->spec().episode_id;
-      publish_result(r.channel(), r.episode_id(), {false, 0, "rejected", why, 0, 0}, "");
-      log_->warn("channel={} request {} rejected: {}", r.channel(), r.episode_id(), why);
+      const std::string busy = "channel " + std::to_string(r.channel()) + " is busy with episode " +
+                               ch.machine->spec().episode_id;
+      publish_result(r.channel(), r.episode_id(), {false, 0, Outcome::Rejected, busy, 0, 0}, "");
+      log_->warn("channel={} request {} rejected: {}", r.channel(), r.episode_id(), busy);
       return;
     }
     const auto path = paths::evidence_file(runs_, r.episode_id(), ".jsonl");
@@ -91,22 +111,17 @@ class Governor {
     ch.lease.reset();
     ch.evidence = std::make_unique<EvidenceWriter>(path);
     gov::record_request(*ch.evidence, r.suite(), r.task(), r.seed(), r.cell(), r.arm());
-    const std::string arm = r.arm().empty() ? "full" : r.arm();
-    gov::EpisodeSpec spec{r.channel(), r.episode_id(), r.instruction(), arm, r.budget_steps()};
-    if (!arms_.count(arm)) {
+    if (!episode_config) {
       // Answer at once so the client and the simulator channel do not wait for a deadline.
-      std::string why;
-      try {
-        find_arm(arms_, arm);
-      } catch (const ConfigError& e) {
-        why = e.what();
-      }
       ch.evidence->append("governor", "episode_rejected", {{"reason", why}});
-      publish_result(r.channel(), r.episode_id(), {false, 0, "rejected", why, 0, 0}, ch.evidence->path());
+      publish_result(r.channel(), r.episode_id(), {false, 0, Outcome::Rejected, why, 0, 0}, ch.evidence->path());
       log_->error("channel={} episode={} rejected: {}", r.channel(), r.episode_id(), why);
       return;
     }
-    ch.machine = std::make_unique<gov::EpisodeMachine>(spec, gov::for_arm(config_, arms_.at(arm)), registry_,
+    if (!spec.library.empty() && !missing.empty())  // the machine records it
+      log_->warn("channel={} episode={} starts without an instance of {}", r.channel(), r.episode_id(),
+                 nlohmann::json(missing).dump());
+    ch.machine = std::make_unique<gov::EpisodeMachine>(spec, *episode_config, registry_,
                                                        *ch.evidence, gov::Clock::now());
     log_->info("channel={} episode={} arm={} evidence={}", r.channel(), r.episode_id(), arm, path.string());
     if (ch.early && ch.early->episode_id() == r.episode_id()) {
@@ -148,10 +163,12 @@ class Governor {
   }
   void handle(const Announced& a) {
     gov::CapabilityInfo info{a.a.capability(), a.a.instance(), a.a.version(), a.a.arguments(), a.a.preconditions(),
-                             convert::from_msg(a.a.parameters()), a.a.cost_steps(), a.a.started_ns(), true};
+                             convert::from_msg(a.a.parameters()), a.a.cost_steps(), a.a.started_ns(), true,
+                             a.a.draining()};
     writers_[a.writer] = info.instance;
     registry_.announce(info);
-    log_->info("capability={} instance={} announced (cost {} steps)", info.capability, info.instance, info.cost_steps);
+    log_->info("capability={} instance={} announced (cost {} steps){}", info.capability, info.instance, info.cost_steps,
+               info.draining ? ", draining" : "");
   }
   void handle(const LivelinessChange& c) {
     auto it = writers_.find(c.writer);
@@ -196,7 +213,7 @@ class Governor {
   }
   dds::fdds::InstanceHandle_t command_writer() const { return command_.handle(); }
   void tick() {
-    if (!held_.empty() && gov::Clock::now() >= ready_at_) {
+    if (!held_.empty()) {  // each is held again while it still waits
       auto held = std::move(held_);
       held_.clear();
       for (const auto& r : held) handle(r);
@@ -274,7 +291,8 @@ class Governor {
       c.start_step(g.start_step);
       c.budget_steps(g.budget_steps);
       c.lease_until_step(g.lease_until_step);
-      c.grounding(arms_.at(ch.machine->spec().arm).grounding);
+      c.grounding(g.perception ? "perception" : "state");
+      if (g.perception) c.perception(convert::to_msg(*g.perception));
       c.decision_period(g.decision_period);
       command_.write(c);
       log_->info("channel={} dispatch {} -> {} budget={}", channel, g.command_id, g.instance, g.budget_steps);
@@ -295,7 +313,7 @@ class Governor {
     }
     if (fx.end) {
       publish_result(channel, episode, *fx.end, ch.evidence->path());
-      log_->info("channel={} episode={} outcome={} steps={} reason={}", channel, episode, fx.end->outcome,
+      log_->info("channel={} episode={} outcome={} steps={} reason={}", channel, episode, to_string(fx.end->outcome),
                  fx.end->steps, fx.end->reason);
     }
   }
@@ -307,7 +325,7 @@ class Governor {
     r.episode_id(episode);
     r.success(e.success);
     r.steps(e.steps);
-    r.outcome(e.outcome);
+    r.outcome(static_cast<msg::Outcome>(e.outcome));
     r.reason(e.reason);
     r.evidence_path(evidence.string());
     r.decisions(e.decisions);
@@ -330,7 +348,7 @@ class Governor {
   std::map<std::string, std::string> instance_of_;
   std::map<std::uint32_t, ChannelState> channels_;
   std::vector<std::string> done_;
-  gov::Clock::time_point ready_at_;
+  gov::Clock::time_point ready_by_;
   std::vector<msg::EpisodeRequest> held_;
 };
 
@@ -342,9 +360,9 @@ int run(int argc, char** argv) {
   std::optional<unsigned> planner_timeout_ms;
   app.add_option("--planner-timeout-ms", planner_timeout_ms,
                  "overrides planner_timeout_ms of the YAML (a model server's planner needs more than its own timeout)");
-  unsigned startup_grace_ms = 3000;
-  app.add_option("--startup-grace-ms", startup_grace_ms,
-                 "hold episode requests this long after start, until the capabilities' announcements are in");
+  unsigned ready_timeout_ms = 3000;
+  app.add_option("--ready-timeout-ms", ready_timeout_ms,
+                 "after start, an episode waits at most this long for the capabilities it may use to announce");
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("dh_governor");
   return run_service(*log, [&] {
@@ -354,7 +372,7 @@ int run(int argc, char** argv) {
     gov::GovernorConfig gc = gov::load_config(config);
     if (planner_timeout_ms) gc.planner_timeout = std::chrono::milliseconds(*planner_timeout_ms);
     Governor gov(participant, gc, load_arms(config), std::filesystem::absolute(runs_dir),
-                 std::chrono::milliseconds(startup_grace_ms), log);
+                 std::chrono::milliseconds(ready_timeout_ms), log);
     EventQueue<Event> q;
     auto push = [&q](auto m) { q.push(std::move(m)); };
     dds::Reader<msg::EpisodeRequestPubSubType> r1(participant, topics::kEpisodeRequest, dds::Qos::Episode,

@@ -41,4 +41,30 @@ GovernorConfig for_arm(GovernorConfig g, const ArmSpec& arm) {
   return g;
 }
 
+std::set<std::string> needed_capabilities(const GovernorConfig& episode, const EpisodeSpec& spec) {
+  std::set<std::string> needed;
+  for (const auto& [capability, theta] : spec.library)
+    if (!episode.masked.count(capability) && (episode.mode != ExecutorMode::Bare || capability == "vla_act"))
+      needed.insert(capability);
+  return needed;
+}
+
+GovernorConfig for_request(GovernorConfig g, const EpisodeSpec& spec) {
+  if (spec.decision_period) g.decision_period = *spec.decision_period;
+  if (g.decision_period == 0) throw ConfigError("episode " + spec.episode_id + ": a decision period of 0 steps");
+  if (spec.perception) g.perception_limits = *spec.perception;
+  if (spec.grounding) {
+    if (*spec.grounding == "perception")
+      g.perception = g.perception_limits;
+    else if (*spec.grounding == "state")
+      g.perception.reset();
+    else
+      throw ConfigError("episode " + spec.episode_id + ": grounding '" + *spec.grounding +
+                        "' (expected state or perception)");
+  } else if (g.perception) {
+    g.perception = g.perception_limits;
+  }
+  return g;
+}
+
 }  // namespace dh::gov

@@ -1,6 +1,8 @@
 #include "dh/gov/episode.hpp"
 
+#include "dh/common/build_info.hpp"
 #include "dh/common/history.hpp"
+#include "dh/gov/config.hpp"
 
 namespace dh::gov {
 
@@ -22,7 +24,11 @@ EpisodeMachine::EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, c
   evidence_.append("governor", "episode_start",
                    {{"episode_id", spec_.episode_id}, {"channel", spec_.channel},
                     {"instruction", spec_.instruction}, {"arm", spec_.arm},
-                    {"budget_steps", spec_.budget_steps}, {"decision_period", config_.decision_period}});
+                    {"budget_steps", spec_.budget_steps}, {"decision_period", config_.decision_period},
+                    {"library_version", spec_.library_version}});
+  // The governor waited for these (or its ready timeout passed): the episode runs without them.
+  if (const auto missing = registry_.missing(needed_capabilities(config_, spec_)); !missing.empty())
+    evidence_.append("governor", "capabilities_missing", {{"step", 0}, {"missing", missing}});
 }
 
 nlohmann::json EpisodeMachine::obs_summary(const Observation& o) const {
@@ -127,8 +133,8 @@ Effects EpisodeMachine::on_advice(const Advice& advice, Clock::time_point now) {
   if (advice.done) {
     // The planner judges every step complete. With the latch on, a true verdict would have ended the
     // episode at the last decision; the final state decides without it.
-    if (!config_.latch && last_obs_.goal_holds) return end(true, "success", "planner: every step completed; final state satisfies the task");
-    return end(false, "gave_up", "planner: every step of the plan completed, yet the task verdict is false");
+    if (!config_.latch && last_obs_.goal_holds) return end(true, Outcome::Success, "planner: every step completed; final state satisfies the task");
+    return end(false, Outcome::GaveUp, "planner: every step of the plan completed, yet the task verdict is false");
   }
   if (config_.mode == ExecutorMode::Seq && sequence_.empty() && commands_ == 0) sequence_ = advice.rest;
   last_advice_ = advice;
@@ -160,7 +166,8 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
     }
   }
   GroundingResult g = unseen ? GroundingResult{std::nullopt, Refusal::Perception, unseen->reason}
-                             : ground({advice, registry_, seen, remaining, config_.masked, command_id, config_.decision_period});
+                             : ground({advice, registry_, seen, remaining, config_.masked, command_id,
+                                      config_.decision_period, spec_.library});
   if (!advice.refused) tried_[history::signature(advice.args)].insert(advice.capability);
   if (!g.command) {
     // An episode can reach this governor before the policy's announcement does (they travel on different
@@ -177,7 +184,7 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
     if (config_.mode == ExecutorMode::Bare) {
       evidence_.append("governor", "refusal", {{"step", last_obs_.step}, {"refusal", to_string(g.refusal)},
                                                {"reason", g.reason}, {"capability", advice.capability}});
-      return end(false, "gave_up", "bare arm: nothing but the policy may act, and " + g.reason);
+      return end(false, Outcome::GaveUp, "bare arm: nothing but the policy may act, and " + g.reason);
     }
     // Another capability would not see the scene any better than this one.
     if (g.refusal == Refusal::PlannerRefused || g.refusal == Refusal::Budget || g.refusal == Refusal::Perception)
@@ -191,17 +198,19 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
     history_.push_back(history::outcome_line(last_obs_.step, advice.capability, "refused", advice.args, g.reason));
     if (!recovering_) count_failure();
     if (refusals_in_row_ >= config_.max_refusals)
-      return end(false, "gave_up", std::to_string(refusals_in_row_) + " refusals in a row; last: " + g.reason);
+      return end(false, Outcome::GaveUp, std::to_string(refusals_in_row_) + " refusals in a row; last: " + g.reason);
     return decide_now(CommandPhase::Refused, "grounding refused: " + g.reason, now);
   }
   ++commands_;
   refusals_in_row_ = 0;
   if (config_.mode == ExecutorMode::Bare) g.command->budget_steps = remaining;  // the rest of the episode
   g.command->decision_period = config_.decision_period;
+  g.command->perception = config_.perception;
   const Command& c = *g.command;
   evidence_.append("governor", "grounding",
                    {{"step", last_obs_.step}, {"result", "grounded"}, {"command_id", c.command_id},
-                    {"capability", c.capability}, {"instance", c.instance}, {"args", bindings_json(c.args)},
+                    {"capability", c.capability}, {"instance", c.instance}, {"version", c.version},
+                    {"args", bindings_json(c.args)},
                     {"theta", c.theta}});
   evidence_.append("governor", "dispatch",
                    {{"step", last_obs_.step}, {"command_id", c.command_id}, {"instance", c.instance},
@@ -234,7 +243,7 @@ Effects EpisodeMachine::refuse(Refusal r, const std::string& reason, Clock::time
                     {"in_row", refusals_in_row_}});
   history_.push_back("step " + std::to_string(last_obs_.step) + ": refused (" + to_string(r) + "): " + reason);
   if (refusals_in_row_ >= config_.max_refusals)
-    return end(false, "gave_up", std::to_string(refusals_in_row_) + " refusals in a row; last: " + reason);
+    return end(false, Outcome::GaveUp, std::to_string(refusals_in_row_) + " refusals in a row; last: " + reason);
   return request_plan(std::string("refusal: ") + to_string(r), now);
 }
 
@@ -398,10 +407,10 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
       return fx;
     }
     case DecisionKind::StopSuccess:
-      return end(true, "success", d.reason + " (predicate first held at step " +
+      return end(true, Outcome::Success, d.reason + " (predicate first held at step " +
                                       std::to_string(latch_.event_step()) + ")");
     case DecisionKind::GiveUp:
-      return end(false, s.step >= s.budget_steps ? "budget_exhausted" : "gave_up", d.reason);
+      return end(false, s.step >= s.budget_steps ? Outcome::BudgetExhausted : Outcome::GaveUp, d.reason);
     case DecisionKind::Retry: {
       const Effects stop = stop_command();
       return then(stop, last_advice_ ? ground_and_dispatch(*last_advice_, now) : request_plan(d.reason, now));
@@ -471,8 +480,12 @@ Effects EpisodeMachine::stop_command() {
 
 void record_request(EvidenceWriter& evidence, const std::string& suite, std::uint32_t task, std::uint64_t seed,
                     const std::string& cell, const std::string& arm) {
-  evidence.append("governor", "episode_request",
-                  {{"suite", suite}, {"task", task}, {"seed", seed}, {"cell", cell}, {"arm", arm}});
+  evidence.append("governor", "episode_request", {{"suite", suite},
+                                                  {"task", task},
+                                                  {"seed", seed},
+                                                  {"cell", cell},
+                                                  {"arm", arm},
+                                                  {"build", build_info().str()}});
 }
 
 Effects EpisodeMachine::then(const Effects& first, Effects next) {
@@ -485,18 +498,18 @@ Effects EpisodeMachine::then(const Effects& first, Effects next) {
   return next;
 }
 
-Effects EpisodeMachine::end(bool success, const std::string& outcome_in, const std::string& reason) {
+Effects EpisodeMachine::end(bool success, Outcome outcome_in, const std::string& reason) {
   Effects fx = stop_command();
-  std::string outcome = outcome_in;
+  Outcome outcome = outcome_in;
   // Without the latch the benchmark's verdict on the final state decides (unless infrastructure failed).
-  if (!config_.latch && outcome != "infrastructure" && outcome != "rejected") {
+  if (!config_.latch && !lost_to_infrastructure(outcome)) {
     success = last_obs_.goal_holds;
-    if (success) outcome = "success";
+    if (success) outcome = Outcome::Success;
   }
   phase_ = Phase::Ended;
   EpisodeEnd e{success, last_obs_.step, outcome, reason, decisions_, refusals_total_};
   evidence_.append("governor", "episode_end",
-                   {{"step", e.steps}, {"success", success}, {"outcome", outcome}, {"reason", reason},
+                   {{"step", e.steps}, {"success", success}, {"outcome", to_string(outcome)}, {"reason", reason},
                     {"latched", latch_.latched()}, {"verdict_step", latch_.event_step()},
                     {"decisions", decisions_}, {"refusals", refusals_total_}});
   fx.end = e;
@@ -515,7 +528,7 @@ Effects EpisodeMachine::on_tick(Clock::time_point now) {
   evidence_.append("governor", "deadline_missed", {{"step", last_obs_.step}, {"waiting_for", what}});
   switch (phase_) {
     case Phase::WaitingFirstObservation:
-      return end(false, "infrastructure", "no " + what);
+      return end(false, Outcome::Infrastructure, "no " + what);
     case Phase::AwaitingCapability:
     case Phase::AwaitingPerception:
       break;  // handled above
@@ -527,7 +540,7 @@ Effects EpisodeMachine::on_tick(Clock::time_point now) {
         if (!recovering_) count_failure();
         return decide_now(CommandPhase::Failed, "no " + what, now);
       }
-      return end(false, "infrastructure", "no " + what);
+      return end(false, Outcome::Infrastructure, "no " + what);
     case Phase::Ended:
       break;
   }

@@ -69,7 +69,7 @@ GroundingResult ground(const GroundingInput& in) {
   const auto info = in.registry.newest_alive(a.capability);
   if (!info)
     return refuse(Refusal::CapabilityNotAlive,
-                  "every instance of '" + a.capability + "' lost its liveliness lease");
+                  "no instance of '" + a.capability + "' takes commands (each lost its liveliness lease or is draining)");
   // Declared roles: "object" takes a scene entity, "state:open|closed" one of the listed symbols,
   // "instruction:*" any non-empty text.
   for (const auto& decl : info->arguments) {
@@ -107,8 +107,10 @@ GroundingResult ground(const GroundingInput& in) {
   c.command_id = in.command_id;
   c.capability = a.capability;
   c.instance = info->instance;
+  c.version = info->version;
   c.args = a.args;
-  c.theta = info->parameters;
+  const auto theta = in.library.find(a.capability);
+  c.theta = theta != in.library.end() ? theta->second : info->parameters;
   c.start_step = in.obs.step;
   c.budget_steps = command_budget(info->cost_steps, in.remaining_steps);
   const std::uint32_t p = std::max<std::uint32_t>(1, in.decision_period);

@@ -24,7 +24,7 @@ void Registry::set_alive(const std::string& instance, bool alive) {
 std::optional<CapabilityInfo> Registry::newest_alive(const std::string& capability) const {
   const CapabilityInfo* best = nullptr;
   for (const auto& i : instances_)
-    if (i.capability == capability && i.alive && (!best || i.started_ns > best->started_ns)) best = &i;
+    if (i.capability == capability && i.alive && !i.draining && (!best || i.started_ns > best->started_ns)) best = &i;
   if (!best) return std::nullopt;
   return *best;
 }
@@ -39,10 +39,17 @@ bool Registry::alive(const std::string& instance) const {
                      [&](const CapabilityInfo& i) { return i.instance == instance && i.alive; });
 }
 
+std::vector<std::string> Registry::missing(const std::set<std::string>& needed) const {
+  std::vector<std::string> out;
+  for (const auto& c : needed)
+    if (!newest_alive(c)) out.push_back(c);
+  return out;
+}
+
 std::vector<std::string> Registry::alive_capabilities() const {
   std::set<std::string> names;
   for (const auto& i : instances_)
-    if (i.alive) names.insert(i.capability);
+    if (i.alive && !i.draining) names.insert(i.capability);
   return {names.begin(), names.end()};
 }
 

@@ -67,7 +67,7 @@ int main(int argc, char** argv) {
           pc.first += r.success;
           ++pc.second;
           if (!quiet)
-            std::printf("%-10s %d seed %-3u %-16s steps %-4u %s\n", cell.c_str(), t, seed, r.outcome.c_str(), r.steps,
+            std::printf("%-10s %d seed %-3u %-16s steps %-4u %s\n", cell.c_str(), t, seed, to_string(r.outcome), r.steps,
                         r.reason.c_str());
         }
     }

@@ -4,16 +4,19 @@
 
 #include <cstring>
 #include <map>
+#include <set>
 
 #include "dh/cap/descriptor.hpp"
 #include "dh/cap/host_core.hpp"
 #include "dh/cap/library.hpp"
 #include "dh/common/arms.hpp"
+#include "dh/common/build_info.hpp"
 #include "dh/common/evidence.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/inproc/bus.hpp"
 #include "dh/sim/scene.hpp"
 #include "dh/sim/seam_core.hpp"
+#include "dh/sim/state_log.hpp"
 #include "dh/sim/step_log.hpp"
 #include "dh/sim/workcell.hpp"
 
@@ -24,13 +27,14 @@ using nlohmann::json;
 
 /// A command as the evidence recorded it: its grounding (capability, arguments, θ) and its dispatch.
 struct RecordedCommand {
-  std::string id, capability;
+  std::string id, capability, version;
   json args, theta;
   std::uint32_t start_step = 0, budget_steps = 0;
 };
 
 struct Recorded {
-  std::string suite, arm, episode_id;
+  std::string suite, arm, episode_id, build, instruction;
+  std::set<std::string> predicates;         ///< the goal's text as the seam stated it
   unsigned task = 0;
   std::uint64_t seed = 0;
   std::uint32_t budget_steps = 0, decision_period = 10;
@@ -57,15 +61,18 @@ Recorded read_recorded(const std::filesystem::path& evidence) {
         r.task = e.at("task").get<unsigned>();
         r.seed = e.at("seed").get<std::uint64_t>();
         r.arm = e.value("arm", "full");
+        r.build = e.value("build", "");
       } else if (kind == "episode_start") {
         start = true;
         r.episode_id = e.at("episode_id").get<std::string>();
         r.budget_steps = e.at("budget_steps").get<std::uint32_t>();
+        r.instruction = e.value("instruction", "");
         r.decision_period = e.value("decision_period", 10u);
       } else if (kind == "grounding" && e.value("result", "") == "grounded") {
         RecordedCommand& c = grounded[e.at("command_id").get<std::string>()];
         c.id = e.at("command_id").get<std::string>();
         c.capability = e.at("capability").get<std::string>();
+        c.version = e.value("version", "");
         c.args = e.value("args", json::object());
         c.theta = e.value("theta", json::object());
       } else if (kind == "dispatch") {
@@ -77,6 +84,7 @@ Recorded read_recorded(const std::filesystem::path& evidence) {
         r.commands.push_back(std::move(c));
       } else if (kind == "verdict_event") {
         r.verdicts[e.at("step").get<std::uint32_t>()] = e.at("value").get<bool>();
+        r.predicates.insert(e.value("predicate", ""));
       }
     }
   } catch (const json::exception& e) {
@@ -162,6 +170,10 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
   const auto steps_file = std::filesystem::path(evidence).replace_extension(".steps");
   const sim::StepLog log = sim::read_step_log(steps_file);
   if (log.records.empty()) bad(steps_file, "the step log has no record of step 0");
+  const auto states_file = std::filesystem::path(evidence).replace_extension(".states");
+  const sim::StateLog states = sim::read_state_log(states_file);
+  if (states.header.model_hash != log.header.model_hash)
+    bad(states_file, "the state log is of another model than the step log beside it");
   if (o.from_command && *o.from_command >= rec.commands.size())
     throw std::invalid_argument("--from-command " + std::to_string(*o.from_command) + ": the episode dispatched " +
                                 std::to_string(rec.commands.size()) + " command(s), numbered from 0");
@@ -176,12 +188,28 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
   ReplayReport report;
   report.episode_id = rec.episode_id;
   report.recorded_steps = static_cast<std::uint32_t>(log.records.size() - 1);
+  report.commands = static_cast<std::uint32_t>(rec.commands.size());
   if (cell.model_hash() != log.header.model_hash)
     report.drift.push_back("the model of " + task.scene_file.filename().string() + " compiles to another hash than the recorded one (scene, "
                            "assets or robot changed)");
   if (static_cast<std::uint32_t>(mj_version()) != log.header.mujoco_version)
     report.drift.push_back("MuJoCo " + std::to_string(mj_version()) + " replays a recording of MuJoCo " +
                            std::to_string(log.header.mujoco_version));
+  if (rec.build != build_info().str())
+    report.drift.push_back("recorded by build " + (rec.build.empty() ? std::string("(none recorded)") : rec.build) +
+                           "; this is build " + build_info().str());
+  // The suite's task as recorded: the instruction and budget the governor had, the goal the seam checked.
+  if (rec.instruction != task.instruction)
+    report.drift.push_back(rec.suite + " task " + std::to_string(rec.task) + " says \"" + task.instruction +
+                           "\"; the recording's instruction was \"" + rec.instruction + "\"");
+  if (rec.budget_steps != task.budget_steps)
+    report.drift.push_back(rec.suite + " task " + std::to_string(rec.task) + " has a budget of " +
+                           std::to_string(task.budget_steps) + " steps; the recording had " +
+                           std::to_string(rec.budget_steps));
+  for (const auto& p : rec.predicates)
+    if (p != goal_text(task.goal))
+      report.drift.push_back(rec.suite + " task " + std::to_string(rec.task) + "'s goal is " + goal_text(task.goal) +
+                             "; the recording checked " + p);
   const auto library = o.library_dir.empty() ? o.config_dir / "library" : o.library_dir;
   for (auto& d : theta_drift(rec, defs, library)) report.drift.push_back(std::move(d));
   if (!report.drift.empty() && !o.allow_drift) {
@@ -198,43 +226,66 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
     if (perception)
       report.recorded_only.push_back(c.capability + " (grounded in perception estimates, which the replay does not re-make)");
     else if (!find_def(defs, c.capability))
-      report.recorded_only.push_back(c.capability + " (not an analytic or recovery skill of this build)");
+      report.recorded_only.push_back(c.capability + " " + c.version + " (not an analytic or recovery skill of this build)");
   }
   for (const auto& d : defs) served.push_back({d, d.name + "@replay"});
-  cap::HostCore host(served, PerceptionLimits{});
+  cap::HostCore host(served);
   const auto rerun = [&](const RecordedCommand& c) { return !perception && find_def(defs, c.capability); };
+
+  // With --from-command K: the seam resumes from the state recorded at K's start, and the last step to
+  // replay is the last one K's actions led to.
+  const sim::StateRecord* resume_from = nullptr;
+  std::uint32_t last = report.recorded_steps;
+  std::string only;
+  std::size_t next = 0;  // the next recorded command to give the host
+  if (o.from_command) {
+    const RecordedCommand& k = rec.commands[*o.from_command];
+    only = k.id;
+    next = *o.from_command;
+    resume_from = states.for_command(k.id);
+    if (!resume_from)
+      bad(states_file, "no state recorded at the start of command " + std::to_string(*o.from_command) + " (" + k.id +
+                           "): its lease never reached the seam");
+    if (resume_from->step >= log.records.size())
+      bad(states_file, "command " + k.id + " starts at step " + std::to_string(resume_from->step) +
+                           ", after the step log's last record");
+    report.from_step = resume_from->step;
+    last = resume_from->step;  // the command sent no action (refused, or ended at once)
+    for (std::size_t i = 1; i < log.records.size(); ++i)
+      if (log.records[i].command_id == k.id) last = static_cast<std::uint32_t>(i);
+  }
 
   cell.reset(rec.seed, task.goal);
   sim::SeamCore seam(0, kBusSeam);
-  Observation obs = *seam.start(cell, rec.episode_id, rec.budget_steps, goal_text(task.goal), step_time(0)).observation;
+  const std::string predicate = goal_text(task.goal);
+  const std::uint32_t first = resume_from ? resume_from->step : 0;
+  Observation obs =
+      *(resume_from ? seam.resume(cell, rec.episode_id, rec.budget_steps, predicate, *resume_from, step_time(first))
+                    : seam.start(cell, rec.episode_id, rec.budget_steps, predicate, step_time(0)))
+           .observation;
   const auto note = [&](const Divergence& d) {
     ++report.divergent_steps;
     if (!report.first_divergence) report.first_divergence = d;
   };
-  if (cell.digest() != log.records[0].digest) note(where(cell.model(), 0, cell.digest(), log.records[0].digest));
-
-  // With --from-command K: the last step to replay is the last one K's actions led to.
-  std::uint32_t last = report.recorded_steps;
-  std::uint32_t compare_from = 0;
-  std::string only;
-  if (o.from_command) {
-    const RecordedCommand& k = rec.commands[*o.from_command];
-    only = k.id;
-    compare_from = report.from_step = k.start_step;
-    last = 0;
-    for (std::size_t i = 1; i < log.records.size(); ++i)
-      if (log.records[i].command_id == k.id) last = static_cast<std::uint32_t>(i);
-    if (last == 0) last = k.start_step;  // the command sent no action (refused, or ended at once)
-  }
+  // Every recorded state on the way is compared whole: the states a probe would start from.
+  const auto check_states = [&](std::uint32_t step) {
+    if (cell.digest() != log.records[step].digest)
+      note(where(cell.model(), step, cell.digest(), log.records[step].digest));
+    for (const auto& r : states.records)
+      if (r.step == step) {
+        ++report.states_checked;
+        if (!(cell.physics_state() == r.state)) note({step, "world", "recorded state of command '" + r.command_id + "'"});
+      }
+  };
+  check_states(first);
 
   std::map<std::uint32_t, bool> verdicts;
   std::optional<cap::ActionOut> action;  // the skills' answer to the current step
   const auto take = [&](const cap::HostEffects& fx) {
     for (const auto& a : fx.actions) action = a;
   };
-  take(host.on_observation(obs, step_time(0)));
-  std::size_t next = 0;
-  for (std::uint32_t i = 1; i <= last; ++i) {
+  take(host.on_observation(obs, step_time(first)));
+  for (std::uint32_t i = first + 1; i <= last; ++i) {
     const sim::StepRecord& r = log.records[i];
     const std::uint32_t t = i - 1;  // the step the action answers
     if (r.step != i) bad(steps_file, "record " + std::to_string(i) + " is for step " + std::to_string(r.step));
@@ -249,7 +300,7 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
     if (cmd == by_id.end())
       bad(evidence, "step " + std::to_string(i) + " was reached by an action of command '" + r.command_id +
                         "', which the evidence never dispatched");
-    if (rerun(*cmd->second) && t >= compare_from && (only.empty() || r.command_id == only)) {
+    if (rerun(*cmd->second) && (only.empty() || r.command_id == only)) {
       ++report.actions_compared;
       if (!action || action->command_id != r.command_id || action->step != t) {
         note({t, cmd->second->capability, "action (the skill gave none)"});
@@ -271,8 +322,7 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
     if (sx.verdict) verdicts[sx.verdict->step] = sx.verdict->value;
     obs = *sx.observation;
     report.steps = i;
-    const sim::StateDigest got = cell.digest();
-    if (got != r.digest) note(where(cell.model(), i, got, r.digest));
+    check_states(i);
     take(host.on_observation(obs, step_time(i)));
   }
   if (!o.from_command) report.verdicts_identical = verdicts == rec.verdicts;
@@ -285,7 +335,9 @@ nlohmann::json to_json(const ReplayReport& r) {
          {"identical", r.identical},
          {"steps", r.steps},
          {"recorded_steps", r.recorded_steps},
+         {"commands", r.commands},
          {"from_step", r.from_step},
+         {"states_checked", r.states_checked},
          {"divergent_steps", r.divergent_steps},
          {"actions_compared", r.actions_compared},
          {"recorded_only", r.recorded_only},

@@ -14,7 +14,7 @@ namespace dh::inproc {
 
 Stack::Stack(const std::filesystem::path& config_dir)
     : config_(gov::load_config(config_dir / "governor.yaml")), arms_(load_arms(config_dir / "governor.yaml")),
-      host_({}, config_.perception_limits) {
+      host_({}), library_(cap::load_library_theta(config_dir / "library")) {
   for (auto& def : cap::all_capabilities()) add_capability(std::move(def), config_dir / "library");
 }
 
@@ -49,7 +49,7 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   // Unique per run: the host core keeps a channel's keyframes for as long as its episode id stays the same.
   const std::string episode_id =
       task.suite + "/" + std::to_string(task.id) + "/" + std::to_string(seed) + "#" + std::to_string(++runs_);
-  gov::EpisodeSpec spec{0, episode_id, task.instruction, arm, task.budget_steps};
+  gov::EpisodeSpec spec{0, episode_id, task.instruction, arm, task.budget_steps, library_.version, library_.theta};
   sim::SeamCore seam(spec.channel, kBusSeam);
   cap::Clock::time_point now = step_time(0);
   Observation obs = *seam.start(cell, episode_id, task.budget_steps, goal_text(task.goal), now,

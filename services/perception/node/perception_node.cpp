@@ -1,6 +1,6 @@
 // perception: scene estimates from RGB-D frames, for arms that ground from perception.
 // Reads   rt/dh/episode/request (Episode)      which scene a channel runs: the free objects to look for,
-//                                              for arms that ground from perception (configs/governor.yaml)
+//                                              for episodes whose request says grounding "perception"
 //         rt/dh/episode/result  (Episode)      the channel's episode is over
 //         rt/dh/observation     (Observation)  when to look: step 0, then every --every-steps
 //         rt/dh/camera/rgbd     (Rgbd)         the frames it asked for
@@ -17,7 +17,6 @@
 #include <optional>
 #include <variant>
 
-#include "dh/common/arms.hpp"
 #include "dh/common/config.hpp"
 #include "dh/common/dds.hpp"
 #include "dh/common/event_queue.hpp"
@@ -73,14 +72,12 @@ class Perception {
       : segmenter_(std::move(segmenter)), cloud_(std::move(cloud)), camera_(std::move(camera)), every_(every),
         frame_timeout_(frame_timeout),
         log_(std::move(log)), suites_(load_suites(paths::config_dir())),
-        arms_(load_arms(paths::config_dir() / "governor.yaml")),
         request_(p, topics::kRgbdRequest, dds::Qos::RgbdRequest),
         scene_(p, topics::kSceneEstimate, dds::Qos::Observation) {}
 
   void handle(const msg::EpisodeRequest& r) {
-    // Rendering costs the simulator time: only episodes whose arm grounds from perception are looked at.
-    const auto arm = arms_.find(r.arm().empty() ? "full" : r.arm());
-    if (arm == arms_.end() || arm->second.grounding != "perception") {
+    // Rendering costs the simulator time: only episodes grounded in perception are looked at.
+    if (r.grounding() != "perception") {
       channels_.erase(r.channel());
       return;
     }
@@ -186,7 +183,6 @@ class Perception {
   std::chrono::milliseconds frame_timeout_;
   std::shared_ptr<spdlog::logger> log_;
   std::map<std::string, SuiteDef> suites_;
-  std::map<std::string, ArmSpec> arms_;
   dds::Writer<msg::RgbdRequestPubSubType> request_;
   dds::Writer<msg::SceneEstimatePubSubType> scene_;
   std::map<std::uint32_t, ChannelState> channels_;

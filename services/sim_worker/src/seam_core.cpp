@@ -30,6 +30,34 @@ const Ports& SeamCore::ports() {
 SeamEffects SeamCore::start(Workcell& cell, std::string episode_id, std::uint32_t budget_steps,
                             std::string predicate, SeamClock::time_point now,
                             const std::filesystem::path& steps_file) {
+  begin(cell, std::move(episode_id), budget_steps, std::move(predicate), now);
+  if (!steps_file.empty()) {
+    const auto mj = static_cast<std::uint32_t>(mj_version());
+    log_ = std::make_unique<StepLogWriter>(
+        steps_file, StepLogHeader{cell.model_hash(), mj, static_cast<std::uint32_t>(cell.digest().joints.size() / 2)});
+    states_ = std::make_unique<StateLogWriter>(std::filesystem::path(steps_file).replace_extension(".states"),
+                                               StateLogHeader{cell.model_hash(), mj, cell.shape()});
+    states_->append({0, {}, cell.physics_state()});
+  }
+  SeamEffects fx;
+  observe(fx, nullptr);
+  return fx;
+}
+
+SeamEffects SeamCore::resume(Workcell& cell, std::string episode_id, std::uint32_t budget_steps,
+                             std::string predicate, const StateRecord& from, SeamClock::time_point now) {
+  begin(cell, std::move(episode_id), budget_steps, std::move(predicate), now);
+  cell.restore(from.state);
+  step_ = from.step;
+  last_started_ = from.command_id;
+  predicate_ = cell.goal_holds();
+  SeamEffects fx;
+  observe(fx, nullptr);
+  return fx;
+}
+
+void SeamCore::begin(Workcell& cell, std::string episode_id, std::uint32_t budget_steps, std::string predicate,
+                     SeamClock::time_point now) {
   cell_ = &cell;
   episode_ = std::move(episode_id);
   predicate_text_ = std::move(predicate);
@@ -41,13 +69,8 @@ SeamEffects SeamCore::start(Workcell& cell, std::string episode_id, std::uint32_
   physics_s_ = 0;
   lease_at_ = last_sign_of_life_ = now;
   log_.reset();
-  if (!steps_file.empty())
-    log_ = std::make_unique<StepLogWriter>(
-        steps_file, StepLogHeader{cell.model_hash(), static_cast<std::uint32_t>(mj_version()),
-                                  static_cast<std::uint32_t>(cell.digest().joints.size() / 2)});
-  SeamEffects fx;
-  observe(fx, nullptr);
-  return fx;
+  states_.reset();
+  last_started_.clear();
 }
 
 void SeamCore::end() {
@@ -55,10 +78,17 @@ void SeamCore::end() {
   pending_.clear();
   lease_ = {};
   log_.reset();
+  states_.reset();
 }
 
 SeamEffects SeamCore::on_lease(const LeaseGrant& l, SeamClock::time_point now) {
   if (!running() || l.episode_id != episode_) return {};
+  // A command's first lease comes before any of its actions can apply (admission needs it): the state
+  // now is the one the command starts from. Leases are rewritten, so only a new command id counts.
+  if (states_ && !l.revoked && l.command_id != last_started_) {
+    states_->append({step_, l.command_id, cell_->physics_state()});
+    last_started_ = l.command_id;
+  }
   lease_ = {true, l.command_id, l.valid_until_step, l.budget_until_step, l.revoked, false};
   lease_at_ = last_sign_of_life_ = now;
   return admit(now);

@@ -1,31 +1,15 @@
 #include "dh/sim/step_log.hpp"
 
-#include <cstring>
-#include <fstream>
 #include <stdexcept>
+
+#include "binary_log.hpp"
 
 namespace dh::sim {
 namespace {
 
 constexpr char kMagic[8] = {'D', 'H', 'S', 'T', 'E', 'P', 'S', '1'};
-
-// x86-64 and aarch64 are little-endian; the format says so for any other reader.
-template <typename T>
-void put(std::string& out, const T& v) {
-  out.append(reinterpret_cast<const char*>(&v), sizeof(T));
-}
-
-struct Cursor {
-  const std::string& bytes;
-  std::size_t at = 0;
-  template <typename T>
-  bool get(T& v) {
-    if (at + sizeof(T) > bytes.size()) return false;
-    std::memcpy(&v, bytes.data() + at, sizeof(T));
-    at += sizeof(T);
-    return true;
-  }
-};
+constexpr const char* kWhere = "the simulator worker writes it beside the evidence; copy it there from the worker's host";
+using binlog::put;
 
 }  // namespace
 
@@ -43,15 +27,11 @@ std::uint32_t fnv1a32(const void* data, std::size_t n, std::uint32_t h) {
 
 StepLogWriter::StepLogWriter(const std::filesystem::path& path, const StepLogHeader& header)
     : path_(path), joints_(header.joints) {
-  std::filesystem::create_directories(path.parent_path());
-  file_ = std::fopen(path.c_str(), "wb");
-  if (!file_) throw std::runtime_error("cannot write the step log " + path.string() + ": " + std::strerror(errno));
   std::string out(kMagic, sizeof kMagic);
   put(out, header.model_hash);
   put(out, header.mujoco_version);
   put(out, header.joints);
-  std::fwrite(out.data(), 1, out.size(), file_);
-  std::fflush(file_);
+  file_ = binlog::create(path, "step log", out);
 }
 
 StepLogWriter::~StepLogWriter() {
@@ -70,19 +50,12 @@ void StepLogWriter::append(const StepRecord& r) {
   for (double a : r.action) put(out, a);
   put(out, static_cast<std::uint16_t>(r.command_id.size()));
   out += r.command_id;
-  std::fwrite(out.data(), 1, out.size(), file_);
-  std::fflush(file_);
+  binlog::append(file_, out);
 }
 
 StepLog read_step_log(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw std::runtime_error("no step log " + path.string() +
-                             " (the simulator worker writes it beside the evidence; copy it there from the worker's host)");
-  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (bytes.size() < sizeof kMagic || std::memcmp(bytes.data(), kMagic, sizeof kMagic) != 0)
-    throw std::runtime_error(path.string() + " is not a DynaHarness step log (no DHSTEPS1 header)");
-  Cursor c{bytes, sizeof kMagic};
+  const std::string bytes = binlog::read(path, "step log", kMagic, kWhere);
+  binlog::Cursor c{bytes, sizeof kMagic};
   StepLog log;
   if (!c.get(log.header.model_hash) || !c.get(log.header.mujoco_version) || !c.get(log.header.joints))
     throw std::runtime_error(path.string() + ": the step log's header is cut short");

@@ -249,6 +249,7 @@ std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
       }
     }
   }
+  ended_ = capture();
   mj_forward(m_, d_);
   // MuJoCo drops contacts and constraints silently when its buffers are full; that physics is wrong.
   for (int w : {mjWARN_CONTACTFULL, mjWARN_CNSTRFULL})
@@ -366,11 +367,43 @@ StateDigest Workcell::digest() const {
   return g;
 }
 
-std::vector<double> Workcell::state() const {
-  std::vector<double> s(d_->qpos, d_->qpos + m_->nq);
-  s.insert(s.end(), d_->qvel, d_->qvel + m_->nv);
-  s.push_back(d_->time);
-  return s;
+StateShape Workcell::shape() const {
+  const auto u = [](int n) { return static_cast<std::uint32_t>(n); };
+  return {u(m_->nq), u(m_->nv), u(m_->na), u(m_->nu), u(m_->nmocap), u(m_->nbody)};
+}
+
+PhysicsState Workcell::capture() const {
+  const auto copy = [](const mjtNum* p, int n) { return std::vector<double>(p, p + n); };
+  return {d_->time,
+          copy(d_->qpos, m_->nq),
+          copy(d_->qvel, m_->nv),
+          copy(d_->act, m_->na),
+          copy(d_->ctrl, m_->nu),
+          copy(d_->qacc_warmstart, m_->nv),
+          copy(d_->mocap_pos, 3 * m_->nmocap),
+          copy(d_->mocap_quat, 4 * m_->nmocap),
+          copy(d_->qfrc_applied, m_->nv),
+          copy(d_->xfrc_applied, 6 * m_->nbody)};
+}
+
+void Workcell::restore(const PhysicsState& s) {
+  const StateShape here = shape();
+  if (!here.fits(s))
+    throw std::invalid_argument(scene_.name + ": a recorded state does not fit this model (" + here.str() +
+                                "); it was recorded with another scene or robot");
+  const auto put = [](const std::vector<double>& v, mjtNum* p) { std::copy(v.begin(), v.end(), p); };
+  d_->time = s.time;
+  put(s.qpos, d_->qpos);
+  put(s.qvel, d_->qvel);
+  put(s.act, d_->act);
+  put(s.ctrl, d_->ctrl);
+  put(s.qacc_warmstart, d_->qacc_warmstart);
+  put(s.mocap_pos, d_->mocap_pos);
+  put(s.mocap_quat, d_->mocap_quat);
+  put(s.qfrc_applied, d_->qfrc_applied);
+  put(s.xfrc_applied, d_->xfrc_applied);
+  mj_forward(m_, d_);
+  ended_ = s;
 }
 
 }  // namespace dh::sim

@@ -234,3 +234,64 @@ TEST_F(SeamCoreTest, WritesAStepLogThatReadsBackAsWritten) {
     EXPECT_NE(std::string(e.what()).find("seam_core_test.steps"), std::string::npos) << e.what();
   }
 }
+
+// The state log: the full physics state at step 0 and at each command's first lease (not at its
+// renewals), read back as written; resuming from a command's state and applying the same actions gives
+// the same states, bit for bit, as the run that recorded it.
+TEST_F(SeamCoreTest, RecordsCommandStartStatesThatResumeBitIdentically) {
+  const auto file = std::filesystem::path(::testing::TempDir()) / "seam_core_states.steps";
+  seam.end();
+  cell->reset(21, *goal);
+  seam.start(*cell, "ep", 300, "goal", t0, file);
+  const std::vector<std::array<double, 7>> actions{
+      {0.5, 0, -0.3, 0, 0, 0.2, 1}, {0, 0.5, 0, 0.1, 0, 0, 1}, {0, 0, -0.8, 0, 0, 0, -1}, {0.3, -0.2, 0.4, 0, 0.3, 0, -1}};
+  lease("c0", 2, t0);
+  ASSERT_TRUE(seam.on_action({"ep", "c0", 0, actions[0]}, t0).observation);
+  lease("c0", 10, t0);  // a renewal: no new record
+  ASSERT_TRUE(seam.on_action({"ep", "c0", 1, actions[1]}, t0).observation);
+  lease("c1", 10, t0);
+  const sim::PhysicsState at_c1 = cell->physics_state();
+  const sim::StateDigest digest_c1 = cell->digest();
+  std::vector<sim::StateDigest> recorded;
+  for (std::uint32_t k = 2; k < 4; ++k) {
+    ASSERT_TRUE(seam.on_action({"ep", "c1", k, actions[k]}, t0).observation);
+    recorded.push_back(cell->digest());
+  }
+  seam.end();
+
+  const sim::StateLog log = sim::read_state_log(std::filesystem::path(file).replace_extension(".states"));
+  EXPECT_EQ(log.header.model_hash, cell->model_hash());
+  EXPECT_EQ(log.header.shape, cell->shape());
+  ASSERT_EQ(log.records.size(), 3u);
+  EXPECT_EQ(log.records[0].step, 0u);
+  EXPECT_EQ(log.records[0].command_id, "");
+  EXPECT_EQ(log.records[1].command_id, "c0");
+  EXPECT_EQ(log.records[1].step, 0u);
+  const sim::StateRecord* c1 = log.for_command("c1");
+  ASSERT_NE(c1, nullptr);
+  EXPECT_EQ(c1->step, 2u);
+  EXPECT_EQ(c1->state, at_c1);
+
+  // A fresh reset with another seed, then the recorded state: the same steps follow.
+  cell->reset(22, *goal);
+  sim::SeamCore again{3, sim::SeamSettings{1000ms, 60000ms, 1000ms}};
+  const auto fx = again.resume(*cell, "ep2", 300, "goal", *c1, t0);
+  ASSERT_TRUE(fx.observation);
+  EXPECT_EQ(fx.observation->step, 2u);
+  EXPECT_EQ(cell->digest(), digest_c1);
+  EXPECT_EQ(cell->physics_state(), at_c1);
+  again.on_lease({"ep2", "c1", 10, 200, false}, t0);
+  for (std::uint32_t k = 2; k < 4; ++k) {
+    ASSERT_TRUE(again.on_action({"ep2", "c1", k, actions[k]}, t0).observation);
+    EXPECT_EQ(cell->digest(), recorded[k - 2]) << "step " << k + 1;
+  }
+  again.end();
+
+  // A state of another model is refused by name; a torn last record is dropped.
+  sim::PhysicsState wrong = at_c1;
+  wrong.qpos.pop_back();
+  EXPECT_THROW(cell->restore(wrong), std::invalid_argument);
+  const auto states = std::filesystem::path(file).replace_extension(".states");
+  std::filesystem::resize_file(states, std::filesystem::file_size(states) - 5);
+  EXPECT_EQ(sim::read_state_log(states).records.size(), 2u);
+}

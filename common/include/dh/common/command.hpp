@@ -28,6 +28,20 @@ enum class FailureCode {
 
 const char* to_string(FailureCode c);
 
+/// How an episode ended, typed (idl/episode.idl Outcome: the same values in the same order). The campaign
+/// counts losses by it; the reason beside it is for people.
+enum class Outcome {
+  Success,
+  BudgetExhausted,  ///< the episode's budget ran out
+  GaveUp,           ///< the governor ended it (no progress, nothing left to try, the planner said done)
+  Infrastructure,   ///< a process, the simulator or a deadline failed: not the agent's failure
+  Rejected,         ///< the governor refused the request itself (unknown arm, busy channel)
+};
+
+const char* to_string(Outcome o);
+/// Not the agent's failure: infrastructure or a rejected request.
+inline bool lost_to_infrastructure(Outcome o) { return o == Outcome::Infrastructure || o == Outcome::Rejected; }
+
 /// Whether the command is over (every state but accepted and running).
 inline bool ended(CommandState s) { return s != CommandState::Accepted && s != CommandState::Running; }
 

@@ -25,6 +25,9 @@ std::vector<msg::Binding> to_msg(const std::vector<std::pair<std::string, std::s
 /// Box centres become bottom centres (EntityState::p); sizes become half extents.
 SceneEstimate from_msg(const msg::SceneEstimate& m);
 
+PerceptionLimits from_msg(const msg::PerceptionLimits& m);
+msg::PerceptionLimits to_msg(const PerceptionLimits& l);
+
 std::map<std::string, double> from_msg(const std::vector<msg::Param>& p);
 std::vector<msg::Param> to_msg(const std::map<std::string, double>& p);
 

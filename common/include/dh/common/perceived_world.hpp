@@ -59,6 +59,8 @@ struct Unperceived {
 class PerceivedWorld {
  public:
   explicit PerceivedWorld(PerceptionLimits limits) : limits_(limits) {}
+  /// The episode's limits, from its commands; frames already taken in keep the confidence filter they had.
+  void set_limits(PerceptionLimits limits) { limits_ = limits; }
 
   /// A frame's estimates; an older frame than the latest is ignored.
   void on_estimate(const SceneEstimate& e);

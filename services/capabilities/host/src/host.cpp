@@ -1,8 +1,10 @@
 // One capability family as its own process: the DDS shell around HostCore (host_core.hpp, which lists the
 // ports and holds every rule). This file adds what only a process has: the announcement of each capability
-// on rt/dh/capability/announce (transient-local, liveliness MANUAL_BY_TOPIC, lease 1 s), and draining on
-// SIGTERM/SIGINT: new commands are refused and running ones finish (at most --drain-timeout-s) before it
-// exits — how `dh swap` replaces it without losing a command.
+// on rt/dh/capability/announce (transient-local, liveliness MANUAL_BY_TOPIC, lease 1 s), asserted from the
+// event loop itself, so a loop stuck in a skill loses the lease and the governor counts the instance lost;
+// and draining on SIGTERM/SIGINT: the announcement says so (the governor sends new commands elsewhere), new
+// commands are refused, and running ones finish (at most --drain-timeout-s) before it exits — how `dh swap`
+// replaces it without losing a command.
 #include "dh/cap/host.hpp"
 
 #include <CLI/CLI.hpp>
@@ -36,13 +38,6 @@ struct Served {
   msg::CapabilityAnnounce descriptor;
 };
 
-/// The deployment's limits on scene estimates: the `perception:` section of the governor's configuration
-/// (the same limits for both brains); the defaults where it has none.
-PerceptionLimits deployment_perception_limits() {
-  const ConfigNode c = ConfigNode::load_file(paths::config_dir() / "governor.yaml");
-  return c.has("perception") ? perception_limits(c.child("perception")) : PerceptionLimits{};
-}
-
 CommandStart from_msg(const msg::Command& c) {
   CommandStart s;
   s.channel = c.channel();
@@ -56,6 +51,7 @@ CommandStart from_msg(const msg::Command& c) {
   s.budget_steps = c.budget_steps();
   s.decision_period = c.decision_period();
   s.grounding = c.grounding() == "perception" ? Grounding::Perception : Grounding::State;
+  s.perception = convert::from_msg(c.perception());
   return s;
 }
 
@@ -148,7 +144,7 @@ int run_capability_host(int argc, char** argv, const std::string& family,
     EventQueue<Event> queue;
     std::vector<ServedCapability> cores;
     for (const auto& s : served) cores.push_back({s.def, s.descriptor.instance()});
-    HostCore core(std::move(cores), deployment_perception_limits());  // θ arrives with each command
+    HostCore core(std::move(cores));  // θ and the perception limits arrive with each command
     Publisher publish(participant, *log);
     dds::Reader<msg::CommandPubSubType> cmd(participant, topics::kCommand, dds::Qos::Command,
         {[&](const msg::Command& m, const auto&) { queue.push(m); }, {}, {}});
@@ -161,8 +157,8 @@ int run_capability_host(int argc, char** argv, const std::string& family,
       announce.write(s.descriptor);
       log->info("instance={} cost_steps={} announced", s.descriptor.instance(), s.descriptor.cost_steps());
     }
-    const dds::Heartbeat alive([&announce] { announce.assert_liveliness(); },
-                               std::chrono::milliseconds(static_cast<int>(dds::kLivelinessLeaseSec * 1000 / 4)));
+    const auto assert_every = std::chrono::milliseconds(static_cast<int>(dds::kLivelinessLeaseSec * 1000 / 4));
+    auto asserted = Clock::now();
     auto handle = [&](const Event& e) {
       const auto now = Clock::now();
       if (const auto* c = std::get_if<msg::Command>(&e)) {
@@ -179,9 +175,17 @@ int run_capability_host(int argc, char** argv, const std::string& family,
     auto serve = [&] {
       if (auto e = queue.pop(std::chrono::milliseconds(50))) handle(*e);
       publish(core.on_tick(Clock::now()));
+      if (Clock::now() - asserted >= assert_every) {
+        announce.assert_liveliness();
+        asserted = Clock::now();
+      }
     };
     while (!shutdown_requested()) serve();
     core.drain();
+    for (auto& s : served) {
+      s.descriptor.draining(true);
+      announce.write(s.descriptor);
+    }
     log->info("family={} draining: {} command(s) running", family, core.running());
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(drain_timeout_s);
     while (core.running() > 0 && std::chrono::steady_clock::now() < deadline) serve();

@@ -20,8 +20,7 @@ void HostEffects::append(HostEffects other) {
   for (auto& a : other.actions) actions.push_back(std::move(a));
 }
 
-HostCore::HostCore(const std::vector<ServedCapability>& served, PerceptionLimits limits)
-    : served_(served.begin(), served.end()), limits_(limits) {}
+HostCore::HostCore(const std::vector<ServedCapability>& served) : served_(served.begin(), served.end()) {}
 
 const Ports& HostCore::ports() {
   using enum PortDirection;
@@ -114,14 +113,14 @@ HostEffects HostCore::on_cancel(const CommandCancel& c) {
 
 HostEffects HostCore::on_scene_estimate(std::uint32_t channel, const SceneEstimate& e,
                                         Clock::time_point now) {
-  worlds_.try_emplace(channel, limits_).first->second.on_estimate(e);
+  worlds_.try_emplace(channel, PerceptionLimits{}).first->second.on_estimate(e);
   return retry_awaiting(channel, now);
 }
 
 HostEffects HostCore::on_tick(Clock::time_point now) {
   std::vector<std::uint32_t> due;
   for (const auto& [channel, r] : running_)
-    if (r.awaiting_frame_since && now - *r.awaiting_frame_since >= limits_.wait) due.push_back(channel);
+    if (r.awaiting_frame_since && now - *r.awaiting_frame_since >= r.command.perception.wait) due.push_back(channel);
   HostEffects fx;
   for (const auto channel : due) fx.append(retry_awaiting(channel, now));
   return fx;
@@ -150,6 +149,7 @@ HostEffects HostCore::step(RunningMap::iterator it, const Observation& observed,
   const bool perceived = r.command.grounding == Grounding::Perception && same_episode;
   std::optional<Unperceived> unseen;
   if (world) {
+    if (perceived) world->set_limits(r.command.perception);
     Observation seen = obs;
     unseen = world->view(seen, perceived ? bound_entities(r.command) : std::vector<std::string>{});
     if (perceived) obs = std::move(seen);
@@ -162,12 +162,12 @@ HostEffects HostCore::step(RunningMap::iterator it, const Observation& observed,
     // A missing or stale frame may still come: wait up to the limit without acting.
     if (unseen->estimate_missing_or_stale) {
       if (!r.awaiting_frame_since) r.awaiting_frame_since = now;
-      if (now - *r.awaiting_frame_since < limits_.wait) return fx;
+      if (now - *r.awaiting_frame_since < r.command.perception.wait) return fx;
     }
     const std::string why =
         "perception: " + unseen->reason +
         (unseen->estimate_missing_or_stale
-             ? "; waited " + std::to_string(limits_.wait.count()) + " ms for a fresh frame"
+             ? "; waited " + std::to_string(r.command.perception.wait.count()) + " ms for a fresh frame"
              : "");
     fx.statuses.push_back(status(r, r.skill ? CommandState::Failed : CommandState::Refused, why, obs.step,
                                  r.steps_used, r.stage, 0,

@@ -80,7 +80,7 @@ CommandStart start(const std::string& id, std::uint32_t at, std::uint32_t budget
 const Clock::time_point t0{};
 
 struct HostCoreTest : ::testing::Test {
-  HostCore core{{{scripted(), "scripted@test"}}, PerceptionLimits{}};
+  HostCore core{std::vector<ServedCapability>{{scripted(), "scripted@test"}}};
 };
 
 }  // namespace

@@ -13,6 +13,7 @@ Descriptor load_descriptor(const std::filesystem::path& file, const CapabilityDe
   d.capability = root.get<std::string>("capability");
   if (d.capability != def.name) root.fail("capability", "expected '" + def.name + "', got '" + d.capability + "'");
   d.version = root.get<std::string>("version");
+  if (!def.runs.empty()) d.version += " (" + def.runs + ")";
   d.arguments = root.get<std::vector<std::string>>("arguments");
   d.preconditions = root.get<std::vector<std::string>>("preconditions");
   const ConfigNode params = root.child("parameters");

@@ -88,7 +88,8 @@ SkillStep VlaActSkill::next(const Observation& obs) {
 int VlaActSkill::cost_steps() const { return steps(p_.cost_steps); }
 
 CapabilityDef vla_act_def(std::shared_ptr<ActionSource> source) {
-  return {"vla_act", [source](const Theta& t) -> std::unique_ptr<Skill> { return std::make_unique<VlaActSkill>(source, t); }};
+  return {"vla_act", [source](const Theta& t) -> std::unique_ptr<Skill> { return std::make_unique<VlaActSkill>(source, t); },
+          source->describe()};
 }
 
 }  // namespace dh::cap

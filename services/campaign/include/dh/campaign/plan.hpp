@@ -32,6 +32,7 @@ struct Plan {
   std::vector<unsigned> tasks;  ///< empty = every task of each cell
   std::vector<unsigned> seeds;
   std::string rerun_rule;  ///< declared before the run, e.g. "none" or "infrastructure once"
+  std::string library_version{};  ///< the capability library every episode runs (cap::library_version)
   bool operator==(const Plan&) const = default;
 };
 

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "dh/campaign/plan.hpp"
+#include "dh/common/command.hpp"
 #include "dh/common/episode_record.hpp"
 
 namespace dh::campaign {
@@ -30,7 +31,8 @@ struct ResultInfo {
   std::string episode_id;
   bool success = false;
   unsigned steps = 0;
-  std::string outcome, reason, evidence_path;
+  Outcome outcome = Outcome::GaveUp;
+  std::string reason, evidence_path;
 };
 
 struct SchedulerOptions {

@@ -14,4 +14,12 @@ GovernorConfig load_config(const std::filesystem::path& file);
 /// The configuration of one episode: the defaults with the arm's mode, masked capabilities and latch.
 GovernorConfig for_arm(GovernorConfig g, const ArmSpec& arm);
 
+/// ... and with what the episode's request set: decision period, grounding and perception limits.
+/// Throws ConfigError for a decision period of 0 or a grounding other than state and perception.
+GovernorConfig for_request(GovernorConfig g, const EpisodeSpec& spec);
+
+/// The capabilities an episode may dispatch to, which the governor waits for before it starts one: those of
+/// its library that its arm does not switch off (the bare arm: vla_act alone).
+std::set<std::string> needed_capabilities(const GovernorConfig& episode, const EpisodeSpec& spec);
+
 }  // namespace dh::gov

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <chrono>
+#include <map>
 #include <optional>
 #include <set>
 #include <string>
@@ -47,6 +48,14 @@ struct EpisodeSpec {
   std::uint32_t channel = 0;
   std::string episode_id, instruction, arm;
   std::uint32_t budget_steps = 0;
+  /// The capability library the episode runs (idl EpisodeRequest): its version and θ by capability;
+  /// empty runs every capability with the θ its instance announced.
+  std::string library_version{};
+  std::map<std::string, std::map<std::string, double>> library{};
+  /// The request's settings for this episode; unset: the governor's configuration and the arm's.
+  std::optional<std::uint32_t> decision_period{};
+  std::optional<std::string> grounding{};        ///< "state" | "perception"
+  std::optional<PerceptionLimits> perception{};  ///< the limits with "perception"
 };
 
 struct PlanRequestOut {
@@ -59,7 +68,7 @@ struct PlanRequestOut {
 struct EpisodeEnd {
   bool success = false;
   std::uint32_t steps = 0;
-  std::string outcome;  ///< success | budget_exhausted | gave_up | infrastructure | rejected (unknown arm)
+  Outcome outcome = Outcome::GaveUp;
   std::string reason;
   std::uint32_t decisions = 0, refusals = 0;
 };
@@ -120,7 +129,7 @@ class EpisodeMachine {
   std::string recovery_for() const;
   std::string recovery_object() const;            ///< the interrupted step's object argument, or ""
   FailureCode last_failure_ = FailureCode::None;  ///< why the last command that did not complete failed
-  Effects end(bool success, const std::string& outcome, const std::string& reason);
+  Effects end(bool success, Outcome outcome, const std::string& reason);
   Effects stop_command();  ///< cancel + revoking lease for the running command, if any
   /// `next` after `first` (a stop, a step's decision): what `next` does not set itself, `first`'s rides along.
   static Effects then(const Effects& first, Effects next);

@@ -3,6 +3,7 @@
 // the capability's declared preconditions and whether the remaining budget pays for its cost model.
 #pragma once
 
+#include <map>
 #include <optional>
 #include <set>
 #include <string>
@@ -40,6 +41,8 @@ struct GroundingInput {
   const std::set<std::string>& masked;  ///< capabilities the executor configuration switches off
   std::string command_id;
   std::uint32_t decision_period;  ///< steps between decisions (the lease length)
+  /// θ by capability of the episode's library; a capability it lacks runs with its announced θ.
+  const std::map<std::string, std::map<std::string, double>>& library;
 };
 
 GroundingResult ground(const GroundingInput& in);

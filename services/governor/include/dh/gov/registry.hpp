@@ -1,8 +1,10 @@
 // The capability registry: every announced instance and whether its liveliness holds. New commands go
-// to the newest live instance (hot swap); a running command stays on the instance it started on.
+// to the newest live instance that is not draining (hot swap); a running command stays on the instance it
+// started on, draining or not.
 #pragma once
 
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -14,12 +16,14 @@ class Registry {
  public:
   void announce(const CapabilityInfo& info);  ///< adds or refreshes an instance (alive again)
   void set_alive(const std::string& instance, bool alive);
-  /// The newest live instance of `capability`, or nullopt.
+  /// The newest live instance of `capability` that takes new commands (not draining), or nullopt.
   std::optional<CapabilityInfo> newest_alive(const std::string& capability) const;
   bool known(const std::string& capability) const;
   bool alive(const std::string& instance) const;
-  /// Names of capabilities with at least one live instance, sorted.
+  /// Names of capabilities with at least one live instance that takes new commands, sorted.
   std::vector<std::string> alive_capabilities() const;
+  /// Those of `needed` without such an instance, sorted: what an episode waits for before it starts.
+  std::vector<std::string> missing(const std::set<std::string>& needed) const;
 
  private:
   std::vector<CapabilityInfo> instances_;

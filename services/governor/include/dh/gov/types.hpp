@@ -2,11 +2,13 @@
 #pragma once
 
 #include <cstdint>
+#include <optional>
 #include <map>
 #include <string>
 #include <vector>
 
 #include "dh/common/command.hpp"
+#include "dh/common/perceived_world.hpp"
 #include "dh/common/robot_contract.hpp"
 
 namespace dh::gov {
@@ -36,14 +38,17 @@ struct CapabilityInfo {
   std::uint32_t cost_steps = 0;
   std::uint64_t started_ns = 0;
   bool alive = true;
+  bool draining = false;  ///< announced draining: its running commands go on, new ones go elsewhere
 };
 
 struct Command {
   std::string command_id, capability, instance;
+  std::string version{};  ///< the instance's announced version (for vla_act, its policy's weights): recorded
   Bindings args;
   std::map<std::string, double> theta;
   std::uint32_t start_step = 0, budget_steps = 0, lease_until_step = 0;
   std::uint32_t decision_period = robot::kDecisionPeriodSteps;  ///< the episode's; progress comes at least this often
+  std::optional<PerceptionLimits> perception{};  ///< set: grounded in perception with the episode's limits
 };
 
 struct Lease {

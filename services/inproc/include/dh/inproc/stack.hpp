@@ -14,6 +14,7 @@
 
 #include "dh/cap/descriptor.hpp"
 #include "dh/cap/host_core.hpp"
+#include "dh/cap/library_theta.hpp"
 #include "dh/common/arms.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/gov/episode.hpp"
@@ -32,14 +33,16 @@ struct StepTap {
 
 struct EpisodeOutcome {
   bool success = false;
-  std::string outcome, reason;
+  Outcome outcome = Outcome::GaveUp;
+  std::string reason;
   std::uint32_t steps = 0, decisions = 0, refusals = 0;
   std::filesystem::path evidence;
 };
 
 class Stack {
  public:
-  /// Loads the governor configuration, the arms and every capability descriptor under `config_dir`.
+  /// Loads the governor configuration, the arms and every capability descriptor under `config_dir`; its
+  /// episodes run the library of `config_dir`/library, as `dh campaign` sends it by default.
   explicit Stack(const std::filesystem::path& config_dir);
   /// Runs one episode of `task` with `seed` under `arm`; evidence goes to `evidence` (JSON lines).
   EpisodeOutcome run(const TaskDef& task, std::uint64_t seed, const std::string& arm,
@@ -54,6 +57,7 @@ class Stack {
   std::map<std::string, ArmSpec> arms_;
   gov::Registry registry_;
   cap::HostCore host_;  ///< every capability's instance "<name>@inproc"
+  cap::LibraryTheta library_;
   std::uint64_t runs_ = 0;  ///< episodes run, for unique episode ids
   std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  ///< by scene key
 };

@@ -26,6 +26,7 @@
 #include "dh/common/ports.hpp"
 #include "dh/common/seam_event.hpp"
 #include "dh/sim/seam.hpp"
+#include "dh/sim/state_log.hpp"
 #include "dh/sim/step_log.hpp"
 
 namespace dh::sim {
@@ -77,9 +78,16 @@ class SeamCore {
   static const Ports& ports();
 
   /// A new episode on `cell`, already reset to its task and seed. Returns the observation of step 0.
-  /// `steps_file`: where the step log goes (step_log.hpp; beside the episode's evidence), or empty for none.
+  /// `steps_file`: where the step log goes (step_log.hpp; beside the episode's evidence), or empty for
+  /// none; the state log (state_log.hpp) goes beside it, `.states` for `.steps`. The state is recorded
+  /// at step 0 and whenever a lease names a command not seen before in the episode: its start.
   SeamEffects start(Workcell& cell, std::string episode_id, std::uint32_t budget_steps, std::string predicate,
                     SeamClock::time_point now, const std::filesystem::path& steps_file = {});
+  /// An episode taken up from a recorded state (a replay or a probe from a command's start): `cell` is
+  /// reset to the task and seed, then the state is restored and the seam stands at its step. Nothing is
+  /// logged. Returns the observation of that step; the predicate's value there is not a change.
+  SeamEffects resume(Workcell& cell, std::string episode_id, std::uint32_t budget_steps, std::string predicate,
+                     const StateRecord& from, SeamClock::time_point now);
   /// The governor ended the episode (or the seam did): the channel goes idle. episode_id() and step()
   /// keep saying what ran last.
   void end();
@@ -107,6 +115,9 @@ class SeamCore {
     ActionIn action;
     SeamClock::time_point since;
   };
+  /// The episode's fields as at its start, logs closed.
+  void begin(Workcell& cell, std::string episode_id, std::uint32_t budget_steps, std::string predicate,
+             SeamClock::time_point now);
   /// Admits what can be admitted, refuses what must be refused, applies at most one action per step.
   SeamEffects admit(SeamClock::time_point now);
   /// The new step's observation (and verdict change), logged with the action that led to it.
@@ -122,6 +133,8 @@ class SeamCore {
   std::map<std::string, Pending> pending_;  ///< by command id
   Observation observation_;
   std::unique_ptr<StepLogWriter> log_;
+  std::unique_ptr<StateLogWriter> states_;
+  std::string last_started_;  ///< the command whose start the state log holds last
   bool predicate_ = false;
   double physics_s_ = 0;
 };

@@ -15,6 +15,7 @@
 #include "dh/common/suite.hpp"
 #include "dh/sim/predicates.hpp"
 #include "dh/sim/safety.hpp"
+#include "dh/sim/state_log.hpp"
 #include "dh/sim/step_log.hpp"
 #include "dh/sim/scene.hpp"
 
@@ -63,8 +64,16 @@ class Workcell {
   double max_object_speed() const;
   const SceneSpec& scene() const { return scene_; }
   const SafetyLimits& limits() const { return limits_; }
-  /// Full physics state (qpos, qvel, time) for tests that compare two states.
-  std::vector<double> state() const;
+  /// The full physics state (state_log.hpp) the last step ended with: what the state log records and
+  /// restore() puts back. It is taken before the step's closing mj_forward, which renormalises free
+  /// joints' quaternions in qpos (not idempotent in the last bit): restoring it and running mj_forward
+  /// again makes the same qpos, derived quantities and warm start as the recorded run had.
+  const PhysicsState& physics_state() const { return ended_; }
+  StateShape shape() const;
+  /// Puts a recorded state back (after reset() to the same task, for the goal) and recomputes what
+  /// follows from it; stepping on is then bit-identical to the recording. Throws std::invalid_argument
+  /// naming both shapes when the state is not of this model.
+  void restore(const PhysicsState& s);
   /// The physics state in hashes (step_log.hpp): what `dh replay` compares step by step.
   StateDigest digest() const;
   /// A hash of the compiled model (scene, assets, options): a replay runs on the same model or says so.
@@ -78,6 +87,7 @@ class Workcell {
   /// Joint targets reaching the tool pose (position, quaternion w x y z) from the current state.
   void solve_ik(const std::array<double, 3>& p_goal, const std::array<double, 4>& q_goal, double joints[7]);
   std::array<double, 4> tcp_quat(const mjData_* d) const;
+  PhysicsState capture() const;
   bool in_contact(int body_a, int body_b) const;
 
   SceneSpec scene_;
@@ -89,6 +99,7 @@ class Workcell {
   std::unique_ptr<GoalEvaluator> goal_;      ///< resolved at reset
   std::vector<double> jacp_, jacr_;          ///< 3 x nv Jacobian buffers of the IK
   std::uint64_t model_hash_ = 0;
+  PhysicsState ended_;
 };
 
 }  // namespace dh::sim

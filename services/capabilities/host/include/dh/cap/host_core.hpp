@@ -47,6 +47,7 @@ struct CommandStart {
   std::uint32_t start_step = 0, budget_steps = 0;
   std::uint32_t decision_period = robot::kDecisionPeriodSteps;  ///< progress is reported at least this often (steps)
   Grounding grounding = Grounding::State;
+  PerceptionLimits perception{};  ///< the episode's limits on estimates (grounding Perception)
 };
 
 struct CommandCancel {
@@ -86,7 +87,9 @@ struct ServedCapability {
 
 class HostCore {
  public:
-  HostCore(const std::vector<ServedCapability>& served, PerceptionLimits limits);
+  /// The perception limits come with each command (the episode's); a channel's perceived world takes in
+  /// frames with the defaults (PerceptionLimits{}) until its episode's first command grounded in perception.
+  explicit HostCore(const std::vector<ServedCapability>& served);
 
   static const Ports& ports();
   /// Serves one more capability instance (or replaces the one of the same instance name).
@@ -137,7 +140,6 @@ class HostCore {
                              FailureCode failure = FailureCode::None);
 
   std::deque<ServedCapability> served_;  ///< a deque: running commands point into it while more are served
-  PerceptionLimits limits_;
   RunningMap running_;
   std::map<std::uint32_t, Observation> last_obs_;
   std::map<std::uint32_t, std::vector<Keyframe>> keyframes_;

@@ -83,6 +83,9 @@ class Skill {
 struct CapabilityDef {
   std::string name;
   std::function<std::unique_ptr<Skill>(const Theta&)> make;
+  /// What the skill runs beyond its θ, part of its announced version and so of each grounding's record:
+  /// vla_act's policy ("embedded mlp-<weights checksum>"); empty for the analytic skills.
+  std::string runs{};
 };
 
 /// The entity (or symbol) bound to `role`, or "" when absent.

@@ -1,0 +1,126 @@
+#include "dh/sim/state_log.hpp"
+
+#include <stdexcept>
+
+#include "binary_log.hpp"
+
+namespace dh::sim {
+namespace {
+
+constexpr char kMagic[8] = {'D', 'H', 'S', 'T', 'A', 'T', 'E', '1'};
+constexpr const char* kWhere = "the simulator worker writes it beside the evidence; copy it there from the worker's host";
+using binlog::put;
+
+void put_dense(std::string& out, const std::vector<double>& v) {
+  out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(double));
+}
+
+// Applied forces are zero in every scene so far; storing only the non-zero entries keeps a record small.
+void put_sparse(std::string& out, const std::vector<double>& v) {
+  std::uint32_t k = 0;
+  for (double x : v) k += x != 0;
+  put(out, k);
+  for (std::uint32_t i = 0; i < v.size(); ++i)
+    if (v[i] != 0) {
+      put(out, i);
+      put(out, v[i]);
+    }
+}
+
+struct Cursor : binlog::Cursor {
+  bool dense(std::vector<double>& v, std::uint32_t n) {
+    if (at + n * sizeof(double) > bytes.size()) return false;
+    v.resize(n);
+    std::memcpy(v.data(), bytes.data() + at, n * sizeof(double));
+    at += n * sizeof(double);
+    return true;
+  }
+  bool sparse(std::vector<double>& v, std::uint32_t n) {
+    v.assign(n, 0.0);
+    std::uint32_t k = 0;
+    if (!get(k)) return false;
+    for (std::uint32_t j = 0; j < k; ++j) {
+      std::uint32_t i = 0;
+      double x = 0;
+      if (!get(i) || !get(x) || i >= n) return false;
+      v[i] = x;
+    }
+    return true;
+  }
+};
+
+}  // namespace
+
+bool StateShape::fits(const PhysicsState& s) const {
+  return s.qpos.size() == nq && s.qvel.size() == nv && s.act.size() == na && s.ctrl.size() == nu &&
+         s.qacc_warmstart.size() == nv && s.mocap_pos.size() == 3 * nmocap && s.mocap_quat.size() == 4 * nmocap &&
+         s.qfrc_applied.size() == nv && s.xfrc_applied.size() == 6 * nbody;
+}
+
+std::string StateShape::str() const {
+  return "nq " + std::to_string(nq) + ", nv " + std::to_string(nv) + ", na " + std::to_string(na) + ", nu " +
+         std::to_string(nu) + ", nmocap " + std::to_string(nmocap) + ", nbody " + std::to_string(nbody);
+}
+
+StateLogWriter::StateLogWriter(const std::filesystem::path& path, const StateLogHeader& header)
+    : path_(path), shape_(header.shape) {
+  std::string out(kMagic, sizeof kMagic);
+  put(out, header.model_hash);
+  put(out, header.mujoco_version);
+  for (auto n : {shape_.nq, shape_.nv, shape_.na, shape_.nu, shape_.nmocap, shape_.nbody}) put(out, n);
+  file_ = binlog::create(path, "state log", out);
+}
+
+StateLogWriter::~StateLogWriter() {
+  if (file_) std::fclose(file_);
+}
+
+void StateLogWriter::append(const StateRecord& r) {
+  if (!shape_.fits(r.state))
+    throw std::logic_error("state log " + path_.string() + ": a state of another shape than the model's (" +
+                           shape_.str() + ")");
+  const PhysicsState& s = r.state;
+  std::string out;
+  put(out, r.step);
+  put(out, static_cast<std::uint16_t>(r.command_id.size()));
+  out += r.command_id;
+  put(out, s.time);
+  for (const auto* v : {&s.qpos, &s.qvel, &s.act, &s.ctrl, &s.qacc_warmstart, &s.mocap_pos, &s.mocap_quat})
+    put_dense(out, *v);
+  put_sparse(out, s.qfrc_applied);
+  put_sparse(out, s.xfrc_applied);
+  binlog::append(file_, out);
+}
+
+const StateRecord* StateLog::for_command(const std::string& command_id) const {
+  for (const auto& r : records)
+    if (r.command_id == command_id) return &r;
+  return nullptr;
+}
+
+StateLog read_state_log(const std::filesystem::path& path) {
+  const std::string bytes = binlog::read(path, "state log", kMagic, kWhere);
+  Cursor c{{bytes, sizeof kMagic}};
+  StateLog log;
+  StateShape& n = log.header.shape;
+  if (!c.get(log.header.model_hash) || !c.get(log.header.mujoco_version) || !c.get(n.nq) || !c.get(n.nv) ||
+      !c.get(n.na) || !c.get(n.nu) || !c.get(n.nmocap) || !c.get(n.nbody))
+    throw std::runtime_error(path.string() + ": the state log's header is cut short");
+  for (;;) {
+    StateRecord r;
+    PhysicsState& s = r.state;
+    std::uint16_t len = 0;
+    bool ok = c.get(r.step) && c.get(len) && c.at + len <= bytes.size();
+    if (!ok) break;
+    r.command_id.assign(bytes.data() + c.at, len);
+    c.at += len;
+    ok = c.get(s.time) && c.dense(s.qpos, n.nq) && c.dense(s.qvel, n.nv) && c.dense(s.act, n.na) &&
+         c.dense(s.ctrl, n.nu) && c.dense(s.qacc_warmstart, n.nv) && c.dense(s.mocap_pos, 3 * n.nmocap) &&
+         c.dense(s.mocap_quat, 4 * n.nmocap) && c.sparse(s.qfrc_applied, n.nv) && c.sparse(s.xfrc_applied, 6 * n.nbody);
+    if (!ok) break;
+    log.records.push_back(std::move(r));
+  }
+  return log;
+}
+
+}  // namespace dh::sim
