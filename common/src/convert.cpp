@@ -93,6 +93,11 @@ std::vector<msg::Binding> to_msg(const std::vector<std::pair<std::string, std::s
   return out;
 }
 
+Outcome from_msg(msg::Outcome o) {
+  const auto v = static_cast<int>(o);
+  return v >= 0 && v <= static_cast<int>(Outcome::Rejected) ? static_cast<Outcome>(v) : Outcome::Infrastructure;
+}
+
 PerceptionLimits from_msg(const msg::PerceptionLimits& m) {
   return {m.max_age_steps(), m.min_confidence(), std::chrono::milliseconds(m.wait_ms())};
 }

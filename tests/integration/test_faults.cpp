@@ -84,7 +84,7 @@ TEST(Faults, KilledCapabilityIsRecordedWithinItsLeaseAndTheEpisodeEnds) {
 
 TEST(Faults, AKilledGovernorLeavesTheArmHeldAndTheOrphanedEpisodeAbandoned) {
   itest::IsolatedEnv env;
-  // Abandonment (5 s) outlasts a restarted governor's startup grace (3 s), as the defaults do (60 s).
+  // Abandonment (5 s) outlasts a restarted governor's ready timeout (3 s), as the defaults do (60 s).
   cli::Deployment core({itest::service("sim_worker", {"--abandon-after-s", "5"}), itest::service("planner"),
                         itest::service("cap_pick_place")},
                        paths::bin_dir(), env.runs / "logs");

@@ -44,10 +44,14 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
     } else {
       EXPECT_EQ(r.actions_compared, r.recorded_steps) << row.evidence_path << ": every action from a skill again";
     }
-    // From the state recorded at the last command's start (mid-episode for most): the same again.
-    if (r.commands > 1) {
-      const auto k = inproc::replay(row.evidence_path, {paths::config_dir(), {}, r.commands - 1, false});
-      EXPECT_TRUE(k.identical) << row.evidence_path << " from command " << r.commands - 1;
+    // From the state recorded at each command's start (with the keyframes the commands before it left in
+    // the host): the same again.
+    for (std::uint32_t c = 1; c < r.commands; ++c) {
+      const auto k = inproc::replay(row.evidence_path, {paths::config_dir(), {}, c, false});
+      EXPECT_TRUE(k.identical) << row.evidence_path << " from command " << c << ": "
+                               << (k.first_divergence ? std::to_string(k.first_divergence->step) + " " +
+                                                            k.first_divergence->body + " " + k.first_divergence->quantity
+                                                      : "verdicts");
       resumed += k.identical;
       resumed_mid += k.identical && k.from_step > 0;
     }
@@ -58,8 +62,8 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
   EXPECT_GE(resumed_mid, 20u) << "restored mid-episode states replay identically";
   EXPECT_EQ(arms.size(), 5u);
   EXPECT_EQ(cells.size(), 6u);
-  std::printf("%zu episodes over DDS replayed, %zu identical, %zu skill actions compared; %zu replayed from their last "
-              "command's recorded state (%zu of them mid-episode), identical\n",
+  std::printf("%zu episodes over DDS replayed, %zu identical, %zu skill actions compared; %zu replays from a "
+              "command's recorded state (%zu of them mid-episode) identical\n",
               rows.size(), identical, compared, resumed, resumed_mid);
 
   // The command line: one JSON object; a θ changed in a library copy refuses with exit 4 and names it.

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include "dh/common/config.hpp"
 #include "dh/gov/config.hpp"
 #include "dh/gov/grounding.hpp"
 #include "fixtures.hpp"
@@ -166,4 +167,33 @@ TEST(Readiness, AnEpisodeWaitsForTheCapabilitiesItsArmMayUse) {
   draining.draining = false;
   registry.announce(draining);
   EXPECT_TRUE(registry.missing(needed_capabilities(no_vla, spec)).empty());
+}
+
+TEST(EpisodeSettings, TheRequestSetsThePeriodTheGroundingAndTheLimits) {
+  GovernorConfig base;
+  base.decision_period = 10;
+  EpisodeSpec spec{0, "ep", "put the bowl on the plate", "full", 300};
+  spec.decision_period = 5;
+  spec.grounding = "perception";
+  spec.perception = PerceptionLimits{7, 0.5, std::chrono::milliseconds(100)};
+  const GovernorConfig g = for_request(base, spec);
+  EXPECT_EQ(g.decision_period, 5u);
+  ASSERT_TRUE(g.perception);
+  EXPECT_EQ(g.perception->max_age_steps, 7u);
+  EXPECT_EQ(g.perception->wait, std::chrono::milliseconds(100));
+  spec.grounding = "state";
+  EXPECT_FALSE(for_request(base, spec).perception);
+  spec.grounding = "camera";
+  EXPECT_THROW(for_request(base, spec), ConfigError);
+  spec.grounding.reset();
+  spec.decision_period = 0;
+  EXPECT_THROW(for_request(base, spec), ConfigError) << "a decision period of 0";
+  spec.decision_period.reset();
+  base.perception = PerceptionLimits{};
+  try {
+    for_request(base, spec);
+    FAIL() << "a perception arm without the request saying so was taken";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("grounding: perception"), std::string::npos) << e.what();
+  }
 }

@@ -159,7 +159,7 @@ int cmd_campaign(const CampaignArgs& a) {
         scheduler.channel_status(s.channel(), s.worker(), s.state() == msg::CHANNEL_IDLE, s.last_episode_id(),
                                  s.last_physics_s(), s.last_error(), now);
       for (const auto& r : news.results)
-        scheduler.result({r.episode_id(), r.success(), r.steps(), static_cast<Outcome>(r.outcome()), r.reason(), r.evidence_path()}, now);
+        scheduler.result({r.episode_id(), r.success(), r.steps(), convert::from_msg(r.outcome()), r.reason(), r.evidence_path()}, now);
       for (const auto& w : news.lost_workers) scheduler.worker_lost(w, now);
       if (!scheduler.conflict().empty()) throw std::runtime_error(scheduler.conflict());
       scheduler.expire(now);

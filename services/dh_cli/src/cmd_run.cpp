@@ -52,14 +52,14 @@ int cmd_run(const RunArgs& a) {
   }
   if (a.json) {
     nlohmann::json j{{"success", res->success()}, {"steps", res->steps()}, {"evidence", res->evidence_path()},
-                     {"outcome", to_string(static_cast<Outcome>(res->outcome()))}, {"reason", res->reason()}, {"episode_id", res->episode_id()},
+                     {"outcome", to_string(convert::from_msg(res->outcome()))}, {"reason", res->reason()}, {"episode_id", res->episode_id()},
                      {"suite", a.suite}, {"task", a.task}, {"seed", a.seed}, {"arm", a.arm}, {"channel", *ch},
                      {"budget", t.budget_steps}, {"decisions", res->decisions()}, {"refusals", res->refusals()},
                      {"wall_s", wall}};
     std::cout << j.dump() << "\n";
   } else {
     std::cout << (res->success() ? "SUCCESS" : "FAILURE") << "  " << a.suite << "/" << a.task << " seed " << a.seed
-              << "  steps " << res->steps() << "/" << t.budget_steps << "  outcome " << to_string(static_cast<Outcome>(res->outcome())) << " ("
+              << "  steps " << res->steps() << "/" << t.budget_steps << "  outcome " << to_string(convert::from_msg(res->outcome())) << " ("
               << res->reason() << ")\n"
               << "evidence " << res->evidence_path() << "\n";
   }

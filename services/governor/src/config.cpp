@@ -62,7 +62,10 @@ GovernorConfig for_request(GovernorConfig g, const EpisodeSpec& spec) {
       throw ConfigError("episode " + spec.episode_id + ": grounding '" + *spec.grounding +
                         "' (expected state or perception)");
   } else if (g.perception) {
-    g.perception = g.perception_limits;
+    // The perception service renders only for requests that say so: without it nothing would be seen.
+    throw ConfigError("episode " + spec.episode_id + ": arm '" + spec.arm +
+                      "' grounds from perception, but the request does not say grounding: perception (the "
+                      "perception service would not look; dh run and dh campaign set it)");
   }
   return g;
 }

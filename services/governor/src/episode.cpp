@@ -1,5 +1,7 @@
 #include "dh/gov/episode.hpp"
 
+#include <utility>
+
 #include "dh/common/build_info.hpp"
 #include "dh/common/history.hpp"
 #include "dh/gov/config.hpp"
@@ -71,10 +73,8 @@ Effects EpisodeMachine::on_observation(const Observation& obs, Clock::time_point
   deadline_ = now + config_.step_stall_timeout;
   deadline_what_ = "next observation while '" + running_->command_id + "' runs";
   Effects fx;
-  if (obs.step % config_.decision_period == 0 && obs.step > running_->start_step) {
-    evidence_.append("governor", "observation", obs_summary(obs));
-    fx = decide_now(CommandPhase::Running, "decision step", now);
-  }
+  if (obs.step % config_.decision_period == 0 && obs.step > running_->start_step)
+    fx = decide_now(CommandPhase::Running, "decision step", now, &obs);
   // A command that ended at this step is finished after the step's decision, as in process, where its
   // report comes after the governor has seen the observation (over DDS it may come first and wait).
   if (!ended || phase_ != Phase::Running || !running_ || running_->command_id != ended->command_id) return fx;
@@ -252,10 +252,17 @@ Effects EpisodeMachine::on_status(const CommandStatus& st, Clock::time_point now
   if (phase_ != Phase::Running || !running_ || st.command_id != running_->command_id) return {};
   const bool terminal = st.state != CommandState::Accepted && st.state != CommandState::Running;
   if (!acknowledged_ || terminal) {
-    evidence_.append(st.instance.empty() ? "capability" : st.instance, "command_status",
-                     {{"step", st.step}, {"command_id", st.command_id}, {"state", to_string(st.state)},
-                      {"reason", st.reason}, {"failure", to_string(st.failure)}, {"stage", st.stage},
-                      {"steps_used", st.steps_used}, {"progress", st.progress}});
+    auto record = [this, st] {
+      evidence_.append(st.instance.empty() ? "capability" : st.instance, "command_status",
+                       {{"step", st.step}, {"command_id", st.command_id}, {"state", to_string(st.state)},
+                        {"reason", st.reason}, {"failure", to_string(st.failure)}, {"stage", st.stage},
+                        {"steps_used", st.steps_used}, {"progress", st.progress}});
+    };
+    // An end decided on now is recorded after the decision is made, in the same order.
+    if (terminal && st.step <= last_obs_.step)
+      unrecorded_status_ = std::move(record);
+    else
+      record();
   }
   acknowledged_ = true;
   progress_reports_.emplace_back(st.step, st.progress);
@@ -322,7 +329,7 @@ std::string EpisodeMachine::step_key() const {
 void EpisodeMachine::count_failure() { ++failures_[step_key()]; }
 
 bool EpisodeMachine::eligible(const std::string& capability) const {
-  return !config_.masked.count(capability) && registry_.newest_alive(capability).has_value();
+  return !config_.masked.count(capability) && registry_.newest_alive(capability);
 }
 
 std::optional<std::string> EpisodeMachine::substitute() const {
@@ -355,7 +362,8 @@ std::string EpisodeMachine::recovery_object() const {
   return "";
 }
 
-Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now) {
+Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now,
+                                   const Observation* observed) {
   const std::uint32_t k = decisions_++;
   DecisionState s;
   s.mode = config_.mode;
@@ -377,22 +385,26 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
   s.replans_used = replans_;
   s.was_recovery = recovering_;
   s.recoveries_left = (recoveries_.count(sig) ? recoveries_.at(sig) : 0) < config_.max_recoveries;
-  s.other_instance_alive = running_ && registry_.newest_alive(cap).has_value();
+  s.other_instance_alive = running_ && registry_.newest_alive(cap);
   s.substitute_available = substitute().has_value();
   s.recovery_available = eligible(recovery_for());
   s.vla_available = eligible("vla_act") && cap != "vla_act" && !(tried_.count(sig) && tried_.at(sig).count("vla_act"));
   s.sequence_left = !sequence_.empty();
   const Decision d = decide(s, config_.limits);
+  // The decision is made; what follows records it (and the observation it was made on, before it).
+  const auto decided = std::chrono::steady_clock::now();
+  if (unrecorded_status_) std::exchange(unrecorded_status_, nullptr)();
+  if (observed) evidence_.append("governor", "observation", obs_summary(*observed));
   evidence_.append("governor", "decision",
                    {{"k", k}, {"step", s.step}, {"cause", cause}, {"phase", to_string(phase)},
                     {"decision", to_string(d.kind)}, {"reason", d.reason}, {"latched", s.latched},
                     {"progress", s.progress}, {"stagnant", s.stagnant_decisions},
                     {"failures", s.failures_of_step}, {"capability", cap},
                     {"command_id", running_ ? running_->command_id : ""}, {"state", to_json(s)},
-                    // From the triggering event's arrival at this core to this decision (real time, whatever
-                    // clock the event's `now` is on: the in-process bus runs on a step clock).
-                    {"latency_ns", std::chrono::duration_cast<std::chrono::nanoseconds>(
-                                       std::chrono::steady_clock::now() - arrived_).count()}});
+                    // From the triggering event's arrival at this core to this decision, its recording
+                    // aside (real time, whatever clock the event's `now` is on: the in-process bus runs on
+                    // a step clock).
+                    {"latency_ns", std::chrono::duration_cast<std::chrono::nanoseconds>(decided - arrived_).count()}});
   Effects fx;
   const auto fast = [&](Advice a) {
     a.refused = false;

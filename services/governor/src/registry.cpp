@@ -21,12 +21,11 @@ void Registry::set_alive(const std::string& instance, bool alive) {
     if (i.instance == instance) i.alive = alive;
 }
 
-std::optional<CapabilityInfo> Registry::newest_alive(const std::string& capability) const {
+const CapabilityInfo* Registry::newest_alive(const std::string& capability) const {
   const CapabilityInfo* best = nullptr;
   for (const auto& i : instances_)
     if (i.capability == capability && i.alive && !i.draining && (!best || i.started_ns > best->started_ns)) best = &i;
-  if (!best) return std::nullopt;
-  return *best;
+  return best;
 }
 
 bool Registry::known(const std::string& capability) const {

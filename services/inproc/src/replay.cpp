@@ -170,10 +170,15 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
   const auto steps_file = std::filesystem::path(evidence).replace_extension(".steps");
   const sim::StepLog log = sim::read_step_log(steps_file);
   if (log.records.empty()) bad(steps_file, "the step log has no record of step 0");
+  // The state log is needed to start from a command; a full replay compares it when it is there (a
+  // recording copied without it, or older than it, replays from its step log alone).
   const auto states_file = std::filesystem::path(evidence).replace_extension(".states");
-  const sim::StateLog states = sim::read_state_log(states_file);
-  if (states.header.model_hash != log.header.model_hash)
-    bad(states_file, "the state log is of another model than the step log beside it");
+  sim::StateLog states;
+  if (o.from_command || std::filesystem::exists(states_file)) {
+    states = sim::read_state_log(states_file);
+    if (states.header.model_hash != log.header.model_hash)
+      bad(states_file, "the state log is of another model than the step log beside it");
+  }
   if (o.from_command && *o.from_command >= rec.commands.size())
     throw std::invalid_argument("--from-command " + std::to_string(*o.from_command) + ": the episode dispatched " +
                                 std::to_string(rec.commands.size()) + " command(s), numbered from 0");
@@ -256,6 +261,24 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
   }
 
   cell.reset(rec.seed, task.goal);
+  // The capability host's state at K's start: the keyframes the commands before K left, each taken as the
+  // host took it, from the observation of the state recorded at that command's start.
+  const auto command_start = [&](const RecordedCommand& c, std::uint32_t at) {
+    return cap::CommandStart{0, rec.episode_id, c.id, c.capability, c.capability + "@replay", bindings(c.args),
+                             theta(c.theta), at, c.budget_steps, rec.decision_period, cap::Grounding::State};
+  };
+  for (std::size_t i = 0; resume_from && i < *o.from_command; ++i) {
+    const sim::StateRecord* r = states.for_command(rec.commands[i].id);
+    if (!r) continue;  // its lease never reached the seam: it never started
+    cell.restore(r->state);
+    Observation at = cell.observe();
+    at.episode_id = rec.episode_id;
+    at.step = r->step;
+    at.budget_steps = rec.budget_steps;
+    host.on_observation(at, step_time(r->step));
+    host.on_start(command_start(rec.commands[i], r->step), step_time(r->step));
+    host.on_cancel({0, rec.episode_id, rec.commands[i].id, rec.commands[i].capability + "@replay"});
+  }
   sim::SeamCore seam(0, kBusSeam);
   const std::string predicate = goal_text(task.goal);
   const std::uint32_t first = resume_from ? resume_from->step : 0;
@@ -267,17 +290,18 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
     ++report.divergent_steps;
     if (!report.first_divergence) report.first_divergence = d;
   };
-  // Every recorded state on the way is compared whole: the states a probe would start from.
-  const auto check_states = [&](std::uint32_t step) {
+  // Every step's digest is compared, and every recorded state on the way whole (the states a probe would
+  // start from; a resumed one is the record itself, its digest is what says it was restored exactly).
+  const auto check_states = [&](std::uint32_t step, bool whole) {
     if (cell.digest() != log.records[step].digest)
       note(where(cell.model(), step, cell.digest(), log.records[step].digest));
     for (const auto& r : states.records)
-      if (r.step == step) {
+      if (whole && r.step == step) {
         ++report.states_checked;
         if (!(cell.physics_state() == r.state)) note({step, "world", "recorded state of command '" + r.command_id + "'"});
       }
   };
-  check_states(first);
+  check_states(first, !resume_from);
 
   std::map<std::uint32_t, bool> verdicts;
   std::optional<cap::ActionOut> action;  // the skills' answer to the current step
@@ -292,9 +316,7 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
     for (; next < rec.commands.size() && rec.commands[next].start_step <= t; ++next) {
       const RecordedCommand& c = rec.commands[next];
       if (!rerun(c)) continue;
-      cap::CommandStart s{0, rec.episode_id, c.id, c.capability, c.capability + "@replay", bindings(c.args),
-                          theta(c.theta), c.start_step, c.budget_steps, rec.decision_period, cap::Grounding::State};
-      take(host.on_start(s, step_time(t)));
+      take(host.on_start(command_start(c, c.start_step), step_time(t)));
     }
     const auto cmd = by_id.find(r.command_id);
     if (cmd == by_id.end())
@@ -322,7 +344,7 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
     if (sx.verdict) verdicts[sx.verdict->step] = sx.verdict->value;
     obs = *sx.observation;
     report.steps = i;
-    check_states(i);
+    check_states(i, true);
     take(host.on_observation(obs, step_time(i)));
   }
   if (!o.from_command) report.verdicts_identical = verdicts == rec.verdicts;

@@ -74,7 +74,7 @@ TEST_F(Replay, FromACommandComparesOnlyThatCommandsActions) {
   const auto refused = inproc::replay(*dir / "ep.jsonl", o);
   EXPECT_TRUE(refused.identical);
   EXPECT_EQ(refused.actions_compared, 0u);
-  EXPECT_EQ(refused.states_checked, 3u) << "step 0 and both commands start at the same step";
+  EXPECT_EQ(refused.states_checked, 0u) << "the restored state is the record: nothing else recorded is reached";
   o.from_command = 7;
   EXPECT_THROW(inproc::replay(*dir / "ep.jsonl", o), std::invalid_argument);
 }
@@ -144,9 +144,20 @@ TEST_F(Replay, MissingOrCorruptFilesAreNamed) {
   const fs::path no_steps = copy("no_steps");
   fs::remove(*dir / "no_steps.steps");
   EXPECT_NE(message(no_steps).find("no_steps.steps"), std::string::npos);
+  // Without its state log a recording replays from its step log; starting from a command needs it.
   const fs::path no_states = copy("no_states");
   fs::remove(*dir / "no_states.states");
-  EXPECT_NE(message(no_states).find("no_states.states"), std::string::npos);
+  const auto full = inproc::replay(no_states, options());
+  EXPECT_TRUE(full.identical);
+  EXPECT_EQ(full.states_checked, 0u);
+  auto from = options();
+  from.from_command = 1;
+  try {
+    inproc::replay(no_states, from);
+    FAIL() << "started from a command without its recorded state";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("no_states.states"), std::string::npos) << e.what();
+  }
   const fs::path torn = copy("torn");
   std::ofstream(*dir / "torn.jsonl") << "{\"kind\": \"plan_request\"}\n";
   EXPECT_NE(message(torn).find("no episode_request"), std::string::npos);

@@ -4,7 +4,9 @@
 
 #include <cstdio>
 #include <cstring>
+#include <cstdint>
 #include <filesystem>
+#include <stdexcept>
 #include <string>
 
 namespace dh::sim::binlog {
@@ -13,6 +15,13 @@ namespace dh::sim::binlog {
 template <typename T>
 void put(std::string& out, const T& v) {
   out.append(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+
+/// A string with its u16 length; throws std::length_error for one longer than a u16 can say.
+inline void put_string(std::string& out, const std::string& s) {
+  if (s.size() > 0xffff) throw std::length_error("a log record's string of " + std::to_string(s.size()) + " bytes");
+  put(out, static_cast<std::uint16_t>(s.size()));
+  out += s;
 }
 
 struct Cursor {

@@ -49,7 +49,7 @@ SeamEffects SeamCore::resume(Workcell& cell, std::string episode_id, std::uint32
   begin(cell, std::move(episode_id), budget_steps, std::move(predicate), now);
   cell.restore(from.state);
   step_ = from.step;
-  last_started_ = from.command_id;
+  started_ = {from.command_id};
   predicate_ = cell.goal_holds();
   SeamEffects fx;
   observe(fx, nullptr);
@@ -70,7 +70,7 @@ void SeamCore::begin(Workcell& cell, std::string episode_id, std::uint32_t budge
   lease_at_ = last_sign_of_life_ = now;
   log_.reset();
   states_.reset();
-  last_started_.clear();
+  started_.clear();
 }
 
 void SeamCore::end() {
@@ -85,9 +85,8 @@ SeamEffects SeamCore::on_lease(const LeaseGrant& l, SeamClock::time_point now) {
   if (!running() || l.episode_id != episode_) return {};
   // A command's first lease comes before any of its actions can apply (admission needs it): the state
   // now is the one the command starts from. Leases are rewritten, so only a new command id counts.
-  if (states_ && !l.revoked && l.command_id != last_started_) {
+  if (states_ && !l.revoked && started_.insert(l.command_id).second) {
     states_->append({step_, l.command_id, cell_->physics_state()});
-    last_started_ = l.command_id;
   }
   lease_ = {true, l.command_id, l.valid_until_step, l.budget_until_step, l.revoked, false};
   lease_at_ = last_sign_of_life_ = now;

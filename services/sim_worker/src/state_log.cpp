@@ -36,9 +36,9 @@ struct Cursor : binlog::Cursor {
     return true;
   }
   bool sparse(std::vector<double>& v, std::uint32_t n) {
-    v.assign(n, 0.0);
     std::uint32_t k = 0;
-    if (!get(k)) return false;
+    if (!get(k) || k > n) return false;
+    v.assign(n, 0.0);
     for (std::uint32_t j = 0; j < k; ++j) {
       std::uint32_t i = 0;
       double x = 0;
@@ -82,8 +82,7 @@ void StateLogWriter::append(const StateRecord& r) {
   const PhysicsState& s = r.state;
   std::string out;
   put(out, r.step);
-  put(out, static_cast<std::uint16_t>(r.command_id.size()));
-  out += r.command_id;
+  binlog::put_string(out, r.command_id);
   put(out, s.time);
   for (const auto* v : {&s.qpos, &s.qvel, &s.act, &s.ctrl, &s.qacc_warmstart, &s.mocap_pos, &s.mocap_quat})
     put_dense(out, *v);
@@ -106,6 +105,10 @@ StateLog read_state_log(const std::filesystem::path& path) {
   if (!c.get(log.header.model_hash) || !c.get(log.header.mujoco_version) || !c.get(n.nq) || !c.get(n.nv) ||
       !c.get(n.na) || !c.get(n.nu) || !c.get(n.nmocap) || !c.get(n.nbody))
     throw std::runtime_error(path.string() + ": the state log's header is cut short");
+  // A model's sizes are far below this; a corrupt header must not make a reader allocate gigabytes.
+  constexpr std::uint32_t kMaxSize = 1u << 20;
+  for (auto v : {n.nq, n.nv, n.na, n.nu, n.nmocap, n.nbody})
+    if (v > kMaxSize) throw std::runtime_error(path.string() + ": the state log's header is corrupt (" + n.str() + ")");
   for (;;) {
     StateRecord r;
     PhysicsState& s = r.state;

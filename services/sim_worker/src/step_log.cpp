@@ -48,8 +48,7 @@ void StepLogWriter::append(const StepRecord& r) {
   for (auto h : r.digest.joints) put(out, h);
   for (auto h : r.digest.aux) put(out, h);
   for (double a : r.action) put(out, a);
-  put(out, static_cast<std::uint16_t>(r.command_id.size()));
-  out += r.command_id;
+  binlog::put_string(out, r.command_id);
   binlog::append(file_, out);
 }
 

@@ -6,8 +6,10 @@
 #include <utility>
 #include <vector>
 
+#include "dh/common/command.hpp"
 #include "dh/common/observation.hpp"
 #include "dh/common/perceived_world.hpp"
+#include "dh/msg/episode.h"
 #include "dh/msg/perception.h"
 #include "dh/msg/robot.h"
 #include "dh/msg/types.h"
@@ -26,6 +28,9 @@ std::vector<msg::Binding> to_msg(const std::vector<std::pair<std::string, std::s
 SceneEstimate from_msg(const msg::SceneEstimate& m);
 
 PerceptionLimits from_msg(const msg::PerceptionLimits& m);
+/// An outcome code from another process; a value this build does not know is counted as infrastructure
+/// (a mismatched peer), never as the agent's failure.
+Outcome from_msg(msg::Outcome o);
 msg::PerceptionLimits to_msg(const PerceptionLimits& l);
 
 std::map<std::string, double> from_msg(const std::vector<msg::Param>& p);

@@ -40,8 +40,9 @@ QosPair qos_for(Qos kind);
 /// Liveliness of announcements (capabilities, simulator channels) is MANUAL_BY_TOPIC: Fast DDS 2.9
 /// (Debian 12) lets any remote participant's AUTOMATIC liveliness message assert every remote AUTOMATIC
 /// writer (Fast-DDS #4373, fixed by #4501 in 2.13/2.14), so a killed capability would stay "alive" as
-/// long as another one lives. A capability host asserts it from its event loop (a stuck loop loses it);
-/// a simulator worker, whose channels run on threads of their own behind one writer, from a Heartbeat.
+/// long as another one lives. A Heartbeat thread asserts it: a capability host's only while its event
+/// loop has run recently (a stuck loop loses it), a simulator worker's (channels on threads of their own
+/// behind one writer) always.
 /// Liveliness lease of capability announcements and the lease-topic deadline, in seconds.
 inline constexpr double kLivelinessLeaseSec = 1.0;
 inline constexpr double kLeaseDeadlineSec = 1.0;

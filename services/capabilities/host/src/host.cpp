@@ -1,7 +1,8 @@
 // One capability family as its own process: the DDS shell around HostCore (host_core.hpp, which lists the
 // ports and holds every rule). This file adds what only a process has: the announcement of each capability
-// on rt/dh/capability/announce (transient-local, liveliness MANUAL_BY_TOPIC, lease 1 s), asserted from the
-// event loop itself, so a loop stuck in a skill loses the lease and the governor counts the instance lost;
+// on rt/dh/capability/announce (transient-local, liveliness MANUAL_BY_TOPIC, lease 1 s), asserted only while
+// the event loop runs: a loop stuck in a skill longer than its capabilities declare they may block it
+// (CapabilityDef::blocks_up_to) loses the lease and the governor counts the instance lost;
 // and draining on SIGTERM/SIGINT: the announcement says so (the governor sends new commands elsewhere), new
 // commands are refused, and running ones finish (at most --drain-timeout-s) before it exits — how `dh swap`
 // replaces it without losing a command.
@@ -10,6 +11,8 @@
 #include <CLI/CLI.hpp>
 #include <unistd.h>
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <variant>
 
@@ -157,8 +160,16 @@ int run_capability_host(int argc, char** argv, const std::string& family,
       announce.write(s.descriptor);
       log->info("instance={} cost_steps={} announced", s.descriptor.instance(), s.descriptor.cost_steps());
     }
+    // The loop beats each turn; the heartbeat asserts liveliness while the last beat is recent enough.
     const auto assert_every = std::chrono::milliseconds(static_cast<int>(dds::kLivelinessLeaseSec * 1000 / 4));
-    auto asserted = Clock::now();
+    auto allowance = assert_every;
+    for (const auto& s : served) allowance = std::max(allowance, s.def.blocks_up_to + assert_every);
+    std::atomic<Clock::rep> beat{Clock::now().time_since_epoch().count()};
+    const dds::Heartbeat alive(
+        [&] {
+          if (Clock::now() - Clock::time_point(Clock::duration(beat.load())) <= allowance) announce.assert_liveliness();
+        },
+        assert_every);
     auto handle = [&](const Event& e) {
       const auto now = Clock::now();
       if (const auto* c = std::get_if<msg::Command>(&e)) {
@@ -175,10 +186,7 @@ int run_capability_host(int argc, char** argv, const std::string& family,
     auto serve = [&] {
       if (auto e = queue.pop(std::chrono::milliseconds(50))) handle(*e);
       publish(core.on_tick(Clock::now()));
-      if (Clock::now() - asserted >= assert_every) {
-        announce.assert_liveliness();
-        asserted = Clock::now();
-      }
+      beat = Clock::now().time_since_epoch().count();
     };
     while (!shutdown_requested()) serve();
     core.drain();

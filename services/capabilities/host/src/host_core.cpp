@@ -113,7 +113,11 @@ HostEffects HostCore::on_cancel(const CommandCancel& c) {
 
 HostEffects HostCore::on_scene_estimate(std::uint32_t channel, const SceneEstimate& e,
                                         Clock::time_point now) {
-  worlds_.try_emplace(channel, PerceptionLimits{}).first->second.on_estimate(e);
+  // A new episode's world starts from the default limits, until its first command brings the episode's.
+  auto [w, fresh] = worlds_.try_emplace(channel, PerceptionLimits{});
+  if (!fresh && w->second.latest() && w->second.latest()->episode_id != e.episode_id)
+    w->second = PerceivedWorld(PerceptionLimits{});
+  w->second.on_estimate(e);
   return retry_awaiting(channel, now);
 }
 

@@ -42,6 +42,8 @@ LibraryTheta load_library_theta(const std::filesystem::path& dir) {
     if (entry.path().extension() != ".yaml") continue;
     const ConfigNode root = ConfigNode::load_file(entry.path());
     const auto name = root.get<std::string>("capability");
+    if (lib.theta.count(name))
+      root.fail("capability", "'" + name + "' is described twice in " + dir.string() + " (one file per capability)");
     const CapabilityDef* def = nullptr;
     for (const auto& d : defs)
       if (d.name == name) def = &d;

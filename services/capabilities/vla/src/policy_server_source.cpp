@@ -32,7 +32,7 @@ std::array<float, 8> libero_state(const Observation& obs) {
 
 PolicyServerSource::PolicyServerSource(std::string url, std::chrono::milliseconds timeout,
                                        std::shared_ptr<const ImageCache> images, std::uint32_t max_image_age)
-    : client_(std::move(url), timeout), images_(std::move(images)), max_image_age_(max_image_age) {}
+    : timeout_(timeout), client_(std::move(url), timeout), images_(std::move(images)), max_image_age_(max_image_age) {}
 
 std::vector<policy::Action> PolicyServerSource::chunk(const Observation& obs, const std::string& instruction, double) {
   policy::PolicyQuery q;

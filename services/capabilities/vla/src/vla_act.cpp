@@ -89,7 +89,7 @@ int VlaActSkill::cost_steps() const { return steps(p_.cost_steps); }
 
 CapabilityDef vla_act_def(std::shared_ptr<ActionSource> source) {
   return {"vla_act", [source](const Theta& t) -> std::unique_ptr<Skill> { return std::make_unique<VlaActSkill>(source, t); },
-          source->describe()};
+          source->describe(), source->longest_call()};
 }
 
 }  // namespace dh::cap

@@ -15,7 +15,8 @@ GovernorConfig load_config(const std::filesystem::path& file);
 GovernorConfig for_arm(GovernorConfig g, const ArmSpec& arm);
 
 /// ... and with what the episode's request set: decision period, grounding and perception limits.
-/// Throws ConfigError for a decision period of 0 or a grounding other than state and perception.
+/// Throws ConfigError for a decision period of 0, a grounding other than state and perception, or an arm
+/// that grounds from perception in a request that does not say so (the perception service would not look).
 GovernorConfig for_request(GovernorConfig g, const EpisodeSpec& spec);
 
 /// The capabilities an episode may dispatch to, which the governor waits for before it starts one: those of

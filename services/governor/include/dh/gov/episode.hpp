@@ -5,6 +5,7 @@
 #pragma once
 
 #include <chrono>
+#include <functional>
 #include <map>
 #include <optional>
 #include <set>
@@ -118,7 +119,10 @@ class EpisodeMachine {
   Observation perceived_scene();  ///< the last observation as the planner may see it
   Effects ground_and_dispatch(const Advice& advice, Clock::time_point now);
   Effects refuse(Refusal r, const std::string& reason, Clock::time_point now);
-  Effects decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now);
+  /// `observed`: the decision step's observation, recorded before the decision once it is made, as is
+  /// unrecorded_status_.
+  Effects decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now,
+                     const Observation* observed = nullptr);
   /// Records a failure of the current step's command (by capability and arguments).
   void count_failure();
   std::string step_key() const;  ///< current capability and arguments
@@ -145,6 +149,7 @@ class EpisodeMachine {
   Phase phase_ = Phase::WaitingFirstObservation;
   Clock::time_point deadline_;
   std::chrono::steady_clock::time_point arrived_;  ///< when the event being handled reached the core
+  std::function<void()> unrecorded_status_;  ///< the ending command's status, recorded after its decision
   Clock::time_point capability_wait_until_;  ///< the bare arm waits this long for vla_act's announcement
   std::string deadline_what_;
 

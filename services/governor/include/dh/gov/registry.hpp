@@ -16,8 +16,9 @@ class Registry {
  public:
   void announce(const CapabilityInfo& info);  ///< adds or refreshes an instance (alive again)
   void set_alive(const std::string& instance, bool alive);
-  /// The newest live instance of `capability` that takes new commands (not draining), or nullopt.
-  std::optional<CapabilityInfo> newest_alive(const std::string& capability) const;
+  /// The newest live instance of `capability` that takes new commands (not draining), or null. Valid
+  /// until the next announce().
+  const CapabilityInfo* newest_alive(const std::string& capability) const;
   bool known(const std::string& capability) const;
   bool alive(const std::string& instance) const;
   /// Names of capabilities with at least one live instance that takes new commands, sorted.

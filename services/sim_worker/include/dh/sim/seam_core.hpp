@@ -19,6 +19,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -134,7 +135,7 @@ class SeamCore {
   Observation observation_;
   std::unique_ptr<StepLogWriter> log_;
   std::unique_ptr<StateLogWriter> states_;
-  std::string last_started_;  ///< the command whose start the state log holds last
+  std::set<std::string> started_;  ///< the commands whose start the state log holds
   bool predicate_ = false;
   double physics_s_ = 0;
 };

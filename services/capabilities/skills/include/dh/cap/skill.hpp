@@ -4,6 +4,7 @@
 #pragma once
 
 #include <array>
+#include <chrono>
 #include <functional>
 #include <map>
 #include <memory>
@@ -86,6 +87,9 @@ struct CapabilityDef {
   /// What the skill runs beyond its θ, part of its announced version and so of each grounding's record:
   /// vla_act's policy ("embedded mlp-<weights checksum>"); empty for the analytic skills.
   std::string runs{};
+  /// The longest one step of the skill may block its host's event loop (a policy server's request bound);
+  /// the host keeps its liveliness through that much, and not longer.
+  std::chrono::milliseconds blocks_up_to{};
 };
 
 /// The entity (or symbol) bound to `role`, or "" when absent.

@@ -39,8 +39,10 @@ class PolicyServerSource : public ActionSource {
   std::vector<policy::Action> chunk(const Observation& obs, const std::string& instruction,
                                     double gripper_command) override;
   std::string describe() const override { return "policy-server " + client_.url(); }
+  std::chrono::milliseconds longest_call() const override { return timeout_; }
 
  private:
+  std::chrono::milliseconds timeout_;
   policy::PolicyServerClient client_;
   std::shared_ptr<const ImageCache> images_;
   std::uint32_t max_image_age_;

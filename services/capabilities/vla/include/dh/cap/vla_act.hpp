@@ -30,6 +30,8 @@ class ActionSource {
   virtual std::vector<policy::Action> chunk(const Observation& obs, const std::string& instruction,
                                             double gripper_command) = 0;
   virtual std::string describe() const = 0;
+  /// The longest chunk() may take (it runs on the capability host's event loop).
+  virtual std::chrono::milliseconds longest_call() const { return {}; }
 };
 
 /// The frozen embedded policy of a weight file.
