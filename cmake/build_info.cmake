@@ -1,5 +1,5 @@
 # Run at every build (the dh_build_info_source target): writes OUT, a source defining dh::build_info(),
-# with the commit of SRC's checkout and whether its tracked files differ from it (and a hash of how), and
+# with the commit of SRC's checkout and whether its files differ from it (and a hash of how), and
 # rewrites it only when that changed, so an unchanged tree recompiles nothing.
 execute_process(COMMAND git -C "${SRC}" rev-parse HEAD OUTPUT_VARIABLE commit OUTPUT_STRIP_TRAILING_WHITESPACE
                 RESULT_VARIABLE no_git ERROR_QUIET)
@@ -8,6 +8,16 @@ if(no_git)
   set(dirty "")
 else()
   execute_process(COMMAND git -C "${SRC}" diff HEAD OUTPUT_VARIABLE diff ERROR_QUIET)
+  # Files not yet added count too (the ignored ones, builds and runs, do not).
+  execute_process(COMMAND git -C "${SRC}" ls-files --others --exclude-standard OUTPUT_VARIABLE untracked
+                  OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
+  if(NOT untracked STREQUAL "")
+    string(REPLACE "\n" ";" untracked "${untracked}")
+    foreach(f IN LISTS untracked)
+      file(SHA1 "${SRC}/${f}" h)
+      string(APPEND diff "untracked ${f} ${h}\n")
+    endforeach()
+  endif()
   if(diff STREQUAL "")
     set(dirty "")
   else()

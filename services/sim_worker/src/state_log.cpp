@@ -1,5 +1,6 @@
 #include "dh/sim/state_log.hpp"
 
+#include <cmath>
 #include <stdexcept>
 
 #include "binary_log.hpp"
@@ -18,10 +19,12 @@ void put_dense(std::string& out, const std::vector<double>& v) {
 // Applied forces are zero in every scene so far; storing only the non-zero entries keeps a record small.
 void put_sparse(std::string& out, const std::vector<double>& v) {
   std::uint32_t k = 0;
-  for (double x : v) k += x != 0;
+  // -0.0 is kept too: restored, the state is the same bits.
+  const auto stored = [](double x) { return x != 0 || std::signbit(x); };
+  for (double x : v) k += stored(x);
   put(out, k);
   for (std::uint32_t i = 0; i < v.size(); ++i)
-    if (v[i] != 0) {
+    if (stored(v[i])) {
       put(out, i);
       put(out, v[i]);
     }
@@ -50,6 +53,16 @@ struct Cursor : binlog::Cursor {
 };
 
 }  // namespace
+
+bool PhysicsState::operator==(const PhysicsState& o) const {
+  const auto same = [](const std::vector<double>& a, const std::vector<double>& b) {
+    return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0);
+  };
+  return std::memcmp(&time, &o.time, sizeof time) == 0 && same(qpos, o.qpos) && same(qvel, o.qvel) &&
+         same(act, o.act) && same(ctrl, o.ctrl) && same(qacc_warmstart, o.qacc_warmstart) &&
+         same(mocap_pos, o.mocap_pos) && same(mocap_quat, o.mocap_quat) && same(qfrc_applied, o.qfrc_applied) &&
+         same(xfrc_applied, o.xfrc_applied);
+}
 
 bool StateShape::fits(const PhysicsState& s) const {
   return s.qpos.size() == nq && s.qvel.size() == nv && s.act.size() == na && s.ctrl.size() == nu &&

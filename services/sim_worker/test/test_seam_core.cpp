@@ -3,6 +3,7 @@
 // a test here.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -294,4 +295,23 @@ TEST_F(SeamCoreTest, RecordsCommandStartStatesThatResumeBitIdentically) {
   const auto states = std::filesystem::path(file).replace_extension(".states");
   std::filesystem::resize_file(states, std::filesystem::file_size(states) - 5);
   EXPECT_EQ(sim::read_state_log(states).records.size(), 2u);
+}
+
+// Applied forces are stored sparse; a -0.0 among them comes back as -0.0, and states compare bit for bit.
+TEST_F(SeamCoreTest, AStateReadsBackBitForBit) {
+  const auto file = std::filesystem::path(::testing::TempDir()) / "seam_core_bits.states";
+  sim::PhysicsState s = cell->physics_state();
+  s.xfrc_applied[6] = -0.0;
+  s.qfrc_applied[0] = 1.5;
+  sim::PhysicsState zero = s;
+  zero.xfrc_applied[6] = 0.0;
+  EXPECT_FALSE(s == zero) << "-0.0 and 0.0 are other bits";
+  {
+    sim::StateLogWriter w(file, {cell->model_hash(), 0, cell->shape()});
+    w.append({5, "c9", s});
+  }
+  const auto log = sim::read_state_log(file);
+  ASSERT_EQ(log.records.size(), 1u);
+  EXPECT_TRUE(log.records[0].state == s);
+  EXPECT_TRUE(std::signbit(log.records[0].state.xfrc_applied[6]));
 }

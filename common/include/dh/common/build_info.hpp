@@ -7,7 +7,7 @@ namespace dh {
 
 struct BuildInfo {
   std::string commit;  ///< git commit of the source tree, "unknown" outside a checkout
-  std::string dirty;   ///< empty for a clean tree, else the SHA-1 of `git diff HEAD` (tracked files)
+  std::string dirty;   ///< empty for a clean tree, else the SHA-1 of `git diff HEAD` and the untracked files
   /// "<commit>" or "<commit>+dirty.<first 12 of the diff's hash>".
   std::string str() const { return dirty.empty() ? commit : commit + "+dirty." + dirty.substr(0, 12); }
 };

@@ -26,7 +26,8 @@ namespace dh::sim {
 struct PhysicsState {
   double time = 0;
   std::vector<double> qpos, qvel, act, ctrl, qacc_warmstart, mocap_pos, mocap_quat, qfrc_applied, xfrc_applied;
-  bool operator==(const PhysicsState&) const = default;
+  /// Bit for bit (-0.0 is not 0.0, a NaN equals the same NaN): what "restores exactly" means.
+  bool operator==(const PhysicsState& o) const;
 };
 
 /// The model's sizes a state must match.
