@@ -1,8 +1,12 @@
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <filesystem>
+
 #include "dh/common/config.hpp"
 #include "dh/gov/config.hpp"
 #include "dh/gov/grounding.hpp"
+#include "dh/gov/ports.hpp"
 #include "fixtures.hpp"
 
 using namespace dh;
@@ -196,4 +200,10 @@ TEST(EpisodeSettings, TheRequestSetsThePeriodTheGroundingAndTheLimits) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("grounding: perception"), std::string::npos) << e.what();
   }
+}
+
+TEST(GovernorPorts, MatchTheServiceReadme) {
+  const char* home = std::getenv("DH_HOME");
+  ASSERT_TRUE(home) << "DH_HOME names the checkout";
+  EXPECT_EQ(port_table(std::filesystem::path(home) / "services/governor/README.md"), port_table(dh::gov::ports()));
 }
