@@ -2,6 +2,11 @@
 // coverage of every benchmark task (instructions of all six cells, on the scenes they run in).
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+#include <filesystem>
+
+#include "dh/planner/ports.hpp"
+
 #include "dh/common/history.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
@@ -168,4 +173,11 @@ TEST(Rules, EveryBenchmarkInstructionBecomesAPlanOnItsScene) {
       ++tasks;
     }
   EXPECT_EQ(tasks, 60);
+}
+
+TEST(PlannerPorts, MatchTheServiceReadme) {
+  const char* home = std::getenv("DH_HOME");
+  ASSERT_TRUE(home) << "DH_HOME names the checkout";
+  EXPECT_EQ(dh::port_table(std::filesystem::path(home) / "services/planner/README.md"),
+            dh::port_table(dh::planner::ports()));
 }
