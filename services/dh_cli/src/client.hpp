@@ -68,12 +68,20 @@ inline void set_library(msg::EpisodeRequest& r, const cap::LibraryTheta& lib) {
   r.library(std::move(theta));
 }
 
-/// Puts an episode's settings into its request: what `arm` of configs/governor.yaml means there (decision
-/// period, grounding, perception limits). The governor and the perception service take them from the
-/// request, so they need not read the arms; throws ConfigError for an unknown arm.
-inline void set_settings(msg::EpisodeRequest& r, const std::filesystem::path& config_dir, const std::string& arm) {
-  const gov::GovernorConfig c = gov::for_arm(gov::load_config(config_dir / "governor.yaml"),
-                                             find_arm(load_arms(config_dir / "governor.yaml"), arm));
+/// What each of `arms` means in configs/governor.yaml (decision period, grounding, perception limits), read
+/// once; throws ConfigError for an unknown arm.
+inline std::map<std::string, gov::GovernorConfig> arm_settings(const std::filesystem::path& config_dir,
+                                                               const std::vector<std::string>& arms) {
+  const gov::GovernorConfig base = gov::load_config(config_dir / "governor.yaml");
+  const auto defined = load_arms(config_dir / "governor.yaml");
+  std::map<std::string, gov::GovernorConfig> out;
+  for (const auto& a : arms) out[a] = gov::for_arm(base, find_arm(defined, a));
+  return out;
+}
+
+/// Puts an episode's settings (its arm's, from arm_settings) into its request. The governor and the
+/// perception service take them from the request, so they need not read the arms.
+inline void set_settings(msg::EpisodeRequest& r, const gov::GovernorConfig& c) {
   r.decision_period_steps(c.decision_period);
   r.grounding(c.perception ? "perception" : "state");
   r.perception(convert::to_msg(c.perception_limits));

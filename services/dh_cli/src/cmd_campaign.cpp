@@ -74,6 +74,7 @@ int cmd_campaign(const CampaignArgs& a) {
       cap::load_library_theta(a.library.empty() ? paths::config_dir() / "library" : std::filesystem::path(a.library));
   campaign::Plan plan = make_plan(a, suites);
   plan.library_version = library.version;
+  const auto settings = arm_settings(paths::config_dir(), plan.arms);
   if (a.db.empty()) throw campaign::PlanError("--db: missing (the campaign database file, e.g. runs/c1.db)");
   auto db = campaign::CampaignDb::open(a.db);
   const auto differences = db.declare_plan(plan);
@@ -190,7 +191,7 @@ int cmd_campaign(const CampaignArgs& a) {
         r.instruction(t.instruction);
         r.budget_steps(t.budget_steps);
         set_library(r, library);
-        set_settings(r, paths::config_dir(), d.key.arm);
+        set_settings(r, settings.at(d.key.arm));
         client.request(r);
       }
       const bool changed = record(scheduler.take_finished(now));

@@ -40,7 +40,7 @@ int cmd_run(const RunArgs& a) {
   r.instruction(t.instruction);
   r.budget_steps(t.budget_steps);
   set_library(r, library);
-  set_settings(r, paths::config_dir(), a.arm);
+  set_settings(r, arm_settings(paths::config_dir(), {a.arm}).at(a.arm));
   const auto t0 = std::chrono::steady_clock::now();
   client.request(r);
   if (!a.json) std::cerr << "episode " << r.episode_id() << " on channel " << *ch << ": " << t.instruction << "\n";

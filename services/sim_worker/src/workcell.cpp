@@ -249,7 +249,7 @@ std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
       }
     }
   }
-  ended_ = capture();
+  capture(ended_);
   mj_forward(m_, d_);
   // MuJoCo drops contacts and constraints silently when its buffers are full; that physics is wrong.
   for (int w : {mjWARN_CONTACTFULL, mjWARN_CNSTRFULL})
@@ -372,18 +372,19 @@ StateShape Workcell::shape() const {
   return {u(m_->nq), u(m_->nv), u(m_->na), u(m_->nu), u(m_->nmocap), u(m_->nbody)};
 }
 
-PhysicsState Workcell::capture() const {
-  const auto copy = [](const mjtNum* p, int n) { return std::vector<double>(p, p + n); };
-  return {d_->time,
-          copy(d_->qpos, m_->nq),
-          copy(d_->qvel, m_->nv),
-          copy(d_->act, m_->na),
-          copy(d_->ctrl, m_->nu),
-          copy(d_->qacc_warmstart, m_->nv),
-          copy(d_->mocap_pos, 3 * m_->nmocap),
-          copy(d_->mocap_quat, 4 * m_->nmocap),
-          copy(d_->qfrc_applied, m_->nv),
-          copy(d_->xfrc_applied, 6 * m_->nbody)};
+void Workcell::capture(PhysicsState& s) const {
+  // assign() reuses the vectors' storage: this runs at every control step.
+  const auto copy = [](std::vector<double>& v, const mjtNum* p, int n) { v.assign(p, p + n); };
+  s.time = d_->time;
+  copy(s.qpos, d_->qpos, m_->nq);
+  copy(s.qvel, d_->qvel, m_->nv);
+  copy(s.act, d_->act, m_->na);
+  copy(s.ctrl, d_->ctrl, m_->nu);
+  copy(s.qacc_warmstart, d_->qacc_warmstart, m_->nv);
+  copy(s.mocap_pos, d_->mocap_pos, 3 * m_->nmocap);
+  copy(s.mocap_quat, d_->mocap_quat, 4 * m_->nmocap);
+  copy(s.qfrc_applied, d_->qfrc_applied, m_->nv);
+  copy(s.xfrc_applied, d_->xfrc_applied, 6 * m_->nbody);
 }
 
 void Workcell::restore(const PhysicsState& s) {

@@ -87,7 +87,7 @@ class Workcell {
   /// Joint targets reaching the tool pose (position, quaternion w x y z) from the current state.
   void solve_ik(const std::array<double, 3>& p_goal, const std::array<double, 4>& q_goal, double joints[7]);
   std::array<double, 4> tcp_quat(const mjData_* d) const;
-  PhysicsState capture() const;
+  void capture(PhysicsState& into) const;
   bool in_contact(int body_a, int body_b) const;
 
   SceneSpec scene_;
