@@ -27,7 +27,7 @@ std::uint64_t draw_index(std::mt19937_64& rng, std::uint64_t count) {
 
 struct Cluster {
   unsigned n = 0;
-  int sum_d = 0;  // Σ (a_i − b_i)
+  int sum_d = 0;  // Σ (a_i − b_i) for pairs; Σ success_i for a rate
 };
 
 Interval cluster_bootstrap(const std::vector<Cluster>& clusters, double point, unsigned resamples,
@@ -107,6 +107,28 @@ PairedSummary paired(const std::vector<PairedOutcome>& outcomes, unsigned resamp
   for (const auto& [name, c] : by_name) clusters.push_back(c);
   s.bootstrap = cluster_bootstrap(clusters, s.diff, resamples, seed);
   return s;
+}
+
+ClusteredRate clustered_rate(const std::vector<ClusteredOutcome>& outcomes, unsigned resamples, std::uint64_t seed) {
+  std::map<std::string, Cluster> by_name;  // ordered by name: the draw does not depend on input order
+  unsigned successes = 0;
+  for (const ClusteredOutcome& o : outcomes) {
+    Cluster& c = by_name[o.cluster];
+    ++c.n;
+    c.sum_d += o.success;
+    successes += o.success;
+  }
+  ClusteredRate r;
+  r.clusters = by_name.size();
+  if (outcomes.empty()) {
+    r.interval = {kNaN, kNaN, kNaN};
+    return r;
+  }
+  std::vector<Cluster> clusters;
+  clusters.reserve(by_name.size());
+  for (const auto& [name, c] : by_name) clusters.push_back(c);
+  r.interval = cluster_bootstrap(clusters, static_cast<double>(successes) / outcomes.size(), resamples, seed);
+  return r;
 }
 
 double percentile(std::vector<double> v, double q) {

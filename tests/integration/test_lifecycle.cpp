@@ -216,3 +216,52 @@ TEST(Readiness, AnEpisodeWaitsForItsCapabilitiesToAnnounceNotForAFixedTime) {
 }
 
 }  // namespace dh
+
+namespace dh {
+using namespace std::chrono_literals;
+namespace {
+
+std::string read_text(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+}  // namespace
+
+// Every service runs through the managed lifecycle (common/lifecycle.hpp): a stop takes it through drain,
+// deactivate and shutdown in order, and a transition that fails (here configure, on a malformed
+// configuration) ends the process with the reason, after shutting down what it had made.
+TEST(ManagedLifecycle, AFailedTransitionEndsTheServiceWithItsReasonAndAStopRunsEveryTransition) {
+  itest::IsolatedEnv env;
+  const auto bad = env.runs / "governor.yaml";
+  std::ofstream(bad) << "decision_period: [10\n";
+  cli::Deployment broken({itest::service("governor", {"--config", bad.string()})}, paths::bin_dir(), env.runs / "logs");
+  std::vector<std::string> gone;
+  for (int i = 0; i < 200 && gone.empty(); ++i) {
+    gone = broken.exited();
+    if (gone.empty()) std::this_thread::sleep_for(50ms);
+  }
+  EXPECT_EQ(gone, std::vector<std::string>{"governor"}) << "a governor without a configuration kept running";
+  const std::string failed = read_text(env.runs / "logs" / "governor.log");
+  EXPECT_NE(failed.find("lifecycle: configure failed in state unconfigured: "), std::string::npos) << failed;
+  EXPECT_NE(failed.find(bad.string()), std::string::npos) << "the reason names the file:\n" << failed;
+  EXPECT_EQ(failed.find("lifecycle: activate"), std::string::npos) << failed;
+  EXPECT_NE(failed.find("lifecycle: shutdown (unconfigured -> finalized)"), std::string::npos) << failed;
+
+  cli::Deployment planner({itest::service("planner")}, paths::bin_dir(), env.runs / "logs");
+  const auto log = env.runs / "logs" / "planner.log";
+  for (int i = 0; i < 200 && read_text(log).find("lifecycle: activate (inactive -> active)") == std::string::npos; ++i)
+    std::this_thread::sleep_for(50ms);
+  planner.stop();
+  const std::string text = read_text(log);
+  std::size_t at = 0;
+  for (const char* line : {"lifecycle: configure (unconfigured -> inactive)", "lifecycle: activate (inactive -> active)",
+                           "lifecycle: drain (active -> draining)", "lifecycle: deactivate (draining -> inactive)",
+                           "lifecycle: shutdown (inactive -> finalized)"}) {
+    const std::size_t found = text.find(line, at);
+    ASSERT_NE(found, std::string::npos) << "missing, or out of order: " << line << "\n" << text;
+    at = found;
+  }
+}
+
+}  // namespace dh

@@ -86,6 +86,35 @@ TEST(BenchmarkCells, EveryCellAndTaskInstantiatesForSeeds1To60) {
             << by_scene.size() << " scene models\n";
 }
 
+// Articulated fixtures start as the `:init` of the LIBERO BDDL file each scene models says (notes
+// robot-facts.md §5): KITCHEN_SCENE4's bottom drawer open, KITCHEN_SCENE6's microwave door open,
+// KITCHEN_SCENE8's stove on; everything else closed and off.
+TEST(BenchmarkCells, FixturesStartAsTheLiberoInitOfTheirSceneSays) {
+  const std::map<std::string, std::vector<PredicateSpec>> initial{
+      {"kitchen_goal.yaml",
+       {{"TurnOff", {"stove"}}, {"Close", {"cabinet_top_region"}}, {"Close", {"cabinet_middle_region"}},
+        {"Close", {"cabinet_bottom_region"}}}},
+      {"kitchen_stove.yaml", {{"TurnOff", {"stove"}}}},
+      {"kitchen_two_moka.yaml", {{"TurnOn", {"stove"}}}},
+      {"kitchen_cabinet.yaml", {{"Open", {"cabinet_bottom_region"}}}},
+      {"kitchen_microwave.yaml", {{"Open", {"microwave"}}}},
+  };
+  std::set<std::string> seen;
+  for (const auto& [cell, suite] : suites())
+    for (const auto& [id, task] : suite.tasks) {
+      const std::string scene = task.scene_file.filename().string();
+      const auto want = initial.find(scene);
+      if (want == initial.end() || !seen.insert(scene).second) continue;
+      sim::Workcell workcell(sim::load_task_scene(task));
+      for (unsigned seed : {1u, 2u}) {
+        workcell.reset(seed, task.goal);
+        for (const PredicateSpec& p : want->second)
+          EXPECT_TRUE(workcell.holds({p})) << scene << " seed " << seed << ": " << p.text() << " at the start";
+      }
+    }
+  EXPECT_EQ(seen.size(), initial.size()) << "a scene of the list is used by no task";
+}
+
 }  // namespace
 }  // namespace dh
 

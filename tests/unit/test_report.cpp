@@ -160,6 +160,11 @@ TEST(Summarize, SuccessPerArmAndCellCountsTheInfrastructureLossAsAFailure) {
   EXPECT_DOUBLE_EQ(full_goal["wilson_lo"].get<double>(), w.lo);
   EXPECT_DOUBLE_EQ(full_goal["wilson_hi"].get<double>(), w.hi);
   EXPECT_EQ(full_goal["tick_limit"], 1);
+  // Two cell/task clusters, goal/1 (2 of 2) and goal/2 (1 of 2): a resample is both of one (rate 1 or 0.5,
+  // a quarter of the draws each) or one of each (0.75), so the percentiles are 0.5 and 1.
+  EXPECT_EQ(full_goal["clusters"], 2);
+  EXPECT_DOUBLE_EQ(full_goal["cluster_lo"].get<double>(), 0.5);
+  EXPECT_DOUBLE_EQ(full_goal["cluster_hi"].get<double>(), 1.0);
 
   const json& full_long = find(s["summary"], "full", "long");
   EXPECT_EQ(full_long["successes"], 1);

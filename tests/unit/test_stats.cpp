@@ -156,6 +156,60 @@ TEST(Paired, NoResamplesLeavesTheBootstrapOut) {
   EXPECT_DOUBLE_EQ(s.diff, 1.0);
 }
 
+namespace {
+std::vector<ClusteredOutcome> cluster(const std::string& name, int successes, int failures) {
+  std::vector<ClusteredOutcome> o(successes, ClusteredOutcome{name, true});
+  o.insert(o.end(), failures, ClusteredOutcome{name, false});
+  return o;
+}
+}  // namespace
+
+TEST(ClusteredRate, WholeClustersThatSucceedOrFailTogetherWidenTheIntervalBeyondWilson) {
+  // 10 layouts × 20 seeds, 9 layouts always succeed and one never: 180 of 200 episodes, but only 10
+  // independent draws.
+  std::vector<ClusteredOutcome> o;
+  for (int t = 0; t < 10; ++t) {
+    const auto c = cluster("goal/" + std::to_string(t), t == 3 ? 0 : 20, t == 3 ? 20 : 0);
+    o.insert(o.end(), c.begin(), c.end());
+  }
+  const ClusteredRate r = clustered_rate(o, 20000, 7);
+  const Interval w = wilson(180, 200);
+  EXPECT_EQ(r.clusters, 10u);
+  EXPECT_DOUBLE_EQ(r.interval.point, 0.9);
+  EXPECT_LT(r.interval.lo, w.lo - 0.1) << r.interval.lo << " vs Wilson " << w.lo;
+  EXPECT_DOUBLE_EQ(r.interval.hi, 1.0) << "a resample without the failing layout";
+}
+
+TEST(ClusteredRate, ClustersAlikeGiveAZeroWidthIntervalAndTheDrawIsDeterministic) {
+  std::vector<ClusteredOutcome> o;
+  for (int t = 0; t < 6; ++t) {
+    const auto c = cluster("long/" + std::to_string(t), 3, 1);
+    o.insert(o.end(), c.begin(), c.end());
+  }
+  const ClusteredRate r = clustered_rate(o, 1000, 3);
+  EXPECT_DOUBLE_EQ(r.interval.lo, 0.75);
+  EXPECT_DOUBLE_EQ(r.interval.hi, 0.75);
+
+  std::vector<ClusteredOutcome> mixed = cluster("a", 5, 1);
+  for (const auto& c : {cluster("b", 1, 5), cluster("c", 3, 3)}) mixed.insert(mixed.end(), c.begin(), c.end());
+  const ClusteredRate m1 = clustered_rate(mixed, 3000, 11);
+  const ClusteredRate m2 = clustered_rate({mixed.rbegin(), mixed.rend()}, 3000, 11);
+  EXPECT_EQ(m1.interval.lo, m2.interval.lo) << "input order does not change the draw";
+  EXPECT_EQ(m1.interval.hi, m2.interval.hi);
+  EXPECT_LE(m1.interval.lo, m1.interval.point);
+  EXPECT_GE(m1.interval.hi, m1.interval.point);
+}
+
+TEST(ClusteredRate, NoOutcomesOrNoResamplesHaveNoInterval) {
+  const ClusteredRate none = clustered_rate({});
+  EXPECT_EQ(none.clusters, 0u);
+  EXPECT_TRUE(std::isnan(none.interval.point));
+  EXPECT_TRUE(std::isnan(none.interval.lo));
+  const ClusteredRate no_draws = clustered_rate(cluster("a", 1, 1), 0);
+  EXPECT_DOUBLE_EQ(no_draws.interval.point, 0.5);
+  EXPECT_TRUE(std::isnan(no_draws.interval.hi));
+}
+
 TEST(Percentile, InterpolatesBetweenOrderStatistics) {
   const std::vector<double> v{5, 1, 4, 2, 3};  // sorted 1..5, h = 4q
   EXPECT_DOUBLE_EQ(percentile(v, 0), 1);

@@ -58,9 +58,14 @@ void print_summary(const nlohmann::json& s) {
   for (const auto& row : s["summary"]) {
     std::cout << "  " << row["arm"].get<std::string>() << "  " << row["cell"].get<std::string>() << "  "
               << row["successes"] << "/" << row["episodes"];
-    if (!row["rate"].is_null())
+    if (!row["rate"].is_null()) {
       std::cout << "  " << 100.0 * row["rate"].get<double>() << "% (Wilson 95% " << 100.0 * row["wilson_lo"].get<double>()
-                << "-" << 100.0 * row["wilson_hi"].get<double>() << ")";
+                << "-" << 100.0 * row["wilson_hi"].get<double>();
+      if (!row["cluster_lo"].is_null())
+        std::cout << "; over " << row["clusters"] << " cell/task clusters " << 100.0 * row["cluster_lo"].get<double>()
+                  << "-" << 100.0 * row["cluster_hi"].get<double>();
+      std::cout << ")";
+    }
     std::cout << "  infrastructure " << row["infrastructure"] << "\n";
   }
 }

@@ -115,7 +115,17 @@ int run(int argc, char** argv) {
   app.add_option("--start", start, "index of the first frame played");
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("frames_player");
-  return run_service(*log, [&] {
+  std::string cam;
+  std::optional<dds::Participant> participant;
+  std::optional<dds::Writer<msg::RgbdFramePubSubType>> out;
+  std::optional<Player> player;
+  std::optional<dds::Reader<msg::RgbdRequestPubSubType>> in;
+  EventQueue<msg::RgbdRequest> requests;
+  const auto period = rate_hz > 0 ? std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1 / rate_hz))
+                                  : Clock::duration::zero();
+  auto next_tick = Clock::now();
+  ManagedService service;
+  service.transitions.configure = [&] {
     frames::Recording rec = frames::open_recording(folder);
     if (!camera.empty()) rec.camera = camera;
     if (start >= rec.frames.size())
@@ -126,39 +136,46 @@ int run(int argc, char** argv) {
     log->info("{}: {} frames {}x{} fx={:.2f} fy={:.2f} cx={:.2f} cy={:.2f} depth_scale={} pose={}", folder,
               rec.frames.size(), rec.K.width, rec.K.height, rec.K.fx, rec.K.fy, rec.K.cx, rec.K.cy,
               rec.depth_scale, rec.has_pose ? "given" : "unknown");
-    const std::string cam = rec.camera;
-    dds::Participant participant("dh_frames_player");
-    dds::Writer<msg::RgbdFramePubSubType> out(participant, topics::kRgbd, dds::Qos::Rgbd);
-    Player player(std::move(rec), channel, !no_loop, hold, start, out, *log);
-    EventQueue<msg::RgbdRequest> requests;
-    dds::Reader<msg::RgbdRequestPubSubType> in(participant, topics::kRgbdRequest, dds::Qos::RgbdRequest,
-                                               {[&](const msg::RgbdRequest& r, const auto&) {
-                                                  if (r.channel() == channel && r.camera() == cam)
-                                                    requests.push(r);
-                                                },
-                                                {},
-                                                {}});
-    log->info("playing as channel={} camera={} on {} domain={}{}", channel, cam, topics::kRgbd,
-              dds::domain_id(),
+    cam = rec.camera;
+    participant.emplace("dh_frames_player");
+    out.emplace(*participant, topics::kRgbd, dds::Qos::Rgbd);
+    player.emplace(std::move(rec), channel, !no_loop, hold, start, *out, *log);
+  };
+  service.transitions.activate = [&] {
+    in.emplace(*participant, topics::kRgbdRequest, dds::Qos::RgbdRequest,
+               dds::Reader<msg::RgbdRequestPubSubType>::Callbacks{
+                   [&](const msg::RgbdRequest& r, const auto&) {
+                     if (r.channel() == channel && r.camera() == cam) requests.push(r);
+                   },
+                   {},
+                   {}});
+    log->info("playing as channel={} camera={} on {} domain={}{}", channel, cam, topics::kRgbd, dds::domain_id(),
               rate_hz > 0 ? " at " + std::to_string(rate_hz) + " Hz" : std::string(", on request"));
-    const auto period =
-        rate_hz > 0 ? std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1 / rate_hz))
-                    : Clock::duration::zero();
-    auto next_tick = Clock::now() + period;
-    while (!shutdown_requested()) {
-      auto wait = std::chrono::milliseconds(100);
-      if (rate_hz > 0)
-        wait = std::clamp(std::chrono::duration_cast<std::chrono::milliseconds>(next_tick - Clock::now()),
-                          std::chrono::milliseconds(0), wait);
-      if (auto r = requests.pop(wait)) player.publish(r->request_id(), rate_hz <= 0);
-      if (rate_hz > 0 && Clock::now() >= next_tick) {
-        player.publish("", true);
-        next_tick += period;
-        if (next_tick < Clock::now()) next_tick = Clock::now() + period;  // fell behind: do not burst
-      }
+    next_tick = Clock::now() + period;
+  };
+  service.transitions.deactivate = [&] {
+    in.reset();
+    log->info("{} frames sent", player->sent());
+  };
+  service.transitions.shutdown = [&] {
+    in.reset();
+    player.reset();
+    out.reset();
+    participant.reset();
+  };
+  service.step = [&] {
+    auto wait = std::chrono::milliseconds(100);
+    if (rate_hz > 0)
+      wait = std::clamp(std::chrono::duration_cast<std::chrono::milliseconds>(next_tick - Clock::now()),
+                        std::chrono::milliseconds(0), wait);
+    if (auto r = requests.pop(wait)) player->publish(r->request_id(), rate_hz <= 0);
+    if (rate_hz > 0 && Clock::now() >= next_tick) {
+      player->publish("", true);
+      next_tick += period;
+      if (next_tick < Clock::now()) next_tick = Clock::now() + period;  // fell behind: do not burst
     }
-    log->info("{} frames sent", player.sent());
-  });
+  };
+  return run_managed(*log, std::move(service));
 }
 
 }  // namespace

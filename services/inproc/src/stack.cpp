@@ -13,7 +13,9 @@
 namespace dh::inproc {
 
 Stack::Stack(const std::filesystem::path& config_dir)
-    : config_(gov::load_config(config_dir / "governor.yaml")), arms_(load_arms(config_dir / "governor.yaml")),
+    : governor_(gov::load_config(config_dir / "governor.yaml"), load_arms(config_dir / "governor.yaml"),
+                // Every capability is served before the first request: nothing to wait for.
+                {{}, gov::Clock::time_point{}, std::nullopt}),
       host_({}), library_(cap::load_library_theta(config_dir / "library")) {
   for (auto& def : cap::all_capabilities()) add_capability(std::move(def), config_dir / "library");
 }
@@ -29,7 +31,7 @@ void Stack::add_capability(cap::CapabilityDef def, const std::filesystem::path& 
   info.parameters = d.parameters;
   info.cost_steps = static_cast<std::uint32_t>(d.cost_steps);
   info.started_ns = 1;
-  registry_.announce(info);
+  governor_.on_announce(info);
   host_.serve({std::move(def), info.instance});
 }
 
@@ -44,18 +46,28 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   sim::Workcell& cell = cell_for(task);
   cell.reset(seed, task.goal);
   std::filesystem::remove(evidence_path);
-  EvidenceWriter evidence(evidence_path);
-  gov::record_request(evidence, task.suite, task.id, seed, task.suite, arm);  // the cell is the suite here
   // Unique per run: the host core keeps a channel's keyframes for as long as its episode id stays the same.
   const std::string episode_id =
       task.suite + "/" + std::to_string(task.id) + "/" + std::to_string(seed) + "#" + std::to_string(++runs_);
-  gov::EpisodeSpec spec{0, episode_id, task.instruction, arm, task.budget_steps, library_.version, library_.theta};
-  sim::SeamCore seam(spec.channel, kBusSeam);
+  constexpr std::uint32_t channel = 0;
+  gov::EpisodeRequest request;
+  request.channel = channel;
+  request.episode_id = episode_id;
+  request.instruction = task.instruction;
+  request.arm = arm;
+  request.suite = task.suite;
+  request.cell = task.suite;  // the cell is the suite here
+  request.task = task.id;
+  request.seed = seed;
+  request.budget_steps = task.budget_steps;
+  request.library_version = library_.version;
+  request.library = library_.theta;
+  request.evidence = evidence_path;
+  sim::SeamCore seam(channel, kBusSeam);
   cap::Clock::time_point now = step_time(0);
   Observation obs = *seam.start(cell, episode_id, task.budget_steps, goal_text(task.goal), now,
                                 std::filesystem::path(evidence_path).replace_extension(".steps"))
                          .observation;
-  gov::EpisodeMachine machine(spec, gov::for_arm(config_, find_arm(arms_, arm)), registry_, evidence, now);
 
   std::optional<gov::EpisodeEnd> end;
   std::optional<cap::ActionOut> action;  ///< the host's answer to the current step
@@ -66,8 +78,8 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   // The seam's effects: its refusals, corrections and verdict changes go to the governor (over DDS they are
   // the seam and verdict topics); a new step is seen next round.
   const auto deliver = [&](const sim::SeamEffects& sx) {
-    for (const auto& e : sx.events) machine.on_seam_event(e);
-    if (sx.verdict) machine.on_verdict(sx.verdict->step, sx.verdict->predicate, sx.verdict->value);
+    for (const auto& e : sx.events) governor_.on_seam_event(channel, episode_id, e);
+    if (sx.verdict) governor_.on_verdict(channel, episode_id, sx.verdict->step, sx.verdict->predicate, sx.verdict->value);
     if (sx.ended) throw std::runtime_error("episode " + episode_id + ": " + *sx.ended);
     if (!sx.observation) return;
     obs = *sx.observation;
@@ -75,61 +87,73 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
     fresh = true;
   };
   // Routes the governor's effects the way the DDS shells carry them, at once (one control step).
-  std::function<void(gov::Effects)> from_governor = [&](gov::Effects fx) {
-    if (fx.cancel_command)
-      from_host(host_.on_cancel({spec.channel, episode_id, *fx.cancel_command, dispatched[*fx.cancel_command].instance}));
-    if (fx.lease)
-      deliver(seam.on_lease({episode_id, fx.lease->command_id, fx.lease->valid_until_step,
-                             fx.lease->budget_until_step, fx.lease->revoked},
-                            now));
-    if (fx.end) end = fx.end;
-    if (fx.command) {
-      const gov::Command& g = *fx.command;
-      dispatched[g.command_id] = g;
-      cap::CommandStart c{spec.channel, episode_id, g.command_id, g.capability, g.instance, g.args, g.theta,
-                          g.start_step, g.budget_steps, g.decision_period, cap::Grounding::State};
-      from_host(host_.on_start(c, now));
-    }
-    if (fx.plan_request) {
-      const auto& r = *fx.plan_request;
-      const planner::PlannerAdvice a = planner::plan_rules({r.instruction, r.scene, r.capabilities, r.history});
-      gov::Advice adv{r.request_id, a.refused, a.capability, a.args, a.rationale, a.reason, "rules", a.done, {}};
-      for (const auto& s : a.rest) adv.rest.push_back({s.capability, s.args});
-      from_governor(machine.on_advice(adv, now));
+  std::function<void(gov::CoreEffects)> from_governor = [&](gov::CoreEffects effects) {
+    for (const gov::ChannelEffects& e : effects) {
+      if (e.episode_id != episode_id) continue;
+      const gov::Effects& fx = e.fx;
+      if (fx.cancel_command) from_host(host_.on_cancel({channel, episode_id, *fx.cancel_command, e.cancel_instance}));
+      if (fx.lease)
+        deliver(seam.on_lease({episode_id, fx.lease->command_id, fx.lease->valid_until_step,
+                               fx.lease->budget_until_step, fx.lease->revoked},
+                              now));
+      if (fx.end) end = fx.end;
+      if (fx.command) {
+        const gov::Command& g = *fx.command;
+        dispatched[g.command_id] = g;
+        cap::CommandStart c{channel, episode_id, g.command_id, g.capability, g.instance, g.args, g.theta,
+                            g.start_step, g.budget_steps, g.decision_period, cap::Grounding::State};
+        from_host(host_.on_start(c, now));
+      }
+      if (fx.plan_request) {
+        const auto& r = *fx.plan_request;
+        const planner::PlannerAdvice a = planner::plan_rules({r.instruction, r.scene, r.capabilities, r.history});
+        gov::Advice adv{r.request_id, a.refused, a.capability, a.args, a.rationale, a.reason, "rules", a.done, {}};
+        for (const auto& s : a.rest) adv.rest.push_back({s.capability, s.args});
+        from_governor(governor_.on_advice(channel, episode_id, adv, now));
+      }
     }
   };
   from_host = [&](cap::HostEffects hx) {
     for (const auto& s : hx.statuses)
       if (s.episode_id == episode_id)  // not a command left over from an earlier episode
-        from_governor(machine.on_status({s.command_id, s.instance, s.state, s.reason, s.stage, s.step, s.steps_used,
-                                       s.progress, s.failure}, now));
+        from_governor(governor_.on_status(channel, episode_id,
+                                          {s.command_id, s.instance, s.state, s.reason, s.stage, s.step, s.steps_used,
+                                           s.progress, s.failure},
+                                          now));
     for (const auto& a : hx.actions) action = a;
   };
 
-  while (!end) {
-    if (fresh) {
-      fresh = false;
+  try {
+    from_governor(governor_.on_request(request, now));
+    while (!end) {
+      if (fresh) {
+        fresh = false;
+        action.reset();
+        from_governor(governor_.on_observation(obs, now));
+        from_host(host_.on_observation(obs, now));
+      }
+      // Nothing moves this step: wait, as a stalled channel would, for the governor's next deadline (a
+      // deadline acts by ending the episode or by changing what runs, so a few waits settle it).
+      for (int waits = 0; !end && !(action && action->step == obs.step); ++waits) {
+        const auto deadline = governor_.deadline(channel);
+        if (waits == 4 || !deadline)
+          throw std::logic_error("episode " + episode_id + " stands still at step " + std::to_string(obs.step) +
+                                 ": no action and no end after the governor's deadlines");
+        now = std::max(now, *deadline);
+        from_host(host_.on_tick(now));
+        from_governor(governor_.on_tick(now));
+        deliver(seam.on_tick(now));
+      }
+      if (end || fresh) continue;
+      if (tap.on_action) tap.on_action(obs, dispatched[action->command_id].capability, action->a);
+      sim::ActionIn applied{action->episode_id, action->command_id, action->step, action->a};
+      if (tap.perturb) tap.perturb(applied.a);
       action.reset();
-      from_governor(machine.on_observation(obs, now));
-      from_host(host_.on_observation(obs, now));
+      deliver(seam.on_action(applied, now));
     }
-    // Nothing moves this step: wait, as a stalled channel would, for the governor's next deadline (a
-    // deadline acts by ending the episode or by changing what runs, so a few waits settle it).
-    for (int waits = 0; !end && !(action && action->step == obs.step); ++waits) {
-      if (waits == 4)
-        throw std::logic_error("episode " + episode_id + " stands still at step " + std::to_string(obs.step) +
-                               ": no action and no end after the governor's deadlines");
-      now = std::max(now, machine.deadline());
-      from_host(host_.on_tick(now));
-      from_governor(machine.on_tick(now));
-      deliver(seam.on_tick(now));
-    }
-    if (end || fresh) continue;
-    if (tap.on_action) tap.on_action(obs, dispatched[action->command_id].capability, action->a);
-    sim::ActionIn applied{action->episode_id, action->command_id, action->step, action->a};
-    if (tap.perturb) tap.perturb(applied.a);
-    action.reset();
-    deliver(seam.on_action(applied, now));
+  } catch (...) {
+    governor_.forget(channel);
+    throw;
   }
   return {end->success, end->outcome, end->reason, end->steps, end->decisions, end->refusals, evidence_path};
 }

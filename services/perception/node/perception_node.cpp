@@ -190,6 +190,22 @@ class Perception {
   std::uint64_t requests_ = 0;
 };
 
+/// The service's readers, made on activate and removed on deactivate; every message goes to `q`.
+struct Readers {
+  Readers(dds::Participant& p, EventQueue<Event>& q)
+      : requests(p, topics::kEpisodeRequest, dds::Qos::Episode,
+                 {[&q](const msg::EpisodeRequest& m, const auto&) { q.push(m); }, {}, {}}),
+        results(p, topics::kEpisodeResult, dds::Qos::Episode,
+                {[&q](const msg::EpisodeResult& m, const auto&) { q.push(m); }, {}, {}}),
+        observations(p, topics::kObservation, dds::Qos::Observation,
+                     {[&q](const msg::Observation& m, const auto&) { q.push(m); }, {}, {}}),
+        frames(p, topics::kRgbd, dds::Qos::Rgbd, {[&q](const msg::RgbdFrame& m, const auto&) { q.push(m); }, {}, {}}) {}
+  dds::Reader<msg::EpisodeRequestPubSubType> requests;
+  dds::Reader<msg::EpisodeResultPubSubType> results;
+  dds::Reader<msg::ObservationPubSubType> observations;
+  dds::Reader<msg::RgbdFramePubSubType> frames;
+};
+
 int run(int argc, char** argv) {
   CLI::App app{"perception: scene estimates from RGB-D frames (OpenCV masks, PCL boxes)"};
   std::string camera = "workcell", backend = "colour", url;
@@ -208,7 +224,12 @@ int run(int argc, char** argv) {
   app.add_flag("--search-support-plane", search_plane, "the table height is not known: find it in each mask (RANSAC)");
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("dh_perception");
-  return run_service(*log, [&] {
+  std::optional<dds::Participant> participant;
+  std::optional<Perception> node;
+  std::optional<Readers> readers;
+  EventQueue<Event> q;
+  ManagedService service;
+  service.transitions.configure = [&] {
     std::unique_ptr<perception::Segmenter> segmenter;
     if (backend == "http") {
       if (url.empty()) throw ConfigError("--backend http needs --segment-url (the segmentation server's endpoint)");
@@ -221,25 +242,25 @@ int run(int argc, char** argv) {
     }
     perception::CloudParams cloud;
     if (!search_plane) cloud.support_z = table_z;
-    dds::Participant participant("dh_perception");
-    Perception node(participant, std::move(segmenter), cloud, camera, every, std::chrono::milliseconds(frame_timeout_ms),
-                    log);
-    EventQueue<Event> q;
-    auto push = [&q](auto m) { q.push(std::move(m)); };
-    dds::Reader<msg::EpisodeRequestPubSubType> r1(participant, topics::kEpisodeRequest, dds::Qos::Episode,
-        {[&](const msg::EpisodeRequest& m, const auto&) { push(m); }, {}, {}});
-    dds::Reader<msg::EpisodeResultPubSubType> r2(participant, topics::kEpisodeResult, dds::Qos::Episode,
-        {[&](const msg::EpisodeResult& m, const auto&) { push(m); }, {}, {}});
-    dds::Reader<msg::ObservationPubSubType> r3(participant, topics::kObservation, dds::Qos::Observation,
-        {[&](const msg::Observation& m, const auto&) { push(m); }, {}, {}});
-    dds::Reader<msg::RgbdFramePubSubType> r4(participant, topics::kRgbd, dds::Qos::Rgbd,
-        {[&](const msg::RgbdFrame& m, const auto&) { push(m); }, {}, {}});
+    participant.emplace("dh_perception");
+    node.emplace(*participant, std::move(segmenter), cloud, camera, every, std::chrono::milliseconds(frame_timeout_ms),
+                 log);
+  };
+  service.transitions.activate = [&] {
+    readers.emplace(*participant, q);
     log->info("backend={} camera={} every {} steps; domain={} up", backend, camera, every, dds::domain_id());
-    while (!shutdown_requested()) {
-      if (auto e = q.pop(std::chrono::milliseconds(50))) std::visit([&](auto& ev) { node.handle(ev); }, *e);
-      node.tick();
-    }
-  });
+  };
+  service.transitions.deactivate = [&] { readers.reset(); };
+  service.transitions.shutdown = [&] {
+    readers.reset();
+    node.reset();
+    participant.reset();
+  };
+  service.step = [&] {
+    if (auto e = q.pop(std::chrono::milliseconds(50))) std::visit([&](auto& ev) { node->handle(ev); }, *e);
+    node->tick();
+  };
+  return run_managed(*log, std::move(service));
 }
 
 }  // namespace

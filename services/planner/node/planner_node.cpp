@@ -18,6 +18,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <optional>
 #include <mutex>
 #include <sstream>
 #include <thread>
@@ -183,73 +184,94 @@ int run(int argc, char** argv) {
   }
   oc.timeout = std::chrono::milliseconds(static_cast<long long>(timeout_s * 1000));
   auto log = make_logger("dh_planner");
-  return run_service(*log, [&] {
-    if (!prompt_file.empty()) oc.system_prompt = read_file(prompt_file);
-    dds::Participant participant("dh_planner");
-    EventQueue<msg::PlanRequest> q;
-    RoleBook roles;
-    std::mutex write_mutex;
-    dds::Writer<msg::AdvicePubSubType> advice(participant, topics::kAdvice, dds::Qos::Planner);
-    auto publish = [&](const msg::PlanRequest& r, const planner::PlannerAdvice& a, Clock::time_point t0) {
-      const auto ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-      {
-        std::lock_guard lock(write_mutex);
-        advice.write(to_msg(r, a, backend));
-      }
-      if (a.refused)
-        log->info("channel={} request={} {:.1f} ms -> refused: {}", r.channel(), r.request_id(), ms,
-                  a.reason);
-      else
-        log->info("channel={} request={} {:.1f} ms -> {} {}", r.channel(), r.request_id(), ms, a.capability,
-                  a.rationale);
-    };
-    dds::Reader<msg::PlanRequestPubSubType> req(
-        participant, topics::kPlanRequest, dds::Qos::Planner,
-        {[&](const msg::PlanRequest& m, const auto&) { q.push(m); }, {}, {}});
-    dds::Reader<msg::CapabilityAnnouncePubSubType> announce(
-        participant, topics::kAnnounce, dds::Qos::Announce,
-        {[&](const msg::CapabilityAnnounce& m, const auto&) { roles.add(m); }, {}, {}});
+  std::optional<dds::Participant> participant;
+  std::optional<dds::Writer<msg::AdvicePubSubType>> advice;
+  std::optional<dds::Reader<msg::PlanRequestPubSubType>> requests;
+  std::optional<dds::Reader<msg::CapabilityAnnouncePubSubType>> announcements;
+  EventQueue<msg::PlanRequest> q;
+  RoleBook roles;
+  std::mutex write_mutex;
+  std::unique_ptr<planner::CurlTransport> http;
+  std::unique_ptr<planner::OpenAiPlanner> model;
+  std::unique_ptr<RequestPool> pool;
+  auto publish = [&](const msg::PlanRequest& r, const planner::PlannerAdvice& a, Clock::time_point t0) {
+    const auto ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    {
+      std::lock_guard lock(write_mutex);
+      advice->write(to_msg(r, a, backend));
+    }
+    if (a.refused)
+      log->info("channel={} request={} {:.1f} ms -> refused: {}", r.channel(), r.request_id(), ms, a.reason);
+    else
+      log->info("channel={} request={} {:.1f} ms -> {} {}", r.channel(), r.request_id(), ms, a.capability,
+                a.rationale);
+  };
 
-    std::unique_ptr<planner::CurlTransport> http;
-    std::unique_ptr<planner::OpenAiPlanner> model;
-    std::unique_ptr<RequestPool> pool;
-    if (backend == "openai") {
-      http = std::make_unique<planner::CurlTransport>();  // libcurl initialized before the workers start
-      model = std::make_unique<planner::OpenAiPlanner>(oc, *http);
-      if (!model->key_problem().empty()) log->warn("every request will be refused: {}", model->key_problem());
-      pool = std::make_unique<RequestPool>(
-          workers,
-          [&](const msg::PlanRequest& r, const std::function<bool()>& stale) {
-            const auto t0 = Clock::now();
-            // PlanRequest carries no camera images yet (the governor does not attach rt/dh/camera's): the
-            // model reads the scene as text. OpenAiPlanner attaches images when given (image_url parts).
-            const planner::PlannerAdvice a = model->plan(context(r), roles.snapshot(), {}, stale);
-            if (stale()) {
-              log->info("channel={} request={} superseded (or the planner stops): answer dropped",
-                        r.channel(), r.request_id());
-              return;
-            }
-            publish(r, a, t0);
-          },
-          *log);
-      log->info("backend=openai endpoint={} model={} timeout={:g} s workers={} domain={} up", model->url(),
-                oc.model, timeout_s, workers, dds::domain_id());
-    } else {
+  ManagedService service;
+  service.transitions.configure = [&] {
+    if (!prompt_file.empty()) oc.system_prompt = read_file(prompt_file);
+    participant.emplace("dh_planner");
+    advice.emplace(*participant, topics::kAdvice, dds::Qos::Planner);
+    if (backend != "openai") return;
+    http = std::make_unique<planner::CurlTransport>();  // libcurl initialized before the workers start
+    model = std::make_unique<planner::OpenAiPlanner>(oc, *http);
+    if (!model->key_problem().empty()) log->warn("every request will be refused: {}", model->key_problem());
+  };
+  service.transitions.activate = [&] {
+    announcements.emplace(*participant, topics::kAnnounce, dds::Qos::Announce,
+                          dds::Reader<msg::CapabilityAnnouncePubSubType>::Callbacks{
+                              [&](const msg::CapabilityAnnounce& m, const auto&) { roles.add(m); }, {}, {}});
+    requests.emplace(*participant, topics::kPlanRequest, dds::Qos::Planner,
+                     dds::Reader<msg::PlanRequestPubSubType>::Callbacks{
+                         [&](const msg::PlanRequest& m, const auto&) { q.push(m); }, {}, {}});
+    if (!model) {
       log->info("backend={} domain={} up", backend, dds::domain_id());
+      return;
     }
-    while (!shutdown_requested()) {
-      auto r = q.pop(std::chrono::milliseconds(50));
-      if (!r) continue;
-      if (pool) {
-        log->debug("channel={} request={} queued", r->channel(), r->request_id());
-        pool->submit(std::move(*r));
-        continue;
-      }
-      const auto t0 = Clock::now();
-      publish(*r, planner::plan_rules(context(*r)), t0);
+    pool = std::make_unique<RequestPool>(
+        workers,
+        [&](const msg::PlanRequest& r, const std::function<bool()>& stale) {
+          const auto t0 = Clock::now();
+          // PlanRequest carries no camera images yet (the governor does not attach rt/dh/camera's): the
+          // model reads the scene as text. OpenAiPlanner attaches images when given (image_url parts).
+          const planner::PlannerAdvice a = model->plan(context(r), roles.snapshot(), {}, stale);
+          if (stale()) {
+            log->info("channel={} request={} superseded (or the planner stops): answer dropped", r.channel(),
+                      r.request_id());
+            return;
+          }
+          publish(r, a, t0);
+        },
+        *log);
+    log->info("backend=openai endpoint={} model={} timeout={:g} s workers={} domain={} up", model->url(), oc.model,
+              timeout_s, workers, dds::domain_id());
+  };
+  service.transitions.deactivate = [&] {
+    requests.reset();
+    announcements.reset();
+    pool.reset();  // in-flight transfers see the stop within about a second
+  };
+  service.transitions.shutdown = [&] {
+    requests.reset();
+    announcements.reset();
+    pool.reset();
+    model.reset();
+    http.reset();
+    advice.reset();
+    participant.reset();
+  };
+  service.step = [&] {
+    auto r = q.pop(std::chrono::milliseconds(50));
+    if (!r) return;
+    if (pool) {
+      log->debug("channel={} request={} queued", r->channel(), r->request_id());
+      pool->submit(std::move(*r));
+      return;
     }
-    pool.reset();  // in-flight transfers see the shutdown within about a second
-  });
+    const auto t0 = Clock::now();
+    publish(*r, planner::plan_rules(context(*r)), t0);
+  };
+  return run_managed(*log, std::move(service));
 }
 
 }  // namespace

@@ -35,12 +35,14 @@ bool drawn(const PlotResult& plots, const std::string& file) {
 
 std::vector<std::string> success_row(const json& s, const std::string& cell) {
   const double lo = 100 * s["wilson_lo"].get<double>(), hi = 100 * s["wilson_hi"].get<double>();
+  const auto pct = [](const json& x) { return x.is_number() ? json(100 * x.get<double>()) : x; };
   return {s["arm"],
           cell,
           count(s["successes"]),
           count(s["episodes"]),
           percent(s["rate"]),
           range(fixed(lo, 1), fixed(hi, 1)),
+          range(fixed(pct(s["cluster_lo"]), 1), fixed(pct(s["cluster_hi"]), 1)) + " (" + count(s["clusters"]) + ")",
           count(s["infrastructure"]),
           count(s["tick_limit"])};
 }
@@ -82,7 +84,13 @@ void overview(const json& s, Document& doc) {
 
 void success(const json& s, const PlotResult& plots, Document& doc) {
   doc.push_back(Heading{2, "Success per arm and cell"});
-  Table t{{"Arm", "Cell", "Successes", "Episodes", "Rate", "Wilson 95 % (%)", "Infrastructure", "Tick limit"},
+  doc.push_back(Paragraph{fmt::format(
+      "Wilson treats every episode as independent. A task's seeds only jitter one layout, so beside it stands "
+      "the 95 % percentile interval of a bootstrap over whole cell/task clusters ({} resamples, seed {}; in "
+      "brackets, the number of clusters). Where the two differ, the clustered one is the honest one.",
+      count(s["bootstrap"]["resamples"]), s["bootstrap"]["seed"].get<std::uint64_t>())});
+  Table t{{"Arm", "Cell", "Successes", "Episodes", "Rate", "Wilson 95 % (%)", "Cell/task bootstrap 95 % (%)",
+           "Infrastructure", "Tick limit"},
           {}};
   for (const json& total : s["arm_totals"]) {
     for (const json& row : s["summary"])

@@ -29,17 +29,29 @@ struct FirstSeen {
 
 struct Tally {
   unsigned successes = 0, episodes = 0, infrastructure = 0, tick_limit = 0;
+  std::vector<stats::ClusteredOutcome> outcomes;  ///< clustered by cell/task
   void add(const EpisodeRecord& r) {
     ++episodes;
     // An infrastructure loss is a failure even if a stale success flag came with it.
-    successes += r.success && !r.infrastructure;
+    const bool success = r.success && !r.infrastructure;
+    successes += success;
     infrastructure += r.infrastructure;
     tick_limit += r.tick_limit;
+    outcomes.push_back({r.cell + "/" + std::to_string(r.task), success});
   }
-  json to_json() const {
+  json to_json(const ReportOptions& options) const {
     const stats::Interval w = stats::wilson(successes, episodes);
-    return {{"successes", successes},  {"episodes", episodes}, {"rate", number_or_null(w.point)},
-            {"wilson_lo", w.lo},       {"wilson_hi", w.hi},    {"infrastructure", infrastructure},
+    const stats::ClusteredRate c =
+        stats::clustered_rate(outcomes, options.bootstrap_resamples, options.bootstrap_seed);
+    return {{"successes", successes},
+            {"episodes", episodes},
+            {"rate", number_or_null(w.point)},
+            {"wilson_lo", w.lo},
+            {"wilson_hi", w.hi},
+            {"cluster_lo", number_or_null(c.interval.lo)},
+            {"cluster_hi", number_or_null(c.interval.hi)},
+            {"clusters", c.clusters},
+            {"infrastructure", infrastructure},
             {"tick_limit", tick_limit}};
   }
 };
@@ -184,7 +196,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
     for (const std::string& cell : cells.names) {
       const auto it = by_arm_cell.find({arm, cell});
       if (it == by_arm_cell.end()) continue;
-      json s = it->second.to_json();
+      json s = it->second.to_json(options);
       s["arm"] = arm;
       s["cell"] = cell;
       summary.push_back(std::move(s));
@@ -200,7 +212,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
                          {"successes", t->second.successes},
                          {"episodes", t->second.episodes}});
     }
-    json total = by_arm.at(arm).to_json();
+    json total = by_arm.at(arm).to_json(options);
     total["arm"] = arm;
     totals.push_back(std::move(total));
     const Latencies& l = latency_by_arm.at(arm);

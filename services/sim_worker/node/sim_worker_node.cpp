@@ -37,6 +37,7 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <set>
 #include <thread>
 #include <variant>
@@ -447,11 +448,59 @@ int run(int argc, char** argv) {
   std::sort(cameras.begin(), cameras.end());
   cameras.erase(std::unique(cameras.begin(), cameras.end()), cameras.end());
   auto log = make_logger("dh_sim_worker");
-  return run_service(*log, [&] {
-    const auto suites = load_suites(paths::config_dir());
-    const std::filesystem::path runs_dir = std::filesystem::absolute(runs.empty() ? paths::runs_dir() : std::filesystem::path(runs));
+  const std::filesystem::path runs_dir =
+      std::filesystem::absolute(runs.empty() ? paths::runs_dir() : std::filesystem::path(runs));
+  std::map<std::string, SuiteDef> suites;
+  sim::CamerasConfig rgbd;
+  std::string rgbd_names;
+  std::optional<dds::Participant> participant;
+  std::optional<Writers> writers;
+  std::vector<std::unique_ptr<Channel>> chans;
+  auto route = [&](std::uint32_t ch) -> Channel* {
+    return ch >= first && ch < first + channels ? chans[ch - first].get() : nullptr;
+  };
+  // Channels every worker announces (other workers' actions are theirs); an action or lease for a
+  // channel nobody serves is garbage: rejected and recorded on the seam topic by every worker.
+  std::mutex known_mutex;
+  std::set<std::uint32_t> known;
+  auto reject_unknown = [&](std::uint32_t ch, const std::string& episode, std::uint32_t step, const std::string& command,
+                            const char* what) {
+    {
+      std::lock_guard l(known_mutex);
+      if ((ch >= first && ch < first + channels) || known.count(ch)) return;
+    }
+    msg::SeamEvent e;
+    e.channel(ch);
+    e.episode_id(episode);
+    e.step(step);
+    e.command_id(command);
+    e.kind(msg::SEAM_REJECTED_CHANNEL);
+    e.reason(std::string(what) + " for channel " + std::to_string(ch) + ", which no simulator worker serves");
+    writers->seam.write(e);
+    log->warn("worker={} rejected: {}", name, e.reason());
+  };
+  std::optional<dds::Reader<msg::ChannelStatusPubSubType>> status;
+  std::optional<dds::Reader<msg::EpisodeRequestPubSubType>> req;
+  std::optional<dds::Reader<msg::ActionPubSubType>> act;
+  std::optional<dds::Reader<msg::LeasePubSubType>> lease;
+  std::optional<dds::Reader<msg::RgbdRequestPubSubType>> rgbd_req;
+  std::optional<dds::Reader<msg::EpisodeResultPubSubType>> res;
+  std::optional<dds::Heartbeat> alive;
+  std::vector<std::thread> threads;
+  const auto remove_readers = [&] {
+    alive.reset();
+    status.reset();
+    req.reset();
+    act.reset();
+    lease.reset();
+    rgbd_req.reset();
+    res.reset();
+  };
+
+  ManagedService service;
+  service.transitions.configure = [&] {
+    suites = load_suites(paths::config_dir());
     // RGB-D cameras (configs/cameras.yaml) go into every model; they render only when asked.
-    sim::CamerasConfig rgbd;
     const auto rgbd_file = paths::config_dir() / "cameras.yaml";
     if (std::filesystem::exists(rgbd_file)) rgbd = sim::load_cameras_config(rgbd_file);
     else log->warn("{} not found: no RGB-D cameras, requests on {} go unanswered", rgbd_file.string(), topics::kRgbdRequest);
@@ -480,75 +529,90 @@ int run(int argc, char** argv) {
         throw std::runtime_error("--rgbd-every " + std::to_string(rgbd_every) + " cannot be rendered: " + e.what());
       }
     }
-    std::string rgbd_names;
     for (const auto& c : rgbd.cameras) rgbd_names += (rgbd_names.empty() ? "" : ",") + c.camera.name;
-    dds::Participant participant("dh_sim_worker");
-    Writers writers(participant, !cameras.empty(), !rgbd.cameras.empty());
-    std::vector<std::unique_ptr<Channel>> chans;
+    participant.emplace("dh_sim_worker");
+    writers.emplace(*participant, !cameras.empty(), !rgbd.cameras.empty());
     for (unsigned i = 0; i < channels; ++i) {
       Rendering rendering{contexts.empty() ? nullptr : std::move(contexts[i]), cameras, camera_every, camera_size,
                           &rgbd, rgbd_every};
       const sim::SeamSettings seam{std::chrono::milliseconds(grace_ms), std::chrono::seconds(abandon_after_s),
                                    std::chrono::milliseconds(static_cast<int>(dds::kLeaseDeadlineSec * 1000))};
-      chans.push_back(std::make_unique<Channel>(first + i, name, suites, writers, seam, runs_dir, std::move(rendering), log));
+      chans.push_back(
+          std::make_unique<Channel>(first + i, name, suites, *writers, seam, runs_dir, std::move(rendering), log));
     }
-    auto route = [&](std::uint32_t ch) -> Channel* {
-      return ch >= first && ch < first + channels ? chans[ch - first].get() : nullptr;
-    };
-    // Channels every worker announces (other workers' actions are theirs); an action or lease for a
-    // channel nobody serves is garbage: rejected and recorded on the seam topic by every worker.
-    std::mutex known_mutex;
-    std::set<std::uint32_t> known;
-    dds::Reader<msg::ChannelStatusPubSubType> status(participant, topics::kChannelStatus, dds::Qos::ChannelStatus,
-        {[&](const msg::ChannelStatus& m, const auto&) { std::lock_guard l(known_mutex); known.insert(m.channel()); }, {}, {}});
-    auto reject_unknown = [&](std::uint32_t ch, const std::string& episode, std::uint32_t step, const std::string& command,
-                              const char* what) {
-      {
-        std::lock_guard l(known_mutex);
-        if ((ch >= first && ch < first + channels) || known.count(ch)) return;
-      }
-      msg::SeamEvent e;
-      e.channel(ch);
-      e.episode_id(episode);
-      e.step(step);
-      e.command_id(command);
-      e.kind(msg::SEAM_REJECTED_CHANNEL);
-      e.reason(std::string(what) + " for channel " + std::to_string(ch) + ", which no simulator worker serves");
-      writers.seam.write(e);
-      log->warn("worker={} rejected: {}", name, e.reason());
-    };
-    dds::Reader<msg::EpisodeRequestPubSubType> req(participant, topics::kEpisodeRequest, dds::Qos::Episode,
-        {[&](const msg::EpisodeRequest& m, const auto&) { if (auto c = route(m.channel())) c->queue().push(m); }, {}, {}});
-    dds::Reader<msg::ActionPubSubType> act(participant, topics::kAction, dds::Qos::Action,
-        {[&](const msg::Action& m, const auto&) {
-           if (auto c = route(m.channel())) c->queue().push(m);
-           else reject_unknown(m.channel(), m.episode_id(), m.step(), m.command_id(), "action");
-         }, {}, {}});
-    dds::Reader<msg::LeasePubSubType> lease(participant, topics::kLease, dds::Qos::Lease,
-        {[&](const msg::Lease& m, const auto&) {
-           if (auto c = route(m.channel())) c->queue().push(m);
-           else reject_unknown(m.channel(), m.episode_id(), 0, m.command_id(), "lease");
-         }, {},
-         [&](const auto&) { for (auto& c : chans) c->queue().push(LeaseSilent{}); }});
+  };
+  service.transitions.activate = [&] {
+    auto& p = *participant;
+    status.emplace(p, topics::kChannelStatus, dds::Qos::ChannelStatus,
+                   dds::Reader<msg::ChannelStatusPubSubType>::Callbacks{
+                       [&](const msg::ChannelStatus& m, const auto&) {
+                         std::lock_guard l(known_mutex);
+                         known.insert(m.channel());
+                       },
+                       {},
+                       {}});
+    req.emplace(p, topics::kEpisodeRequest, dds::Qos::Episode,
+                dds::Reader<msg::EpisodeRequestPubSubType>::Callbacks{
+                    [&](const msg::EpisodeRequest& m, const auto&) {
+                      if (auto c = route(m.channel())) c->queue().push(m);
+                    },
+                    {},
+                    {}});
+    act.emplace(p, topics::kAction, dds::Qos::Action,
+                dds::Reader<msg::ActionPubSubType>::Callbacks{
+                    [&](const msg::Action& m, const auto&) {
+                      if (auto c = route(m.channel())) c->queue().push(m);
+                      else reject_unknown(m.channel(), m.episode_id(), m.step(), m.command_id(), "action");
+                    },
+                    {},
+                    {}});
+    lease.emplace(p, topics::kLease, dds::Qos::Lease,
+                  dds::Reader<msg::LeasePubSubType>::Callbacks{
+                      [&](const msg::Lease& m, const auto&) {
+                        if (auto c = route(m.channel())) c->queue().push(m);
+                        else reject_unknown(m.channel(), m.episode_id(), 0, m.command_id(), "lease");
+                      },
+                      {},
+                      [&](const auto&) {
+                        for (auto& c : chans) c->queue().push(LeaseSilent{});
+                      }});
     // RGB-D requests for another worker's channel, or a camera this worker does not have (a frames_player
     // may serve it), are not ours to answer.
-    std::unique_ptr<dds::Reader<msg::RgbdRequestPubSubType>> rgbd_req;
     if (!rgbd.cameras.empty())
-      rgbd_req = std::make_unique<dds::Reader<msg::RgbdRequestPubSubType>>(participant, topics::kRgbdRequest,
-          dds::Qos::RgbdRequest, dds::Reader<msg::RgbdRequestPubSubType>::Callbacks{
-          [&](const msg::RgbdRequest& m, const auto&) {
-            if (auto c = route(m.channel()); c && rgbd.has(m.camera())) c->queue().push(m);
-          }, {}, {}});
-    dds::Reader<msg::EpisodeResultPubSubType> res(participant, topics::kEpisodeResult, dds::Qos::Episode,
-        {[&](const msg::EpisodeResult& m, const auto&) { if (auto c = route(m.channel())) c->queue().push(m); }, {}, {}});
-    const dds::Heartbeat alive([&writers] { writers.channel.assert_liveliness(); },
-                               std::chrono::milliseconds(static_cast<int>(dds::kChannelLivelinessSec * 1000 / 4)));
+      rgbd_req.emplace(p, topics::kRgbdRequest, dds::Qos::RgbdRequest,
+                       dds::Reader<msg::RgbdRequestPubSubType>::Callbacks{
+                           [&](const msg::RgbdRequest& m, const auto&) {
+                             if (auto c = route(m.channel()); c && rgbd.has(m.camera())) c->queue().push(m);
+                           },
+                           {},
+                           {}});
+    res.emplace(p, topics::kEpisodeResult, dds::Qos::Episode,
+                dds::Reader<msg::EpisodeResultPubSubType>::Callbacks{
+                    [&](const msg::EpisodeResult& m, const auto&) {
+                      if (auto c = route(m.channel())) c->queue().push(m);
+                    },
+                    {},
+                    {}});
+    alive.emplace([&] { writers->channel.assert_liveliness(); },
+                  std::chrono::milliseconds(static_cast<int>(dds::kChannelLivelinessSec * 1000 / 4)));
     log->info("worker={} channels={}..{} domain={} up; RGB-D cameras on request: {}", name, first,
               first + channels - 1, dds::domain_id(), rgbd_names.empty() ? "none" : rgbd_names);
-    std::vector<std::thread> threads;
     for (auto& c : chans) threads.emplace_back([&c] { c->run(); });
+  };
+  // Each channel runs on its own thread until a stop is asked for; deactivate waits for them.
+  service.transitions.deactivate = [&] {
     for (auto& t : threads) t.join();
-  });
+    threads.clear();
+    remove_readers();
+  };
+  service.transitions.shutdown = [&] {
+    remove_readers();
+    chans.clear();
+    writers.reset();
+    participant.reset();
+  };
+  service.step = [] { std::this_thread::sleep_for(std::chrono::milliseconds(50)); };
+  return run_managed(*log, std::move(service));
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
-// Statistics a campaign report needs (DESIGN.md §9): Wilson intervals for success rates, the exact sign
-// test and two intervals for paired arm comparisons, and percentiles. Pure functions; bad input throws
+// Statistics a campaign report needs (DESIGN.md §9): Wilson and cluster-bootstrap intervals for success
+// rates, the exact sign test and two intervals for paired arm comparisons, and percentiles. Pure functions; bad input throws
 // std::invalid_argument naming the argument.
 #pragma once
 
@@ -55,6 +55,26 @@ struct PairedSummary {
 /// unbiased index draw of our own, so the interval is the same on every standard library.
 PairedSummary paired(const std::vector<PairedOutcome>& outcomes, unsigned resamples = 20000,
                      std::uint64_t seed = 20260926);
+
+/// One episode's success and the cluster it belongs to. A campaign clusters by "cell/task": a task's seeds
+/// only jitter one layout, so its episodes are not independent draws.
+struct ClusteredOutcome {
+  std::string cluster;
+  bool success = false;
+};
+
+struct ClusteredRate {
+  /// point: the pooled rate; lo/hi: 2.5th/97.5th percentiles of the pooled rate over `resamples`
+  /// cluster-bootstrap samples (as many clusters drawn with replacement as there are). NaN when there are
+  /// no outcomes; lo/hi NaN when resamples = 0.
+  Interval interval;
+  unsigned clusters = 0;
+};
+
+/// A success rate with the interval that respects clustering, to stand beside Wilson's (which treats every
+/// episode as independent). Deterministic for a seed, like paired().
+ClusteredRate clustered_rate(const std::vector<ClusteredOutcome>& outcomes, unsigned resamples = 20000,
+                             std::uint64_t seed = 20260926);
 
 /// The q-quantile (q in [0, 1]) by linear interpolation between order statistics: with v sorted and
 /// h = (n − 1)·q, v[⌊h⌋] + (h − ⌊h⌋)·(v[⌊h⌋ + 1] − v[⌊h⌋]) (Hyndman & Fan type 7, R's and numpy's

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <optional>
 #include <variant>
 
 #include "dh/cap/descriptor.hpp"
@@ -113,6 +114,19 @@ msg::CapabilityAnnounce announcement(const Descriptor& d, const std::string& ins
   return a;
 }
 
+/// The host's readers, made on activate and removed on deactivate; every message goes to `q`.
+struct Readers {
+  Readers(dds::Participant& p, EventQueue<Event>& q)
+      : command(p, topics::kCommand, dds::Qos::Command, {[&q](const msg::Command& m, const auto&) { q.push(m); }, {}, {}}),
+        observation(p, topics::kObservation, dds::Qos::Observation,
+                    {[&q](const msg::Observation& m, const auto&) { q.push(m); }, {}, {}}),
+        scene(p, topics::kSceneEstimate, dds::Qos::Observation,
+              {[&q](const msg::SceneEstimate& m, const auto&) { q.push(m); }, {}, {}}) {}
+  dds::Reader<msg::CommandPubSubType> command;
+  dds::Reader<msg::ObservationPubSubType> observation;
+  dds::Reader<msg::SceneEstimatePubSubType> scene;
+};
+
 }  // namespace
 
 int run_capability_host(int argc, char** argv, const std::string& family, std::vector<CapabilityDef> capabilities) {
@@ -132,10 +146,25 @@ int run_capability_host(int argc, char** argv, const std::string& family,
   add_options(app);
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger(service);
-  return run_service(*log, [&] {
+  std::vector<Served> served;
+  std::optional<dds::Participant> participant;
+  std::optional<HostCore> core;
+  std::optional<Publisher> publish;
+  std::optional<dds::Writer<msg::CapabilityAnnouncePubSubType>> announce;
+  std::optional<Readers> readers;
+  std::optional<dds::Heartbeat> alive;
+  EventQueue<Event> queue;
+  // The loop beats each turn; the heartbeat asserts liveliness while the last beat is recent enough.
+  std::atomic<Clock::rep> beat{Clock::now().time_since_epoch().count()};
+  const auto assert_every = std::chrono::milliseconds(static_cast<int>(dds::kLivelinessLeaseSec * 1000 / 4));
+  const auto announce_all = [&] {
+    for (const auto& s : served) announce->write(s.descriptor);
+  };
+
+  ManagedService m;
+  m.transitions.configure = [&] {
     char host[256] = "";
     gethostname(host, sizeof host - 1);
-    std::vector<Served> served;
     for (const auto& def : make()) {
       std::filesystem::path file = default_descriptor_file(def.name);
       for (const auto& l : libraries)
@@ -143,62 +172,67 @@ int run_capability_host(int argc, char** argv, const std::string& family,
       const std::string instance = def.name + "@" + std::string(host) + ":" + std::to_string(getpid());
       served.push_back({def, announcement(load_descriptor(file, def), instance)});
     }
-    dds::Participant participant(service);
-    EventQueue<Event> queue;
     std::vector<ServedCapability> cores;
     for (const auto& s : served) cores.push_back({s.def, s.descriptor.instance()});
-    HostCore core(std::move(cores));  // θ and the perception limits arrive with each command
-    Publisher publish(participant, *log);
-    dds::Reader<msg::CommandPubSubType> cmd(participant, topics::kCommand, dds::Qos::Command,
-        {[&](const msg::Command& m, const auto&) { queue.push(m); }, {}, {}});
-    dds::Reader<msg::ObservationPubSubType> obs(participant, topics::kObservation, dds::Qos::Observation,
-        {[&](const msg::Observation& m, const auto&) { queue.push(m); }, {}, {}});
-    dds::Reader<msg::SceneEstimatePubSubType> scene(participant, topics::kSceneEstimate, dds::Qos::Observation,
-        {[&](const msg::SceneEstimate& m, const auto&) { queue.push(m); }, {}, {}});
-    dds::Writer<msg::CapabilityAnnouncePubSubType> announce(participant, topics::kAnnounce, dds::Qos::Announce);
-    for (const auto& s : served) {
-      announce.write(s.descriptor);
+    core.emplace(std::move(cores));  // θ and the perception limits arrive with each command
+    participant.emplace(service);
+    publish.emplace(*participant, *log);
+    announce.emplace(*participant, topics::kAnnounce, dds::Qos::Announce);
+  };
+  m.transitions.activate = [&] {
+    readers.emplace(*participant, queue);
+    announce_all();
+    for (const auto& s : served)
       log->info("instance={} cost_steps={} announced", s.descriptor.instance(), s.descriptor.cost_steps());
-    }
-    // The loop beats each turn; the heartbeat asserts liveliness while the last beat is recent enough.
-    const auto assert_every = std::chrono::milliseconds(static_cast<int>(dds::kLivelinessLeaseSec * 1000 / 4));
     auto allowance = assert_every;
     for (const auto& s : served) allowance = std::max(allowance, s.def.blocks_up_to + assert_every);
-    std::atomic<Clock::rep> beat{Clock::now().time_since_epoch().count()};
-    const dds::Heartbeat alive(
-        [&] {
-          if (Clock::now() - Clock::time_point(Clock::duration(beat.load())) <= allowance) announce.assert_liveliness();
+    beat = Clock::now().time_since_epoch().count();
+    alive.emplace(
+        [&, allowance] {
+          if (Clock::now() - Clock::time_point(Clock::duration(beat.load())) <= allowance) announce->assert_liveliness();
         },
         assert_every);
-    auto handle = [&](const Event& e) {
+  };
+  // New commands are refused from here on; the announcement tells the governor to send them elsewhere.
+  m.transitions.drain = [&] {
+    core->drain();
+    for (auto& s : served) s.descriptor.draining(true);
+    announce_all();
+    log->info("family={} draining: {} command(s) running", family, core->running());
+  };
+  m.transitions.deactivate = [&] {
+    if (core->running() > 0) log->warn("family={} drain timed out with {} command(s) running", family, core->running());
+    alive.reset();
+    readers.reset();
+  };
+  m.transitions.shutdown = [&] {
+    alive.reset();
+    readers.reset();
+    announce.reset();
+    publish.reset();
+    participant.reset();
+    core.reset();
+  };
+  m.step = [&] {
+    if (auto e = queue.pop(std::chrono::milliseconds(50))) {
       const auto now = Clock::now();
-      if (const auto* c = std::get_if<msg::Command>(&e)) {
+      if (const auto* c = std::get_if<msg::Command>(&*e)) {
         if (c->kind() == msg::COMMAND_CANCEL)
-          publish(core.on_cancel({c->channel(), c->episode_id(), c->command_id(), c->instance()}));
+          (*publish)(core->on_cancel({c->channel(), c->episode_id(), c->command_id(), c->instance()}));
         else
-          publish(core.on_start(from_msg(*c), now));
-      } else if (const auto* o = std::get_if<msg::Observation>(&e)) {
-        publish(core.on_observation(convert::from_msg(*o), now));
-      } else if (const auto* m = std::get_if<msg::SceneEstimate>(&e)) {
-        publish(core.on_scene_estimate(m->channel(), convert::from_msg(*m), now));
+          (*publish)(core->on_start(from_msg(*c), now));
+      } else if (const auto* o = std::get_if<msg::Observation>(&*e)) {
+        (*publish)(core->on_observation(convert::from_msg(*o), now));
+      } else if (const auto* sc = std::get_if<msg::SceneEstimate>(&*e)) {
+        (*publish)(core->on_scene_estimate(sc->channel(), convert::from_msg(*sc), now));
       }
-    };
-    auto serve = [&] {
-      if (auto e = queue.pop(std::chrono::milliseconds(50))) handle(*e);
-      publish(core.on_tick(Clock::now()));
-      beat = Clock::now().time_since_epoch().count();
-    };
-    while (!shutdown_requested()) serve();
-    core.drain();
-    for (auto& s : served) {
-      s.descriptor.draining(true);
-      announce.write(s.descriptor);
     }
-    log->info("family={} draining: {} command(s) running", family, core.running());
-    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(drain_timeout_s);
-    while (core.running() > 0 && std::chrono::steady_clock::now() < deadline) serve();
-    if (core.running() > 0) log->warn("family={} drain timed out with {} command(s) running", family, core.running());
-  });
+    (*publish)(core->on_tick(Clock::now()));
+    beat = Clock::now().time_since_epoch().count();
+  };
+  m.drained = [&] { return core->running() == 0; };
+  m.drain_timeout = std::chrono::seconds(drain_timeout_s);
+  return run_managed(*log, std::move(m));
 }
 
 }  // namespace dh::cap

@@ -1,7 +1,8 @@
-// The whole stack in one process, without DDS, on the in-process bus (bus.hpp): the governor's episode
-// machine, the rules planner, the capability host core serving every capability, and the seam over a
-// MuJoCo workcell — the cores the services run, in lock-step. For developing skills and rules, training
-// and in-process tests; campaign figures come from `dh campaign` over DDS.
+// The whole stack in one process, without DDS, on the in-process bus (bus.hpp): the governor's core
+// (gov::GovernorCore, as dh_governor runs it), the rules planner, the capability host core serving every
+// capability, and the seam over a MuJoCo workcell — the cores the services run, in lock-step. For
+// developing skills and rules, training and in-process tests; campaign figures come from `dh campaign`
+// over DDS.
 #pragma once
 
 #include <array>
@@ -17,8 +18,7 @@
 #include "dh/cap/library_theta.hpp"
 #include "dh/common/arms.hpp"
 #include "dh/common/suite.hpp"
-#include "dh/gov/episode.hpp"
-#include "dh/gov/registry.hpp"
+#include "dh/gov/core.hpp"
 #include "dh/sim/workcell.hpp"
 
 namespace dh::inproc {
@@ -53,9 +53,7 @@ class Stack {
  private:
   sim::Workcell& cell_for(const TaskDef& task);
 
-  gov::GovernorConfig config_;
-  std::map<std::string, ArmSpec> arms_;
-  gov::Registry registry_;
+  gov::GovernorCore governor_;  ///< every episode on channel 0
   cap::HostCore host_;  ///< every capability's instance "<name>@inproc"
   cap::LibraryTheta library_;
   std::uint64_t runs_ = 0;  ///< episodes run, for unique episode ids

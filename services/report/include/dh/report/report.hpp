@@ -52,7 +52,9 @@ struct ReportFiles {
 /// The report as one JSON object (what `dh report --json` prints). Arms and cells keep the order in which
 /// they first appear; pairs of arms (a, b) follow that order with a first. Keys:
 ///   title, benchmark_note, sources [{label, rows}], rows, arms, cells, infrastructure, duplicates,
-///   summary    [{arm, cell, successes, episodes, rate, wilson_lo, wilson_hi, infrastructure, tick_limit}]
+///   summary    [{arm, cell, successes, episodes, rate, wilson_lo, wilson_hi, cluster_lo, cluster_hi, clusters,
+///               infrastructure, tick_limit}]; cluster_*: the cell/task cluster bootstrap (bootstrap's
+///               resamples and seed) beside Wilson's, which treats episodes as independent
 ///   arm_totals [{arm, the same fields without cell}]
 ///   paired     [{a, b, overall: P, cells: [{cell, P...}]}], P = {n, wins, losses, ties, diff_pp,
 ///               wald_lo_pp, wald_hi_pp, bootstrap_lo_pp, bootstrap_hi_pp, clusters, p}; wins = a
