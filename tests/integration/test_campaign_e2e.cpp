@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 
 #include <nlohmann/json.hpp>
+#include <algorithm>
 #include <fstream>
 #include <set>
 
@@ -87,6 +88,25 @@ TEST(Campaign, KilledHalfWayResumesWithoutRerunningAndReports) {
   EXPECT_NE(text.find("NOT LIBERO"), std::string::npos);
   EXPECT_NE(text.find("| full | goal | "), std::string::npos) << text.substr(0, 2000);
   EXPECT_TRUE(std::filesystem::exists(report_dir / "report.html"));
+
+  // Every failed episode gets an attribution layer from its evidence, and the labels are stored.
+  const auto experience = env.runs / "experience.jsonl";
+  std::tie(out, status) =
+      itest::run_command(dh + " attribute --db " + db.string() + " --json --export " + experience.string());
+  const std::size_t failed = std::count_if(rows.begin(), rows.end(), [](const EpisodeRecord& r) { return !r.success; });
+  ASSERT_EQ(status, 0) << "an episode matched no layer, or its evidence was unreadable: " << out;
+  const auto attribution = nlohmann::json::parse(out);
+  EXPECT_EQ(attribution["failed"].get<std::size_t>(), failed);
+  EXPECT_EQ(attribution["unmatched"].get<std::size_t>(), 0u);
+  std::size_t labelled = 0;
+  for (const auto& layer : attribution["layers"]) labelled += layer["count"].get<std::size_t>();
+  EXPECT_EQ(labelled, failed);
+  EXPECT_EQ(campaign::CampaignDb::open(db).attributions(attribution["config"]).size(), failed);
+  std::ifstream lines(experience);
+  std::size_t exported = 0;
+  for (std::string line; std::getline(lines, line); ++exported)
+    EXPECT_TRUE(nlohmann::json::parse(line).contains("signature")) << line;
+  EXPECT_EQ(exported, failed);
 }
 
 TEST(Campaign, BadPlansAreRefusedBeforeAnythingRuns) {

@@ -229,7 +229,8 @@ TEST_F(CampaignDbTest, AVersionOneFileGainsTheLossesTableAndKeepsItsRows) {
   }
   sqlite3* raw = nullptr;
   ASSERT_EQ(sqlite3_open(path.c_str(), &raw), SQLITE_OK);
-  ASSERT_EQ(sqlite3_exec(raw, "DROP TABLE infrastructure_losses", nullptr, nullptr, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(raw, "DROP TABLE infrastructure_losses; DROP TABLE attribution", nullptr, nullptr, nullptr),
+            SQLITE_OK);
   sqlite3_close(raw);
   EXPECT_TRUE(CampaignDb::read_rows(path).size() == 1u) << "read-only: readable as it is";
   auto db = CampaignDb::open(path);
@@ -239,6 +240,42 @@ TEST_F(CampaignDbTest, AVersionOneFileGainsTheLossesTableAndKeepsItsRows) {
   lost.episode_id = "attempt-1";
   EXPECT_TRUE(db.record_loss(lost));
   EXPECT_EQ(db.losses().size(), 1u);
+}
+
+TEST_F(CampaignDbTest, AVersionTwoFileGainsTheAttributionTableWhichKeepsOneLabelPerEpisodeAndFile) {
+  const fs::path path = dir / "v2.db";
+  {
+    auto db = CampaignDb::open(path);
+    EXPECT_TRUE(db.record(sample()));
+    db.set_meta("schema_version", "2");
+  }
+  sqlite3* raw = nullptr;
+  ASSERT_EQ(sqlite3_open(path.c_str(), &raw), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(raw, "DROP TABLE attribution", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(raw);
+  auto db = CampaignDb::open(path);
+  EXPECT_EQ(db.meta("schema_version"), "3");
+  const EpisodeRecord r = sample();
+  AttributionRow a{r.arm, r.cell, r.task, r.seed, "attr-1", 7, "capability_execution", true, "pick_place",
+                   "grasp_missed", "lift", 40};
+  db.record_attribution(a);
+  a.layer = 8;
+  a.name = "verification";
+  db.record_attribution(a);  // labelled again under the same file: replaced
+  AttributionRow coarse = a;
+  coarse.config = "attr-2";
+  coarse.layer = 3;
+  coarse.name = "execution";
+  db.record_attribution(coarse);
+  const auto rows = db.attributions("attr-1");
+  ASSERT_EQ(rows.size(), 1u);
+  EXPECT_EQ(rows[0].name, "verification");
+  EXPECT_EQ(rows[0].layer, 8);
+  EXPECT_TRUE(rows[0].harness);
+  EXPECT_EQ(rows[0].failure, "grasp_missed");
+  EXPECT_EQ(rows[0].step, 40u);
+  EXPECT_EQ(db.attributions("attr-2").at(0).name, "execution");
+  EXPECT_TRUE(db.attributions("attr-3").empty());
 }
 
 TEST_F(CampaignDbTest, ReadingAMissingFileNamesThePathAndCreatesNothing) {

@@ -18,12 +18,21 @@ CREATE TABLE episodes (
 
 // Version 2: attempts lost to infrastructure and run again under the plan's rerun rule (same columns).
 constexpr const char* kLossesTable = R"sql(
-CREATE TABLE infrastructure_losses (
+CREATE TABLE IF NOT EXISTS infrastructure_losses (
   arm TEXT NOT NULL, cell TEXT NOT NULL, task INTEGER NOT NULL, seed INTEGER NOT NULL,
   success INTEGER NOT NULL, steps INTEGER NOT NULL, budget INTEGER NOT NULL,
   wall_s REAL NOT NULL, physics_s REAL NOT NULL, outcome TEXT NOT NULL, reason TEXT NOT NULL,
   infrastructure INTEGER NOT NULL, tick_limit INTEGER NOT NULL, evidence_path TEXT NOT NULL,
   episode_id TEXT NOT NULL PRIMARY KEY, worker TEXT NOT NULL, channel INTEGER NOT NULL, finished_at TEXT NOT NULL);
+)sql";
+
+// Version 3: each failed episode's attribution (issue 16) under one attribution file (its content hash).
+constexpr const char* kAttributionTable = R"sql(
+CREATE TABLE IF NOT EXISTS attribution (
+  arm TEXT NOT NULL, cell TEXT NOT NULL, task INTEGER NOT NULL, seed INTEGER NOT NULL,
+  config TEXT NOT NULL, layer INTEGER NOT NULL, name TEXT NOT NULL, harness INTEGER NOT NULL,
+  capability TEXT NOT NULL, failure TEXT NOT NULL, stage TEXT NOT NULL, step INTEGER NOT NULL,
+  PRIMARY KEY (arm, cell, task, seed, config));
 )sql";
 
 // Column order shared by the insert and read_row().
@@ -157,6 +166,7 @@ void CampaignDb::check_or_create_schema(bool read_only) {
   if (tables.empty() && !read_only) {
     exec(kSchema);
     exec(kLossesTable);
+    exec(kAttributionTable);
     exec(("INSERT INTO meta (key, value) VALUES ('schema_version', '" + std::to_string(kSchemaVersion) + "')")
              .c_str());
   } else {
@@ -169,13 +179,16 @@ void CampaignDb::check_or_create_schema(bool read_only) {
       throw CampaignError(
           path_.string() +
           ": a SQLite database but not a campaign database (no meta.schema_version); give --db another file");
-    if (version == "1" && !read_only) {  // version 1 lacks only the losses table
-      exec(kLossesTable);
-      exec(("UPDATE meta SET value = '" + std::to_string(kSchemaVersion) + "' WHERE key = 'schema_version'").c_str());
-    } else if (version != std::to_string(kSchemaVersion) && version != "1")
+    const bool known = version == "1" || version == "2" || version == std::to_string(kSchemaVersion);
+    if (!known)
       throw CampaignError(path_.string() + ": campaign database schema version " + version +
                           ", this build reads " + std::to_string(kSchemaVersion) +
                           "; give --db a new file or read it with the dh build that wrote it");
+    if (version != std::to_string(kSchemaVersion) && !read_only) {  // older versions lack only tables
+      if (version == "1") exec(kLossesTable);
+      exec(kAttributionTable);
+      exec(("UPDATE meta SET value = '" + std::to_string(kSchemaVersion) + "' WHERE key = 'schema_version'").c_str());
+    }
   }
   if (read_only) return;
   exec("COMMIT");
@@ -273,6 +286,50 @@ std::vector<EpisodeRecord> CampaignDb::losses() const {
   int rc;
   while ((rc = sqlite3_step(s.get())) == SQLITE_ROW) out.push_back(read_row(s.get()));
   if (rc != SQLITE_DONE) fail("cannot read the infrastructure losses");
+  return out;
+}
+
+void CampaignDb::record_attribution(const AttributionRow& a) {
+  Stmt s = prepare(
+      "INSERT OR REPLACE INTO attribution (arm, cell, task, seed, config, layer, name, harness, capability, failure, "
+      "stage, step) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+  bind_arg(s.get(), 1, a.arm);
+  bind_arg(s.get(), 2, a.cell);
+  bind_arg(s.get(), 3, std::int64_t{a.task});
+  bind_arg(s.get(), 4, std::int64_t{a.seed});
+  bind_arg(s.get(), 5, a.config);
+  bind_arg(s.get(), 6, std::int64_t{a.layer});
+  bind_arg(s.get(), 7, a.name);
+  bind_arg(s.get(), 8, std::int64_t{a.harness});
+  bind_arg(s.get(), 9, a.capability);
+  bind_arg(s.get(), 10, a.failure);
+  bind_arg(s.get(), 11, a.stage);
+  bind_arg(s.get(), 12, std::int64_t{a.step});
+  if (sqlite3_step(s.get()) != SQLITE_DONE)
+    fail("cannot record the attribution of " + a.arm + " " + a.cell + "/" + std::to_string(a.task) + " seed " +
+         std::to_string(a.seed));
+}
+
+std::vector<AttributionRow> CampaignDb::attributions(const std::string& config) const {
+  bool exists = false;
+  {
+    Stmt t = prepare("SELECT 1 FROM sqlite_master WHERE type = 'table' AND name = 'attribution'");
+    exists = sqlite3_step(t.get()) == SQLITE_ROW;
+  }
+  if (!exists) return {};  // an older file opened read-only
+  Stmt s = prepare(
+      "SELECT arm, cell, task, seed, config, layer, name, harness, capability, failure, stage, step FROM attribution "
+      "WHERE config = ? ORDER BY arm, cell, task, seed");
+  bind_arg(s.get(), 1, config);
+  std::vector<AttributionRow> out;
+  int rc;
+  while ((rc = sqlite3_step(s.get())) == SQLITE_ROW) {
+    sqlite3_stmt* r = s.get();
+    out.push_back({column_text(r, 0), column_text(r, 1), column_uint(r, 2), column_uint(r, 3), column_text(r, 4),
+                   static_cast<int>(sqlite3_column_int64(r, 5)), column_text(r, 6), sqlite3_column_int64(r, 7) != 0,
+                   column_text(r, 8), column_text(r, 9), column_text(r, 10), column_uint(r, 11)});
+  }
+  if (rc != SQLITE_DONE) fail("cannot read the attributions");
   return out;
 }
 

@@ -74,6 +74,13 @@ struct TrainPolicyArgs {
 };
 int cmd_train_policy(const TrainPolicyArgs& a);
 
+struct AttributeArgs {
+  std::string db, config, export_file;
+  bool json = false, list_checks = false;
+};
+/// Exit 0 when every failed episode is labelled, 3 when one matches no layer or its evidence is unreadable.
+int cmd_attribute(const AttributeArgs& a);
+
 int cmd_stats_wilson(unsigned k, unsigned n, bool json);
 int cmd_stats_sign(unsigned wins, unsigned losses, bool json);
 int cmd_seeds(unsigned count, std::uint64_t salt, bool json);

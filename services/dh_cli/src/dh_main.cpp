@@ -12,6 +12,9 @@
 //   dh replay EVIDENCE [--from-command K] [--library DIR] [--json] [--allow-drift]
 //                                            re-runs a recorded episode in process and compares it step by
 //                                            step (exit 0 identical, 3 diverged, 4 a fingerprint differs)
+//   dh attribute --db FILE [--config FILE] [--export F.jsonl] [--json] | dh attribute --checks
+//                                            labels every failed episode with its attribution layer (exit 3:
+//                                            one matched no layer or its evidence is unreadable)
 //   dh launch [FILE] [--host H] [--restart]  runs a deployment (a multi-host file: host H's share) until Ctrl-C
 //   dh dds-profile FILE --host H             writes host H's DDS profile, prints its path
 // Exit codes: 0 done (an episode that fails is a result), 1 infrastructure failure or interrupted
@@ -147,6 +150,13 @@ int main(int argc, char** argv) {
                    "replay even when the model, MuJoCo or θ differs from the recording, and say what differs");
   replay->add_flag("--json", replay_args.json,
                    "one JSON object: identical, steps, first_divergence {step, body, quantity} or null, ...");
+  AttributeArgs attr;
+  auto* attribute = app.add_subcommand("attribute", "label every failed episode of a campaign database by layer");
+  attribute->add_option("--db", attr.db, "campaign database");
+  attribute->add_option("--config", attr.config, "attribution layers (default configs/attribution.yaml)");
+  attribute->add_option("--export", attr.export_file, "write the experience (signature, label, outcome) as JSON lines");
+  attribute->add_flag("--json", attr.json, "one JSON object: counts per layer, unmatched, u_d per arm and cell");
+  attribute->add_flag("--checks", attr.list_checks, "list the checks a layer may name and exit");
   CLI11_PARSE(app, argc, argv);
   rep.plots = !no_plots;
   try {
@@ -162,6 +172,7 @@ int main(int argc, char** argv) {
     if (*profile) return cmd_dds_profile(deploy, host);
     if (*train) return cmd_train_policy(train_args);
     if (*replay) return cmd_replay(replay_args);
+    if (*attribute) return cmd_attribute(attr);
   } catch (const dh::ConfigError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;

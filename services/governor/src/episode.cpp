@@ -22,6 +22,7 @@ EpisodeMachine::EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, c
   if (config_.perception) world_.emplace(*config_.perception);
   deadline_ = now + config_.first_observation_timeout;
   deadline_what_ = "first observation from the simulator channel";
+  deadline_wait_ = "first_observation";
   capability_wait_until_ = now + config_.ack_timeout;
   evidence_.append("governor", "episode_start",
                    {{"episode_id", spec_.episode_id}, {"channel", spec_.channel},
@@ -72,6 +73,7 @@ Effects EpisodeMachine::on_observation(const Observation& obs, Clock::time_point
   }
   deadline_ = now + config_.step_stall_timeout;
   deadline_what_ = "next observation while '" + running_->command_id + "' runs";
+  deadline_wait_ = "observation";
   Effects fx;
   if (obs.step % config_.decision_period == 0 && obs.step > running_->start_step)
     fx = decide_now(CommandPhase::Running, "decision step", now, &obs);
@@ -110,6 +112,7 @@ Effects EpisodeMachine::request_plan(const std::string& why, Clock::time_point n
   pending_request_ = r.request_id;
   deadline_ = now + config_.planner_timeout;
   deadline_what_ = "planner advice for " + r.request_id;
+  deadline_wait_ = "planner";
   evidence_.append("governor", "plan_request",
                    {{"request_id", r.request_id}, {"step", r.step}, {"why", why},
                     {"capabilities", r.capabilities}, {"history_len", r.history.size()}});
@@ -161,6 +164,7 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
         awaiting_perception_ = advice;
         deadline_ = perception_wait_until_;
         deadline_what_ = "a fresh scene estimate";
+        deadline_wait_ = "perception";
         return {};
       }
     }
@@ -179,6 +183,7 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
       phase_ = Phase::AwaitingCapability;
       deadline_ = std::min(capability_wait_until_, now + std::chrono::milliseconds(50));
       deadline_what_ = "announcement of '" + advice.capability + "'";
+      deadline_wait_ = "announcement";
       return {};
     }
     if (config_.mode == ExecutorMode::Bare) {
@@ -227,6 +232,7 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
   phase_ = Phase::Running;
   deadline_ = now + config_.ack_timeout;
   deadline_what_ = "acknowledgement of '" + c.command_id + "' from " + c.instance;
+  deadline_wait_ = "acknowledgement";
   Effects fx;
   fx.lease = Lease{c.command_id, c.lease_until_step, c.start_step + c.budget_steps, false};
   fx.command = c;
@@ -269,6 +275,7 @@ Effects EpisodeMachine::on_status(const CommandStatus& st, Clock::time_point now
   if (!terminal) {
     deadline_ = now + config_.step_stall_timeout;
     deadline_what_ = "next observation while '" + running_->command_id + "' runs";
+    deadline_wait_ = "observation";
     return {};
   }
   // Decide on the observation of the step the command ended at (DDS does not order two topics).
@@ -537,7 +544,8 @@ Effects EpisodeMachine::on_tick(Clock::time_point now) {
     return ground_and_dispatch(advice, now);  // refused: the wait is over
   }
   const std::string what = deadline_what_;
-  evidence_.append("governor", "deadline_missed", {{"step", last_obs_.step}, {"waiting_for", what}});
+  evidence_.append("governor", "deadline_missed",
+                   {{"step", last_obs_.step}, {"wait", deadline_wait_}, {"waiting_for", what}});
   switch (phase_) {
     case Phase::WaitingFirstObservation:
       return end(false, Outcome::Infrastructure, "no " + what);

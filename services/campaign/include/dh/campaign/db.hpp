@@ -25,13 +25,25 @@ struct CampaignError : std::runtime_error {
 };
 
 using Key = EpisodeKey;
+
+/// A failed episode's attribution (dh attribute) under one attribution file, named by its content hash.
+struct AttributionRow {
+  std::string arm, cell;
+  unsigned task = 0, seed = 0;
+  std::string config;  ///< the attribution file's content hash
+  int layer = -1;      ///< index of the layer, upstream = 0
+  std::string name;
+  bool harness = false;
+  std::string capability, failure, stage;  ///< the failure signature ξ
+  unsigned step = 0;
+};
 Key key_of(const EpisodeRecord& r);
 
 /// One connection to a campaign database. Movable, not copyable; not to be shared between threads
 /// (open one per thread or process: they coordinate through SQLite's locks).
 class CampaignDb {
  public:
-  static constexpr int kSchemaVersion = 2;  ///< 2 added infrastructure_losses; 1 is upgraded on open
+  static constexpr int kSchemaVersion = 3;  ///< 2 added infrastructure_losses, 3 attribution; older are upgraded on open
   static constexpr int kBusyTimeoutMs = 30'000;
 
   /// Opens `path` for reading and writing, creating its folders, the file and the schema when new.
@@ -53,6 +65,11 @@ class CampaignDb {
   std::set<Key> finished() const;
   std::vector<EpisodeRecord> rows() const;  ///< ordered by arm, cell, task, seed
   std::size_t count() const;
+
+  /// Stores (or replaces) one episode's attribution under its configuration's hash.
+  void record_attribution(const AttributionRow& a);
+  /// The attributions stored under `config`, ordered by arm, cell, task, seed.
+  std::vector<AttributionRow> attributions(const std::string& config) const;
 
   void set_meta(const std::string& key, const std::string& value);
   std::optional<std::string> meta(const std::string& key) const;

@@ -1,0 +1,47 @@
+// What attribution reads from one episode's evidence (JSON lines, dh/common/evidence.hpp): how it ended,
+// its commands in dispatch order with their last status, the refusals, the missed deadlines, the
+// verdict's changes and the planner's last word. Built from the records' codes (outcome, refusal,
+// state, failure, wait, decision), never from their free text, so rewording a message changes nothing.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace dh::evo {
+
+struct CommandFacts {
+  std::string id, capability;
+  nlohmann::json args = nlohmann::json::object();
+  std::uint32_t dispatch_step = 0;
+  bool recovery = false;  ///< dispatched by an insert_recovery decision
+  std::string state;      ///< its last recorded status: accepted, completed, failed, ... ("" when none came)
+  std::string failure = "none", stage;
+  std::uint32_t end_step = 0;  ///< the step of its last status
+};
+
+struct EpisodeFacts {
+  bool ended = false;  ///< an episode_end record exists
+  bool success = false;
+  std::string outcome;  ///< success, budget_exhausted, gave_up, infrastructure, rejected
+  std::uint32_t steps = 0;
+  bool infrastructure = false;        ///< flagged lost (the campaign's row says so)
+  bool capabilities_missing = false;  ///< it started without an instance of a capability it may use
+  bool capability_lost = false;       ///< an instance it used lost its liveliness
+  std::vector<std::string> missed_waits;  ///< deadline_missed "wait" codes, in order
+  std::vector<std::string> refusals;      ///< refusal codes, in order
+  std::vector<CommandFacts> commands;     ///< in dispatch order
+  bool planner_done = false;      ///< the last advice said every step is done
+  bool verdict_lost = false;      ///< the task predicate held at some step and later did not
+  bool latched = false;           ///< the governor's latch held at the end
+  int last_stagnant = -1;         ///< stagnant decisions at the last decision (-1: no decision)
+};
+
+/// Reads `records` (one episode's evidence). `flagged_infrastructure`: the campaign's row says the
+/// episode was lost to infrastructure. Throws std::runtime_error naming the record that lacks a field it
+/// needs.
+EpisodeFacts read_facts(const std::vector<nlohmann::json>& records, bool flagged_infrastructure = false);
+
+}  // namespace dh::evo

@@ -1,0 +1,88 @@
+#include "dh/evo/facts.hpp"
+
+#include <algorithm>
+#include <map>
+#include <set>
+#include <stdexcept>
+
+namespace dh::evo {
+
+namespace {
+
+using nlohmann::json;
+
+template <class T>
+T field(const json& record, const char* key) {
+  const auto it = record.find(key);
+  if (it == record.end())
+    throw std::runtime_error("evidence record '" + record.value("kind", std::string("?")) + "' (seq " +
+                             std::to_string(record.value("seq", -1)) + ") has no '" + key + "'");
+  return it->get<T>();
+}
+
+}  // namespace
+
+EpisodeFacts read_facts(const std::vector<json>& records, bool flagged_infrastructure) {
+  EpisodeFacts f;
+  f.infrastructure = flagged_infrastructure;
+  std::map<std::string, json> grounded;       // command id -> its grounding record
+  std::map<std::string, std::size_t> by_id;   // command id -> index in f.commands
+  std::set<std::string> instances;            // instances this episode dispatched to
+  std::vector<std::string> lost;
+  bool recovery_next = false, held = false;
+  for (const json& r : records) {
+    const std::string kind = r.value("kind", "");
+    if (kind == "episode_end") {
+      f.ended = true;
+      f.success = field<bool>(r, "success");
+      f.outcome = field<std::string>(r, "outcome");
+      f.steps = field<std::uint32_t>(r, "step");
+      f.latched = r.value("latched", false);
+    } else if (kind == "capabilities_missing") {
+      f.capabilities_missing = true;
+    } else if (kind == "capability_lost") {
+      lost.push_back(field<std::string>(r, "instance"));
+    } else if (kind == "deadline_missed") {
+      f.missed_waits.push_back(r.value("wait", ""));
+    } else if (kind == "refusal") {
+      f.refusals.push_back(field<std::string>(r, "refusal"));
+    } else if (kind == "grounding" && r.value("result", "") == "grounded") {
+      grounded[field<std::string>(r, "command_id")] = r;
+    } else if (kind == "dispatch") {
+      CommandFacts c;
+      c.id = field<std::string>(r, "command_id");
+      c.dispatch_step = field<std::uint32_t>(r, "step");
+      c.recovery = recovery_next;
+      if (const auto g = grounded.find(c.id); g != grounded.end()) {
+        c.capability = g->second.value("capability", "");
+        c.args = g->second.value("args", json::object());
+      }
+      instances.insert(r.value("instance", ""));
+      by_id[c.id] = f.commands.size();
+      f.commands.push_back(std::move(c));
+      recovery_next = false;
+    } else if (kind == "decision") {
+      const std::string d = field<std::string>(r, "decision");
+      recovery_next = d == "insert_recovery";
+      f.last_stagnant = r.value("stagnant", 0);
+    } else if (kind == "command_status") {
+      const auto it = by_id.find(field<std::string>(r, "command_id"));
+      if (it == by_id.end()) continue;  // a status of a command this episode did not dispatch
+      CommandFacts& c = f.commands[it->second];
+      c.state = field<std::string>(r, "state");
+      c.failure = r.value("failure", "none");
+      c.stage = r.value("stage", "");
+      c.end_step = r.value("step", 0u);
+    } else if (kind == "advice") {
+      f.planner_done = r.value("done", false);
+    } else if (kind == "verdict_event") {
+      const bool value = field<bool>(r, "value");
+      if (value) held = true;
+      else if (held) f.verdict_lost = true;
+    }
+  }
+  f.capability_lost = std::any_of(lost.begin(), lost.end(), [&](const std::string& i) { return instances.count(i) > 0; });
+  return f;
+}
+
+}  // namespace dh::evo
