@@ -298,6 +298,40 @@ TEST(Summarize, ARepeatedKeyIsCountedAsADuplicateAndNowhereElse) {
   EXPECT_EQ(s["paired"][0]["overall"]["wins"], 3);
 }
 
+TEST(Summarize, FailuresByLayerPerArmAndCellWithTheHarnessShare) {
+  TempDir dir;
+  auto sources = campaign(dir.path());
+  ReportOptions o = options(dir.path());
+  json s = summarize(sources, o);
+  EXPECT_TRUE(s["attribution"]["cells"].empty()) << "no labels stored";
+  EXPECT_TRUE(s["attribution"]["config"].is_null());
+  // full: goal/2/1 failed (execution), long/3/1 was lost (infrastructure, not the harness's).
+  sources[0].attributed = {{"full", "goal", 2, 1, 7, "capability_execution", true},
+                           {"full", "long", 3, 1, 0, "infrastructure", false}};
+  sources[1].attributed = {{"static", "goal", 1, 0, 8, "verification", true},
+                           {"static", "goal", 2, 0, 7, "capability_execution", true}};
+  o.attribution_config = "attr-test";
+  s = summarize(sources, o);
+  EXPECT_EQ(s["attribution"]["config"], "attr-test");
+  const json& full_goal = find(s["attribution"]["cells"], "full", "goal");
+  EXPECT_EQ(full_goal["failed"], 1);
+  EXPECT_EQ(full_goal["attributed"], 1);
+  EXPECT_EQ(full_goal["u_d"], 1);
+  const json& full_long = find(s["attribution"]["cells"], "full", "long");
+  EXPECT_EQ(full_long["u_d"], 0) << "infrastructure is not the harness's";
+  const json& static_goal = find(s["attribution"]["cells"], "static", "goal");
+  EXPECT_EQ(static_goal["failed"], 3);
+  EXPECT_EQ(static_goal["attributed"], 2) << "one failure not labelled yet";
+  ASSERT_EQ(static_goal["layers"].size(), 2u);
+  EXPECT_EQ(static_goal["layers"][0]["name"], "capability_execution") << "upstream first";
+  EXPECT_EQ(static_goal["layers"][1]["name"], "verification");
+  const auto files = render(sources, o);
+  std::ifstream md(files.markdown);
+  const std::string text((std::istreambuf_iterator<char>(md)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("| static | goal | 3 | 2 | capability_execution 1, verification 1 | 2 |"), std::string::npos)
+      << text;
+}
+
 TEST(Summarize, NoRowsIsAnEmptyReport) {
   const json s = summarize({}, ReportOptions{});
   EXPECT_EQ(s["rows"], 0);

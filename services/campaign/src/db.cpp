@@ -96,6 +96,10 @@ std::vector<EpisodeRecord> CampaignDb::read_rows(const std::filesystem::path& pa
   return CampaignDb(path, true).rows();
 }
 
+std::vector<AttributionRow> CampaignDb::read_attributions(const std::filesystem::path& path, const std::string& config) {
+  return CampaignDb(path, true).attributions(config);
+}
+
 CampaignDb::CampaignDb(std::filesystem::path path, bool read_only) : path_(std::move(path)) {
   if (read_only && !std::filesystem::exists(path_))
     throw CampaignError(path_.string() +

@@ -7,15 +7,25 @@
 #include "commands.hpp"
 #include "dh/campaign/db.hpp"
 #include "dh/campaign/plan.hpp"
+#include "dh/common/paths.hpp"
 #include "dh/common/stats.hpp"
+#include "dh/evo/attribution.hpp"
 #include "dh/report/report.hpp"
 
 namespace dh::cli {
 
 int cmd_report(const ReportArgs& a) {
+  // Failures by layer, when `dh attribute` labelled them under the attribution file in force.
+  const std::string attribution = evo::config_version(evo::load_attribution(paths::config_dir() / "attribution.yaml"));
   std::vector<report::Source> sources;
-  for (const auto& db : a.dbs) sources.push_back({db, campaign::CampaignDb::read_rows(db)});
+  for (const auto& db : a.dbs) {
+    report::Source s{db, campaign::CampaignDb::read_rows(db), {}};
+    for (const auto& r : campaign::CampaignDb::read_attributions(db, attribution))
+      s.attributed.push_back({r.arm, r.cell, r.task, r.seed, r.layer, r.name, r.harness});
+    sources.push_back(std::move(s));
+  }
   report::ReportOptions options;
+  options.attribution_config = attribution;
   options.title = a.title;
   options.bootstrap_resamples = a.resamples;
   options.bootstrap_seed = a.bootstrap_seed;

@@ -231,12 +231,34 @@ void policy(const json& s, Document& doc) {
 
 }  // namespace
 
+void attribution(const json& s, Document& doc) {
+  doc.push_back(Heading{2, "Failures by layer"});
+  const json& a = s["attribution"];
+  if (a["cells"].empty()) {
+    doc.push_back(Paragraph{"No attribution stored for these databases: run `dh attribute --db FILE` first."});
+    return;
+  }
+  doc.push_back(Paragraph{"Each failed episode carries the first layer, upstream first, whose check holds on its "
+                          "evidence (`dh attribute`, configuration " + a["config"].get<std::string>() +
+                          "). u_d: the failures the harness owns (layers marked harness)."});
+  Table t{{"Arm", "Cell", "Failed", "Attributed", "By layer", "u_d"}, {}};
+  for (const json& c : a["cells"]) {
+    std::string layers;
+    for (const json& l : c["layers"])
+      layers += (layers.empty() ? "" : ", ") + l["name"].get<std::string>() + " " + count(l["count"]);
+    t.rows.push_back({c["arm"], c["cell"], count(c["failed"]), count(c["attributed"]), layers.empty() ? kNone : layers,
+                      count(c["u_d"])});
+  }
+  doc.push_back(std::move(t));
+}
+
 Document build_document(const json& summary, const PlotResult& plots) {
   Document doc{Heading{1, summary["title"]}, Note{summary["benchmark_note"]}};
   overview(summary, doc);
   if (plots.skipped) doc.push_back(Paragraph{"Plots skipped: " + plots.note});
   success(summary, plots, doc);
   comparisons(summary, doc);
+  attribution(summary, doc);
   per_task(summary, doc);
   wall_clock(summary, plots, doc);
   latency(summary, doc);

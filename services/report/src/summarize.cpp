@@ -141,6 +141,39 @@ json policy_json(const std::filesystem::path& dir) {
           {"curve", curve}};
 }
 
+/// Failures by layer per arm and cell, over the rows counted (first of each key) that failed.
+json attribution_json(const std::vector<Source>& sources, const std::vector<std::string>& arms,
+                      const std::vector<std::string>& cells, const std::map<std::pair<std::string, std::string>, Tally>& tallies,
+                      const ReportOptions& options) {
+  std::map<std::tuple<std::string, std::string, unsigned, unsigned>, const Attributed*> by_key;
+  for (const Source& source : sources)
+    for (const Attributed& a : source.attributed) by_key.emplace(std::make_tuple(a.arm, a.cell, a.task, a.seed), &a);
+  if (by_key.empty()) return {{"config", nullptr}, {"cells", json::array()}};
+  json out = json::array();
+  for (const std::string& arm : arms)
+    for (const std::string& cell : cells) {
+      const auto t = tallies.find({arm, cell});
+      if (t == tallies.end()) continue;
+      std::map<int, std::pair<const Attributed*, unsigned>> layers;
+      unsigned attributed = 0, u_d = 0;
+      for (const auto& [key, a] : by_key) {
+        if (std::get<0>(key) != arm || std::get<1>(key) != cell) continue;
+        auto& [first, n] = layers[a->layer];
+        first = a;
+        ++n;
+        ++attributed;
+        u_d += a->harness;
+      }
+      json list = json::array();
+      for (const auto& [layer, entry] : layers)
+        list.push_back({{"layer", layer}, {"name", entry.first->name}, {"harness", entry.first->harness},
+                        {"count", entry.second}});
+      out.push_back({{"arm", arm}, {"cell", cell}, {"failed", t->second.episodes - t->second.successes},
+                     {"attributed", attributed}, {"layers", list}, {"u_d", u_d}});
+    }
+  return {{"config", options.attribution_config}, {"cells", out}};
+}
+
 json wall_clock_json(const std::vector<double>& wall_s) {
   const double total = std::accumulate(wall_s.begin(), wall_s.end(), 0.0);
   return {{"episodes", wall_s.size()},
@@ -248,6 +281,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
           {"arm_totals", totals},
           {"paired", paired_comparisons(arms.names, cells.names, success_by_key, options)},
           {"bootstrap", {{"resamples", options.bootstrap_resamples}, {"seed", options.bootstrap_seed}}},
+          {"attribution", attribution_json(sources, arms.names, cells.names, by_arm_cell, options)},
           {"tasks", tasks},
           {"wall_clock", wall},
           {"latency",

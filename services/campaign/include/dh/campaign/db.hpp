@@ -52,6 +52,8 @@ class CampaignDb {
   /// Every row of an existing campaign database, opened read-only (for reports); CampaignError naming
   /// the path when it is missing or not a campaign database.
   static std::vector<EpisodeRecord> read_rows(const std::filesystem::path& path);
+  /// Its attributions under `config`, opened read-only (for reports); empty for a file that has none.
+  static std::vector<AttributionRow> read_attributions(const std::filesystem::path& path, const std::string& config);
 
   /// Stores one finished episode, durable when this returns. A key already present keeps its first row:
   /// returns false and changes nothing (a resumed or duplicated run never counts an episode twice).

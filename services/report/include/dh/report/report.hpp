@@ -26,9 +26,19 @@ inline constexpr const char* kBenchmarkNote =
 /// The rows of one campaign database; `label` names it in the report (e.g. its file name). Rows of all
 /// sources are pooled: an (arm, cell, task, seed) key seen twice in one arm is counted as a duplicate;
 /// only its first row (in source, then row order) counts anywhere else (rates, pairs, tasks, times).
+/// A failed episode's attribution layer, as `dh attribute` stored it in the campaign database.
+struct Attributed {
+  std::string arm, cell;
+  unsigned task = 0, seed = 0;
+  int layer = -1;  ///< upstream = 0
+  std::string name;
+  bool harness = false;
+};
+
 struct Source {
   std::string label;
   std::vector<EpisodeRecord> rows;
+  std::vector<Attributed> attributed{};  ///< under ReportOptions::attribution_config; empty: none stored
 };
 
 struct ReportOptions {
@@ -36,6 +46,8 @@ struct ReportOptions {
   std::string title = "DynaHarness campaign report";
   unsigned bootstrap_resamples = 20000;
   std::uint64_t bootstrap_seed = 20260926;
+  /// The attribution file's content hash the sources' labels were read under ("" : no attribution).
+  std::string attribution_config;
   bool plots = true;
   /// A `dh train-policy` output folder (train.json, loss.csv): the report then describes the embedded
   /// policy and its loss curve. Empty: no policy section.
@@ -60,6 +72,9 @@ struct ReportFiles {
 ///               wald_lo_pp, wald_hi_pp, bootstrap_lo_pp, bootstrap_hi_pp, clusters, p}; wins = a
 ///               succeeded and b failed; bootstrap clusters are cell/task
 ///   bootstrap  {resamples, seed}
+///   attribution {config, cells: [{arm, cell, failed, attributed, layers: [{layer, name, harness, count}],
+///               u_d}]}: failures by layer per arm and cell (u_d: those the harness owns); config null and
+///               cells empty when no source holds labels
 ///   tasks      [{arm, cell, task, successes, episodes}]
 ///   wall_clock [{arm, cell, episodes, mean_s, p50_s, p90_s, total_s}]
 ///   latency    {decision: L, planner: L, unanswered_plan_requests, by_arm: [{arm, decision, planner}]},
