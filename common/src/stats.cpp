@@ -131,6 +131,47 @@ ClusteredRate clustered_rate(const std::vector<ClusteredOutcome>& outcomes, unsi
   return r;
 }
 
+namespace {
+
+/// Ranks from 1, ties at the mean of the ranks they span.
+std::vector<double> ranks(const std::vector<double>& v) {
+  std::vector<std::size_t> order(v.size());
+  for (std::size_t i = 0; i < v.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return v[a] < v[b]; });
+  std::vector<double> r(v.size());
+  for (std::size_t i = 0; i < order.size();) {
+    std::size_t j = i;
+    while (j + 1 < order.size() && v[order[j + 1]] == v[order[i]]) ++j;
+    const double mean_rank = (static_cast<double>(i) + static_cast<double>(j)) / 2 + 1;
+    for (std::size_t k = i; k <= j; ++k) r[order[k]] = mean_rank;
+    i = j + 1;
+  }
+  return r;
+}
+
+}  // namespace
+
+double spearman(const std::vector<double>& x, const std::vector<double>& y) {
+  if (x.size() != y.size())
+    throw std::invalid_argument("spearman: " + std::to_string(x.size()) + " x values but " + std::to_string(y.size()) +
+                                " y values");
+  if (x.size() < 2) throw std::invalid_argument("spearman: needs at least two pairs");
+  const auto has_nan = [](const std::vector<double>& v) {
+    return std::any_of(v.begin(), v.end(), [](double a) { return std::isnan(a); });
+  };
+  if (has_nan(x) || has_nan(y)) throw std::invalid_argument("spearman: values contain NaN");
+  const std::vector<double> rx = ranks(x), ry = ranks(y);
+  const double mean = (static_cast<double>(x.size()) + 1) / 2;  // of the ranks 1..n, ties included
+  double sxy = 0, sxx = 0, syy = 0;
+  for (std::size_t i = 0; i < x.size(); ++i) {
+    sxy += (rx[i] - mean) * (ry[i] - mean);
+    sxx += (rx[i] - mean) * (rx[i] - mean);
+    syy += (ry[i] - mean) * (ry[i] - mean);
+  }
+  if (sxx == 0 || syy == 0) throw std::invalid_argument("spearman: a sample whose values are all equal has no ranks");
+  return sxy / std::sqrt(sxx * syy);
+}
+
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) throw std::invalid_argument("percentile: no values");
   if (!(q >= 0 && q <= 1)) throw std::invalid_argument("percentile: q must lie in [0, 1]");

@@ -210,6 +210,25 @@ TEST(ClusteredRate, NoOutcomesOrNoResamplesHaveNoInterval) {
   EXPECT_TRUE(std::isnan(no_draws.interval.hi));
 }
 
+// Textbook values: the IQ / hours of television example (Wikipedia, "Spearman's rank correlation
+// coefficient": ρ = −29/165), Σd² = 0 and a full reversal, and ties at their mean rank (by hand:
+// ranks x 1, 2.5, 2.5, 4 and y 1, 3, 2, 4 give 4.5 / √(4.5 · 5)).
+TEST(Spearman, TextbookValuesAndTies) {
+  EXPECT_NEAR(spearman({106, 86, 100, 101, 99, 103, 97, 113, 112, 110}, {7, 0, 27, 50, 28, 29, 20, 12, 6, 17}),
+              -29.0 / 165, 1e-12);
+  EXPECT_DOUBLE_EQ(spearman({1, 2, 3, 4}, {10, 20, 30, 40}), 1.0);
+  EXPECT_DOUBLE_EQ(spearman({1, 2, 3, 4}, {4, 3, 2, 1}), -1.0);
+  EXPECT_NEAR(spearman({1, 2, 2, 3}, {1, 3, 2, 4}), 4.5 / std::sqrt(4.5 * 5), 1e-12);
+  EXPECT_DOUBLE_EQ(spearman({14.3, 20.1, 25.0, 28.6}, {14.4, 19.0, 24.2, 28.8}), 1.0) << "the paper's ρ = 1.00 shape";
+}
+
+TEST(Spearman, RejectsBadInput) {
+  EXPECT_THROW(spearman({1, 2}, {1}), std::invalid_argument);
+  EXPECT_THROW(spearman({1}, {1}), std::invalid_argument);
+  EXPECT_THROW(spearman({1, 1, 1}, {1, 2, 3}), std::invalid_argument);
+  EXPECT_THROW(spearman({1, NAN}, {1, 2}), std::invalid_argument);
+}
+
 TEST(Percentile, InterpolatesBetweenOrderStatistics) {
   const std::vector<double> v{5, 1, 4, 2, 3};  // sorted 1..5, h = 4q
   EXPECT_DOUBLE_EQ(percentile(v, 0), 1);

@@ -2,6 +2,7 @@
 // dh seeds (a fresh block of seeds for post-selection tests).
 #include <iomanip>
 #include <iostream>
+#include <sstream>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
@@ -69,6 +70,39 @@ int cmd_stats_sign(unsigned wins, unsigned losses, bool json) {
   } else {
     std::cout << std::setprecision(6) << "W/L " << wins << "/" << losses << "  exact two-sided sign test p = " << p << "\n";
   }
+  return 0;
+}
+
+namespace {
+
+std::vector<double> numbers(const std::string& list, const char* what) {
+  std::vector<double> out;
+  std::stringstream in(list);
+  for (std::string item; std::getline(in, item, ',');) {
+    std::size_t used = 0;
+    double v = 0;
+    try {
+      v = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != item.size())
+      throw std::invalid_argument(std::string(what) + ": '" + item + "' is not a number (give a comma-separated list)");
+    out.push_back(v);
+  }
+  return out;
+}
+
+}  // namespace
+
+int cmd_stats_spearman(const std::string& xs, const std::string& ys, bool json) {
+  const std::vector<double> x = numbers(xs, "X"), y = numbers(ys, "Y");
+  const double rho = stats::spearman(x, y);
+  if (json)
+    std::cout << nlohmann::json{{"rho", rho}, {"n", x.size()}, {"test", "Spearman rank correlation, ties at mean rank"}}.dump()
+              << "\n";
+  else
+    std::cout << std::setprecision(6) << "Spearman rho = " << rho << " over " << x.size() << " pairs\n";
   return 0;
 }
 

@@ -83,6 +83,7 @@ int cmd_attribute(const AttributeArgs& a);
 
 int cmd_stats_wilson(unsigned k, unsigned n, bool json);
 int cmd_stats_sign(unsigned wins, unsigned losses, bool json);
+int cmd_stats_spearman(const std::string& x, const std::string& y, bool json);
 int cmd_seeds(unsigned count, std::uint64_t salt, bool json);
 
 }  // namespace dh::cli

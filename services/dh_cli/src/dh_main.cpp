@@ -5,7 +5,7 @@
 //   dh campaign --arms A,B --cells C,D --seeds 21-40 --db FILE [--json]
 //                                            arms x cells x tasks x seeds over every live channel; resumable
 //   dh report --db FILE [--db FILE2] [--out DIR] [--json]
-//   dh stats wilson K N | dh stats sign W L [--json]
+//   dh stats wilson K N | dh stats sign W L | dh stats spearman X1,X2,.. Y1,Y2,.. [--json]
 //   dh seeds --fresh N --salt S              a fresh block of seeds nobody tuned on
 //   dh swap CAPABILITY [--library FILE]      start a new instance, then drain and stop the old ones
 //   dh train-policy [--config FILE]          demonstrations, then the embedded policy's weight file
@@ -99,6 +99,12 @@ int main(int argc, char** argv) {
   sign->add_option("L", b, "exclusive wins of the second arm")->required();
   sign->add_flag("--json", json, "one JSON object on stdout");
 
+  std::string xs, ys;
+  auto* spearman = stats->add_subcommand("spearman", "Spearman rank correlation of paired lists (ties at mean rank)");
+  spearman->add_option("X", xs, "comma-separated values, e.g. development success per snapshot")->required();
+  spearman->add_option("Y", ys, "comma-separated values, as many, e.g. new-state success per snapshot")->required();
+  spearman->add_flag("--json", json, "one JSON object on stdout");
+
   unsigned fresh = 0;
   std::uint64_t salt = 1;
   auto* seeds = app.add_subcommand("seeds", "print a fresh block of seeds for post-selection tests");
@@ -166,6 +172,7 @@ int main(int argc, char** argv) {
     if (*report) return cmd_report(rep);
     if (*wilson) return cmd_stats_wilson(a, b, json);
     if (*sign) return cmd_stats_sign(a, b, json);
+    if (*spearman) return cmd_stats_spearman(xs, ys, json);
     if (*seeds) return cmd_seeds(fresh, salt, json);
     if (*swap) return cmd_swap(swap_args);
     if (*launch) return cmd_launch(deploy, host, restart, list);

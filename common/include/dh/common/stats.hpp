@@ -76,6 +76,11 @@ struct ClusteredRate {
 ClusteredRate clustered_rate(const std::vector<ClusteredOutcome>& outcomes, unsigned resamples = 20000,
                              std::uint64_t seed = 20260926);
 
+/// Spearman's rank correlation ρ of paired samples: Pearson's correlation of their ranks, tied values
+/// taking the mean of the ranks they span. Throws std::invalid_argument for samples of different lengths,
+/// fewer than two pairs, a NaN, or a sample whose values are all equal (ρ undefined).
+double spearman(const std::vector<double>& x, const std::vector<double>& y);
+
 /// The q-quantile (q in [0, 1]) by linear interpolation between order statistics: with v sorted and
 /// h = (n − 1)·q, v[⌊h⌋] + (h − ⌊h⌋)·(v[⌊h⌋ + 1] − v[⌊h⌋]) (Hyndman & Fan type 7, R's and numpy's
 /// default). Throws on an empty v, a NaN in v or q outside [0, 1].
