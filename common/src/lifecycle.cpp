@@ -59,6 +59,9 @@ TransitionResult Lifecycle::trigger(LifecycleTransition t) {
   } catch (const std::exception& e) {
     r.reason = e.what();
     return r;
+  } catch (...) {
+    r.reason = "an exception that is not a std::exception";
+    return r;
   }
   state_ = to;
   r.to = to;

@@ -58,8 +58,16 @@ TEST(FastBrain, AMissedGraspGetsARegraspAndTheResumedStepCompletes) {
   {
     std::ifstream in(paths::config_dir() / "library" / "pick_place.yaml");
     std::ofstream out(library / "pick_place.yaml");
-    for (std::string line; std::getline(in, line);)
-      out << (line.rfind("  rim_grasp_depth:", 0) == 0 ? "  rim_grasp_depth: -0.05" : line) << "\n";
+    // The value, and its declared range widened to take it (a deliberately broken library says so).
+    bool value_done = false;
+    for (std::string line; std::getline(in, line);) {
+      if (line.rfind("  rim_grasp_depth:", 0) == 0) {
+        line = value_done ? "  rim_grasp_depth: {unit: m, min: -0.06, max: 0.06, what: \"widened: a grasp that misses\"}"
+                          : "  rim_grasp_depth: -0.05";
+        value_done = true;
+      }
+      out << line << "\n";
+    }
   }
   cli::Deployment d({itest::service("sim_worker"), itest::service("governor"), itest::service("planner"),
                      itest::service("cap_pick_place"), itest::service("cap_push"), itest::service("cap_recovery")},
@@ -83,8 +91,9 @@ TEST(FastBrain, AMissedGraspGetsARegraspAndTheResumedStepCompletes) {
   EXPECT_TRUE(missed);
   const auto grounded = of_kind(records, "grounding");
   for (const auto& g : grounded) {
-    if (g["capability"] == "pick_place")
+    if (g["capability"] == "pick_place") {
       EXPECT_EQ(g["theta"]["rim_grasp_depth"].get<double>(), -0.05) << "the request's library, not the announced θ";
+    }
   }
   EXPECT_TRUE(std::any_of(grounded.begin(), grounded.end(), [](const json& g) { return g["capability"] == "regrasp"; }));
   EXPECT_TRUE(d.exited().empty()) << "a service crashed";

@@ -57,7 +57,10 @@ struct Lifecycle : ::testing::Test {
   void start_host(int block_ms, int steps) {
     const auto library = env.runs / "stuck.yaml";
     std::ofstream(library) << "capability: stuck\nversion: \"1\"\narguments: []\npreconditions: []\n"
-                           << "parameters: {block_ms: " << block_ms << ", steps: " << steps << "}\n";
+                           << "parameters: {block_ms: " << block_ms << ", steps: " << steps << "}\n"
+                           << "ranges:\n  block_ms: {unit: \"1\", min: 0, max: 100000, what: \"milliseconds the "
+                              "fixture's skill blocks its host's loop\"}\n"
+                           << "  steps: {unit: steps, min: 1, max: 100000, what: \"steps the fixture's command runs\"}\n";
     host = std::make_unique<cli::Deployment>(
         std::vector<cli::ServiceSpec>{itest::service("cap_stuck", {"--library", library.string(), "--drain-timeout-s", "20"})},
         paths::bin_dir(), env.runs / "logs");

@@ -258,15 +258,17 @@ TEST_F(CampaignDbTest, AVersionTwoFileGainsTheAttributionTableWhichKeepsOneLabel
   const EpisodeRecord r = sample();
   AttributionRow a{r.arm, r.cell, r.task, r.seed, "attr-1", 7, "capability_execution", true, "pick_place",
                    "grasp_missed", "lift", 40};
-  db.record_attribution(a);
+  AttributionRow other = a;
+  other.seed = r.seed + 1;
+  db.replace_attributions("attr-1", {a, other});
   a.layer = 8;
   a.name = "verification";
-  db.record_attribution(a);  // labelled again under the same file: replaced
+  db.replace_attributions("attr-1", {a});  // labelled again: the old labels go, the episode no longer labelled too
   AttributionRow coarse = a;
   coarse.config = "attr-2";
   coarse.layer = 3;
   coarse.name = "execution";
-  db.record_attribution(coarse);
+  db.replace_attributions("attr-2", {coarse});
   const auto rows = db.attributions("attr-1");
   ASSERT_EQ(rows.size(), 1u);
   EXPECT_EQ(rows[0].name, "verification");
@@ -275,6 +277,9 @@ TEST_F(CampaignDbTest, AVersionTwoFileGainsTheAttributionTableWhichKeepsOneLabel
   EXPECT_EQ(rows[0].failure, "grasp_missed");
   EXPECT_EQ(rows[0].step, 40u);
   EXPECT_EQ(db.attributions("attr-2").at(0).name, "execution");
+  EXPECT_THROW(db.replace_attributions("attr-1", {coarse}), std::invalid_argument);
+  EXPECT_EQ(db.attributions("attr-1").size(), 1u) << "a refused replacement changes nothing";
+  EXPECT_EQ(CampaignDb::read_attributions(path, "attr-2").size(), 1u) << "read-only";
   EXPECT_TRUE(db.attributions("attr-3").empty());
 }
 

@@ -293,25 +293,43 @@ std::vector<EpisodeRecord> CampaignDb::losses() const {
   return out;
 }
 
-void CampaignDb::record_attribution(const AttributionRow& a) {
-  Stmt s = prepare(
-      "INSERT OR REPLACE INTO attribution (arm, cell, task, seed, config, layer, name, harness, capability, failure, "
-      "stage, step) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
-  bind_arg(s.get(), 1, a.arm);
-  bind_arg(s.get(), 2, a.cell);
-  bind_arg(s.get(), 3, std::int64_t{a.task});
-  bind_arg(s.get(), 4, std::int64_t{a.seed});
-  bind_arg(s.get(), 5, a.config);
-  bind_arg(s.get(), 6, std::int64_t{a.layer});
-  bind_arg(s.get(), 7, a.name);
-  bind_arg(s.get(), 8, std::int64_t{a.harness});
-  bind_arg(s.get(), 9, a.capability);
-  bind_arg(s.get(), 10, a.failure);
-  bind_arg(s.get(), 11, a.stage);
-  bind_arg(s.get(), 12, std::int64_t{a.step});
-  if (sqlite3_step(s.get()) != SQLITE_DONE)
-    fail("cannot record the attribution of " + a.arm + " " + a.cell + "/" + std::to_string(a.task) + " seed " +
-         std::to_string(a.seed));
+void CampaignDb::run_sql(const char* sql) {
+  if (sqlite3_exec(db_.get(), sql, nullptr, nullptr, nullptr) != SQLITE_OK) fail(std::string("cannot run ") + sql);
+}
+
+void CampaignDb::replace_attributions(const std::string& config, const std::vector<AttributionRow>& rows) {
+  run_sql("BEGIN IMMEDIATE");
+  try {
+    Stmt clear = prepare("DELETE FROM attribution WHERE config = ?");
+    bind_arg(clear.get(), 1, config);
+    if (sqlite3_step(clear.get()) != SQLITE_DONE) fail("cannot clear the attributions of " + config);
+    Stmt s = prepare(
+        "INSERT OR REPLACE INTO attribution (arm, cell, task, seed, config, layer, name, harness, capability, "
+        "failure, stage, step) VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?)");
+    for (const AttributionRow& a : rows) {
+      Reset reset{s.get()};
+      if (a.config != config) throw std::invalid_argument("replace_attributions: a row of " + a.config + " among " + config);
+      bind_arg(s.get(), 1, a.arm);
+      bind_arg(s.get(), 2, a.cell);
+      bind_arg(s.get(), 3, std::int64_t{a.task});
+      bind_arg(s.get(), 4, std::int64_t{a.seed});
+      bind_arg(s.get(), 5, a.config);
+      bind_arg(s.get(), 6, std::int64_t{a.layer});
+      bind_arg(s.get(), 7, a.name);
+      bind_arg(s.get(), 8, std::int64_t{a.harness});
+      bind_arg(s.get(), 9, a.capability);
+      bind_arg(s.get(), 10, a.failure);
+      bind_arg(s.get(), 11, a.stage);
+      bind_arg(s.get(), 12, std::int64_t{a.step});
+      if (sqlite3_step(s.get()) != SQLITE_DONE)
+        fail("cannot record the attribution of " + a.arm + " " + a.cell + "/" + std::to_string(a.task) + " seed " +
+             std::to_string(a.seed));
+    }
+  } catch (...) {
+    run_sql("ROLLBACK");
+    throw;
+  }
+  run_sql("COMMIT");
 }
 
 std::vector<AttributionRow> CampaignDb::attributions(const std::string& config) const {

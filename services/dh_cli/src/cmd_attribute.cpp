@@ -48,9 +48,11 @@ int cmd_attribute(const AttributeArgs& a) {
   std::vector<std::string> arms;
   std::vector<std::map<std::string, unsigned>> by_layer(config.layers.size());  // layer -> arm -> count
   std::map<std::pair<std::string, std::string>, unsigned> harness_by_cell;      // (arm, cell) -> u_d
+  std::vector<campaign::AttributionRow> labels;
   json unmatched = json::array(), unreadable = json::array();
   unsigned failed = 0;
   for (const EpisodeRecord& r : db.rows()) {
+    harness_by_cell.try_emplace({r.arm, r.cell}, 0);  // every cell gets its u_d, 0 included
     if (r.success && !r.infrastructure) continue;
     ++failed;
     if (std::find(arms.begin(), arms.end(), r.arm) == arms.end()) arms.push_back(r.arm);
@@ -61,9 +63,10 @@ int cmd_attribute(const AttributeArgs& a) {
       if (!r.evidence_path.empty() && std::filesystem::exists(r.evidence_path))
         records = read_evidence(r.evidence_path);
       else if (!r.infrastructure)
-        throw std::runtime_error("its evidence file '" + r.evidence_path + "' is missing");
+        throw std::runtime_error(r.evidence_path.empty() ? "the campaign recorded no evidence path for it"
+                                                         : "its evidence file '" + r.evidence_path + "' is missing");
       label = evo::attribute(evo::read_facts(records, r.infrastructure), config);
-    } catch (const std::runtime_error& e) {
+    } catch (const std::exception& e) {  // a malformed record, evidence that says success: this episode only
       std::cerr << "error: " << key_text(r) << ": " << e.what() << "\n";
       json entry = key;
       entry["error"] = e.what();
@@ -71,14 +74,15 @@ int cmd_attribute(const AttributeArgs& a) {
       continue;
     }
     if (!label) {
-      std::cerr << "error: " << key_text(r) << ": no layer of " << config_file.string()
-                << " matches its evidence (" << r.evidence_path << ")\n";
+      std::cerr << "error: " << key_text(r) << ": no layer of " << config_file.string() << " matches its evidence ("
+                << r.evidence_path << "); see what each check looks for with `dh attribute --checks`, then add a "
+                << "check or a layer\n";
       unmatched.push_back(key);
       continue;
     }
     const evo::Signature& xi = label->signature;
-    db.record_attribution({r.arm, r.cell, r.task, r.seed, version, label->layer, label->name, label->harness,
-                           xi.capability, xi.failure, xi.stage, xi.step});
+    labels.push_back({r.arm, r.cell, r.task, r.seed, version, label->layer, label->name, label->harness,
+                      xi.capability, xi.failure, xi.stage, xi.step});
     ++by_layer[label->layer][r.arm];
     if (label->harness) ++harness_by_cell[{r.arm, r.cell}];
     if (experience)
@@ -87,11 +91,13 @@ int cmd_attribute(const AttributeArgs& a) {
                                         {"step", xi.step}}},
                          {"label", {{"layer", label->layer}, {"name", label->name}, {"harness", label->harness}}},
                          {"outcome", r.outcome},
-                         {"success", false},
+                         {"success", r.success && !r.infrastructure},
                          {"config", version}}
                         .dump()
                  << "\n";
   }
+
+  db.replace_attributions(version, labels);
 
   json layers = json::array();
   for (std::size_t j = 0; j < config.layers.size(); ++j) {

@@ -16,13 +16,20 @@
 namespace dh::cli {
 
 int cmd_report(const ReportArgs& a) {
-  // Failures by layer, when `dh attribute` labelled them under the attribution file in force.
-  const std::string attribution = evo::config_version(evo::load_attribution(paths::config_dir() / "attribution.yaml"));
+  // Failures by layer, when `dh attribute` labelled them under this attribution file (none: no section).
+  const std::filesystem::path attribution_file =
+      a.attribution.empty() ? paths::config_dir() / "attribution.yaml" : std::filesystem::path(a.attribution);
+  std::string attribution;
+  if (std::filesystem::exists(attribution_file))
+    attribution = evo::config_version(evo::load_attribution(attribution_file));
+  else if (!a.attribution.empty())
+    throw std::invalid_argument("--attribution " + a.attribution + ": no such file");
   std::vector<report::Source> sources;
   for (const auto& db : a.dbs) {
     report::Source s{db, campaign::CampaignDb::read_rows(db), {}};
-    for (const auto& r : campaign::CampaignDb::read_attributions(db, attribution))
-      s.attributed.push_back({r.arm, r.cell, r.task, r.seed, r.layer, r.name, r.harness});
+    if (!attribution.empty())
+      for (const auto& r : campaign::CampaignDb::read_attributions(db, attribution))
+        s.attributed.push_back({r.arm, r.cell, r.task, r.seed, r.layer, r.name, r.harness});
     sources.push_back(std::move(s));
   }
   report::ReportOptions options;
@@ -76,6 +83,8 @@ int cmd_stats_sign(unsigned wins, unsigned losses, bool json) {
 namespace {
 
 std::vector<double> numbers(const std::string& list, const char* what) {
+  if (list.empty() || list.back() == ',')
+    throw std::invalid_argument(std::string(what) + ": '" + list + "' ends without a number (give a comma-separated list)");
   std::vector<double> out;
   std::stringstream in(list);
   for (std::string item; std::getline(in, item, ',');) {

@@ -52,6 +52,7 @@ int cmd_campaign(const CampaignArgs& a);
 struct ReportArgs {
   std::vector<std::string> dbs;
   std::string out, title = "DynaHarness campaign report", policy_dir;
+  std::string attribution;  ///< the attribution file whose labels the report shows (default configs/attribution.yaml)
   unsigned resamples = 20000;
   std::uint64_t bootstrap_seed = 20260926;
   bool plots = true, json = false;

@@ -85,6 +85,9 @@ int main(int argc, char** argv) {
   report->add_option("--bootstrap-seed", rep.bootstrap_seed, "seed of the cell bootstrap (default 20260926)");
   report->add_flag("--no-plots", no_plots, "skip the gnuplot PNGs");
   report->add_option("--policy", rep.policy_dir, "a dh train-policy output folder: describe the policy and its loss curve");
+  report->add_option("--attribution", rep.attribution,
+                     "attribution file whose labels (dh attribute --config) the failures-by-layer table shows "
+                     "(default configs/attribution.yaml)");
   report->add_flag("--json", rep.json, "print the report's JSON object on stdout");
 
   auto* stats = app.add_subcommand("stats", "the report's statistics by hand");

@@ -25,8 +25,17 @@ bool any_wait(const EpisodeFacts& f, std::initializer_list<const char*> waits) {
 }
 
 bool any_refusal(const EpisodeFacts& f, std::initializer_list<const char*> codes) {
-  return std::any_of(f.refusals.begin(), f.refusals.end(), [&](const std::string& r) {
-    return std::any_of(codes.begin(), codes.end(), [&](const char* x) { return r == x; });
+  return std::any_of(f.refusals.begin(), f.refusals.end(), [&](const RefusalFacts& r) {
+    return std::any_of(codes.begin(), codes.end(), [&](const char* x) { return r.code == x; });
+  });
+}
+
+/// A step was refused because its capability had no live instance, and that capability is one the
+/// episode started without.
+bool needed_missing(const EpisodeFacts& f) {
+  return std::any_of(f.refusals.begin(), f.refusals.end(), [&](const RefusalFacts& r) {
+    return (r.code == "unknown_capability" || r.code == "capability_not_alive") &&
+           std::find(f.missing.begin(), f.missing.end(), r.capability) != f.missing.end();
   });
 }
 
@@ -59,15 +68,12 @@ const std::vector<NamedCheck>& checks() {
        [](const EpisodeFacts& f) { return !f.ended; }},
       {"process_lost", "an instance it dispatched to lost its liveliness",
        [](const EpisodeFacts& f) { return f.capability_lost; }},
-      {"capability_missing", "it started without an instance of a capability it may use, and then needed it",
-       [](const EpisodeFacts& f) {
-         return f.capabilities_missing &&
-                (any_wait(f, {"announcement"}) || any_refusal(f, {"unknown_capability", "capability_not_alive"}));
-       }},
+      {"capability_missing", "it started without an instance of a capability, and a step needed that one",
+       needed_missing},
       {"observation_missing", "the first or the next observation did not come in time",
        [](const EpisodeFacts& f) { return any_wait(f, {"first_observation", "observation"}); }},
       {"scene_stale", "no fresh scene estimate in time, or an argument's entity unseen (perception refusal)",
-       [](const EpisodeFacts& f) { return any_wait(f, {"perception"}) || any_refusal(f, {"perception"}); }},
+       [](const EpisodeFacts& f) { return any_refusal(f, {"perception"}); }},
       {"planner_silent", "the planner did not answer in time",
        [](const EpisodeFacts& f) { return any_wait(f, {"planner"}); }},
       {"planner_refused", "the planner refused to give a step",
@@ -80,7 +86,7 @@ const std::vector<NamedCheck>& checks() {
        [](const EpisodeFacts& f) { return any_refusal(f, {"precondition", "budget"}); }},
       {"dispatch_failed", "no live instance, no acknowledgement, or a lease that expired",
        [](const EpisodeFacts& f) {
-         return any_wait(f, {"acknowledgement", "announcement"}) || any_refusal(f, {"capability_not_alive"}) ||
+         return any_wait(f, {"acknowledgement"}) || any_refusal(f, {"capability_not_alive"}) ||
                 any_command(f, [](const CommandFacts& c) { return c.state == "expired"; });
        }},
       {"capability_refused", "a capability refused a command at its check",
@@ -92,11 +98,7 @@ const std::vector<NamedCheck>& checks() {
       {"effect_absent", "a step completed but its effect did not hold (asked again, or the plan done and the goal unmet)",
        [](const EpisodeFacts& f) { return completed_then_again(f) || f.planner_done; }},
       {"recovery_failed", "an inserted recovery did not complete",
-       [](const EpisodeFacts& f) {
-         return any_command(f, [](const CommandFacts& c) {
-           return c.recovery && !c.state.empty() && c.state != "completed" && c.state != "cancelled";
-         });
-       }},
+       [](const EpisodeFacts& f) { return any_command(f, [](const CommandFacts& c) { return c.recovery && failed(c); }); }},
       {"policy_in_control", "vla_act was the command in control at the end",
        [](const EpisodeFacts& f) { return !f.commands.empty() && f.commands.back().capability == "vla_act"; }},
       {"budget_while_progressing", "the budget ran out while the last decision saw progress",
@@ -113,20 +115,21 @@ const NamedCheck* find_check(const std::string& name) {
   return nullptr;
 }
 
-/// The command the failure sits on: the first that did not complete, else the last one dispatched.
+/// The command the failure sits on: the first that failed, else the last one dispatched.
 Signature signature_of(const EpisodeFacts& f) {
   Signature s;
-  const auto failed = std::find_if(f.commands.begin(), f.commands.end(), [](const CommandFacts& c) {
-    return !c.state.empty() && c.state != "completed" && c.state != "cancelled";
-  });
-  const CommandFacts* c = failed != f.commands.end() ? &*failed : (f.commands.empty() ? nullptr : &f.commands.back());
+  const auto first_failed =
+      std::find_if(f.commands.begin(), f.commands.end(), [](const CommandFacts& c) { return failed(c); });
+  const CommandFacts* c =
+      first_failed != f.commands.end() ? &*first_failed : (f.commands.empty() ? nullptr : &f.commands.back());
   if (c) {
     s.capability = c->capability;
     s.failure = c->failure != "none" ? c->failure : c->state;
     s.stage = c->stage;
     s.step = c->end_step ? c->end_step : c->dispatch_step;
   } else {
-    s.failure = !f.refusals.empty() ? f.refusals.back() : (!f.missed_waits.empty() ? f.missed_waits.back() : f.outcome);
+    s.failure = !f.refusals.empty() ? f.refusals.back().code
+                                    : (!f.missed_waits.empty() ? f.missed_waits.back() : f.outcome);
     s.step = f.steps;
   }
   return s;
@@ -144,7 +147,9 @@ const std::vector<std::pair<std::string, std::string>>& check_names() {
 }
 
 std::string config_version(const AttributionConfig& config) {
-  std::string text;
+  // The checks' own version: a change to what a check looks for changes every file's hash, so labels
+  // made by the old checks are not read as the new ones'.
+  std::string text = "checks-2\n";
   for (const Layer& l : config.layers) {
     text += l.name + (l.harness ? ":harness:" : ":other:");
     for (const auto& c : l.checks) text += c + ",";

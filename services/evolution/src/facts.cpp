@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <map>
-#include <set>
 #include <stdexcept>
 
 namespace dh::evo {
@@ -16,48 +15,63 @@ T field(const json& record, const char* key) {
   const auto it = record.find(key);
   if (it == record.end())
     throw std::runtime_error("evidence record '" + record.value("kind", std::string("?")) + "' (seq " +
-                             std::to_string(record.value("seq", -1)) + ") has no '" + key + "'");
+                             std::to_string(record.value("seq", -1)) + ") has no '" + key +
+                             "' (written by an older build? run the episodes again with this one)");
   return it->get<T>();
 }
 
+bool terminal(const std::string& state) {
+  return state == "completed" || state == "failed" || state == "refused" || state == "expired" ||
+         state == "cancelled";
+}
+
 }  // namespace
+
+bool failed(const CommandFacts& c) { return c.state == "failed" || c.state == "refused" || c.state == "expired"; }
 
 EpisodeFacts read_facts(const std::vector<json>& records, bool flagged_infrastructure) {
   EpisodeFacts f;
   f.infrastructure = flagged_infrastructure;
   std::map<std::string, json> grounded;       // command id -> its grounding record
   std::map<std::string, std::size_t> by_id;   // command id -> index in f.commands
-  std::set<std::string> instances;            // instances this episode dispatched to
-  std::vector<std::string> lost;
   bool recovery_next = false, held = false;
+  // The governor moves on without waiting for a stopped command's end: it was preempted.
+  const auto preempt_last = [&] {
+    if (!f.commands.empty() && !terminal(f.commands.back().state)) f.commands.back().state = "preempted";
+  };
   for (const json& r : records) {
     const std::string kind = r.value("kind", "");
     if (kind == "episode_end") {
+      preempt_last();
       f.ended = true;
       f.success = field<bool>(r, "success");
       f.outcome = field<std::string>(r, "outcome");
       f.steps = field<std::uint32_t>(r, "step");
       f.latched = r.value("latched", false);
     } else if (kind == "capabilities_missing") {
-      f.capabilities_missing = true;
+      f.missing = field<std::vector<std::string>>(r, "missing");
     } else if (kind == "capability_lost") {
-      lost.push_back(field<std::string>(r, "instance"));
+      // Lost while it ran this episode's command (not an instance used earlier and since stopped).
+      const std::string instance = field<std::string>(r, "instance");
+      if (!f.commands.empty() && f.commands.back().instance == instance && !terminal(f.commands.back().state))
+        f.capability_lost = true;
     } else if (kind == "deadline_missed") {
-      f.missed_waits.push_back(r.value("wait", ""));
+      f.missed_waits.push_back(field<std::string>(r, "wait"));
     } else if (kind == "refusal") {
-      f.refusals.push_back(field<std::string>(r, "refusal"));
+      f.refusals.push_back({field<std::string>(r, "refusal"), r.value("capability", "")});
     } else if (kind == "grounding" && r.value("result", "") == "grounded") {
       grounded[field<std::string>(r, "command_id")] = r;
     } else if (kind == "dispatch") {
+      preempt_last();
       CommandFacts c;
       c.id = field<std::string>(r, "command_id");
+      c.instance = field<std::string>(r, "instance");
       c.dispatch_step = field<std::uint32_t>(r, "step");
       c.recovery = recovery_next;
       if (const auto g = grounded.find(c.id); g != grounded.end()) {
         c.capability = g->second.value("capability", "");
         c.args = g->second.value("args", json::object());
       }
-      instances.insert(r.value("instance", ""));
       by_id[c.id] = f.commands.size();
       f.commands.push_back(std::move(c));
       recovery_next = false;
@@ -74,14 +88,13 @@ EpisodeFacts read_facts(const std::vector<json>& records, bool flagged_infrastru
       c.stage = r.value("stage", "");
       c.end_step = r.value("step", 0u);
     } else if (kind == "advice") {
-      f.planner_done = r.value("done", false);
+      f.planner_done = field<bool>(r, "done");
     } else if (kind == "verdict_event") {
       const bool value = field<bool>(r, "value");
       if (value) held = true;
       else if (held) f.verdict_lost = true;
     }
   }
-  f.capability_lost = std::any_of(lost.begin(), lost.end(), [&](const std::string& i) { return instances.count(i) > 0; });
   return f;
 }
 

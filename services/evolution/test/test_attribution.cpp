@@ -75,11 +75,18 @@ TEST(Attribution, OneConstructedEpisodePerLayer) {
             "infrastructure");
   EXPECT_EQ(Evidence()
                 .add("capabilities_missing", {{"missing", {"vla_act"}}})
-                .add("refusal", {{"refusal", "unknown_capability"}})
+                .add("refusal", {{"refusal", "unknown_capability"}, {"capability", "vla_act"}})
                 .end()
                 .label(),
             "infrastructure")
       << "started without vla_act, then needed it";
+  EXPECT_EQ(Evidence()
+                .add("capabilities_missing", {{"missing", {"vla_act"}}})
+                .add("refusal", {{"refusal", "unknown_capability"}, {"capability", "fly"}})
+                .end()
+                .label(),
+            "planning")
+      << "the planner named a capability nobody has; the missing one was not asked for";
   EXPECT_EQ(Evidence()
                 .add("capabilities_missing", {{"missing", {"vla_act"}}})
                 .command("c0", "pick_place", "failed", "grasp_missed")
@@ -99,7 +106,7 @@ TEST(Attribution, OneConstructedEpisodePerLayer) {
   EXPECT_EQ(Evidence().command("c0", "pick_place", "completed").command("c1", "pick_place", "completed").end().label(),
             "verification")
       << "the same step asked for again after it completed";
-  EXPECT_EQ(Evidence().command("c0", "pick_place", "completed").add("advice", {{"done", true}}).end().label(),
+  EXPECT_EQ(Evidence().command("c0", "pick_place", "completed").add("advice", {{"done", true}, {"refused", false}}).end().label(),
             "verification")
       << "every step done, the goal unmet";
   EXPECT_EQ(Evidence()
@@ -144,6 +151,30 @@ TEST(Attribution, OfTwoMatchingLayersTheUpstreamOneWins) {
   EXPECT_EQ(a->signature.failure, "grasp_slipped");
   EXPECT_EQ(a->signature.stage, "lift");
   EXPECT_EQ(a->signature.step, 40u);
+}
+
+TEST(Attribution, ACommandTheGovernorStoppedIsPreemptedNotFailed) {
+  Evidence e;
+  e.command("c0", "regrasp", "running", "none", {{"object", "bowl"}}, true)
+      .add("decision", {{"decision", "give_up"}, {"stagnant", 4}})
+      .end("budget_exhausted");
+  const EpisodeFacts f = read_facts(e.records);
+  EXPECT_EQ(f.commands.at(0).state, "preempted");
+  EXPECT_FALSE(check("recovery_failed", f)) << "the governor stopped it; it did not fail";
+  e.records.insert(e.records.begin(), json{{"kind", "capability_lost"}, {"instance", "regrasp@a"}, {"seq", -1}});
+  EXPECT_FALSE(check("process_lost", read_facts(e.records))) << "lost before this episode ran anything on it";
+}
+
+TEST(Attribution, EvidenceWithoutTheCodesItNeedsIsUnreadableNotMislabelled) {
+  Evidence e;
+  e.add("deadline_missed", {{"waiting_for", "planner advice for x/p0"}}).end();
+  try {
+    read_facts(e.records);
+    ADD_FAILURE() << "a deadline_missed without its wait code was read";
+  } catch (const std::runtime_error& err) {
+    EXPECT_NE(std::string(err.what()).find("'wait'"), std::string::npos) << err.what();
+    EXPECT_NE(std::string(err.what()).find("older build"), std::string::npos) << err.what();
+  }
 }
 
 TEST(Attribution, AnEpisodeNoCheckMatchesIsNotLabelled) {

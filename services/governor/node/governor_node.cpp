@@ -282,11 +282,11 @@ int run(int argc, char** argv) {
   if (config.empty()) config = (paths::config_dir() / "governor.yaml").string();
   const std::filesystem::path runs_dir =
       std::filesystem::absolute(runs.empty() ? paths::runs_dir() : std::filesystem::path(runs));
+  EventQueue<Event> q;  // declared first: the readers that push into it go before it
   std::optional<dds::Participant> participant;
   std::optional<gov::GovernorCore> core;
   std::optional<Shell> shell;
   std::optional<Readers> readers;
-  EventQueue<Event> q;
   auto next_tick = gov::Clock::now();
   ManagedService service;
   service.transitions.configure = [&] {

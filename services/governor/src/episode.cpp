@@ -132,7 +132,8 @@ Effects EpisodeMachine::on_advice(const Advice& advice, Clock::time_point now) {
   evidence_.append("planner", "advice",
                    {{"request_id", advice.request_id}, {"step", last_obs_.step}, {"refused", advice.refused},
                     {"capability", advice.capability}, {"args", bindings_json(advice.args)},
-                    {"rationale", advice.rationale}, {"reason", advice.reason}, {"backend", advice.backend}});
+                    {"rationale", advice.rationale}, {"reason", advice.reason}, {"backend", advice.backend},
+                    {"done", advice.done}});
   if (advice.done) {
     // The planner judges every step complete. With the latch on, a true verdict would have ended the
     // episode at the last decision; the final state decides without it.
@@ -164,7 +165,6 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
         awaiting_perception_ = advice;
         deadline_ = perception_wait_until_;
         deadline_what_ = "a fresh scene estimate";
-        deadline_wait_ = "perception";
         return {};
       }
     }
@@ -183,7 +183,6 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
       phase_ = Phase::AwaitingCapability;
       deadline_ = std::min(capability_wait_until_, now + std::chrono::milliseconds(50));
       deadline_what_ = "announcement of '" + advice.capability + "'";
-      deadline_wait_ = "announcement";
       return {};
     }
     if (config_.mode == ExecutorMode::Bare) {

@@ -164,12 +164,11 @@ TEST_F(Core, ALostInstanceEndsItsCommandAndTheCancelNamesTheInstance) {
   EXPECT_FALSE(core->registry().alive("pick_place@a"));
   const auto k = kinds("ep");
   EXPECT_NE(std::find(k.begin(), k.end(), "capability_lost"), k.end());
-  // A later cancel of that command goes to the instance it was dispatched to.
-  for (const auto& e : fx) {
-    if (e.fx.cancel_command) {
-      EXPECT_EQ(e.cancel_instance, "pick_place@a");
-    }
-  }
+  // The lost command is cancelled at the instance it was dispatched to.
+  const auto cancel = std::find_if(fx.begin(), fx.end(), [](const ChannelEffects& e) { return e.fx.cancel_command.has_value(); });
+  ASSERT_NE(cancel, fx.end()) << "no cancel for the lost command";
+  EXPECT_EQ(*cancel->fx.cancel_command, d.fx.command->command_id);
+  EXPECT_EQ(cancel->cancel_instance, "pick_place@a");
 }
 
 TEST_F(Core, AForeignCommandIsRecordedInTheRunningEpisodeAndNotObeyed) {

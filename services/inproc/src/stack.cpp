@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "dh/cap/library.hpp"
+#include "dh/common/config.hpp"
 #include "dh/gov/config.hpp"
 #include "dh/inproc/bus.hpp"
 #include "dh/planner/rules.hpp"
@@ -125,6 +126,9 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
 
   try {
     from_governor(governor_.on_request(request, now));
+    // In process nothing else can be the cause: a refused request (an unknown arm, an arm that grounds
+    // from perception) is the caller's configuration error, not an episode's outcome.
+    if (end && end->outcome == Outcome::Rejected) throw ConfigError("episode " + episode_id + ": " + end->reason);
     while (!end) {
       if (fresh) {
         fresh = false;

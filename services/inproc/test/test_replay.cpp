@@ -113,7 +113,7 @@ TEST_F(Replay, AChangedThetaInTheLibraryRefusesTheReplayUnlessDriftIsAllowed) {
   const auto at = text.find("approach_height:");
   ASSERT_NE(at, std::string::npos) << "configs/library/pick_place.yaml has no approach_height";
   const auto end = text.find('\n', at);
-  text.replace(at, end - at, "approach_height: 0.1234");
+  text.replace(at, end - at, "approach_height: 0.1134");
   std::ofstream(library / "pick_place.yaml") << text;
 
   auto o = options();
@@ -127,7 +127,7 @@ TEST_F(Replay, AChangedThetaInTheLibraryRefusesTheReplayUnlessDriftIsAllowed) {
   o.allow_drift = true;
   const auto r = inproc::replay(*dir / "ep.jsonl", o);
   ASSERT_EQ(r.drift.size(), 1u);
-  EXPECT_NE(r.drift[0].find("0.1234"), std::string::npos) << r.drift[0];
+  EXPECT_NE(r.drift[0].find("0.1134"), std::string::npos) << r.drift[0];
   EXPECT_TRUE(r.identical) << "the recorded θ is what the commands run with";
 }
 

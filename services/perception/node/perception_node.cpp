@@ -224,10 +224,10 @@ int run(int argc, char** argv) {
   app.add_flag("--search-support-plane", search_plane, "the table height is not known: find it in each mask (RANSAC)");
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger("dh_perception");
+  EventQueue<Event> q;  // declared first: the readers that push into it go before it
   std::optional<dds::Participant> participant;
   std::optional<Perception> node;
   std::optional<Readers> readers;
-  EventQueue<Event> q;
   ManagedService service;
   service.transitions.configure = [&] {
     std::unique_ptr<perception::Segmenter> segmenter;

@@ -11,6 +11,9 @@ namespace {
 using nlohmann::json;
 
 constexpr const char* kNone = "–";
+/// Fewer cell/task clusters than this give no cluster-bootstrap interval in the tables (one cluster gives
+/// a zero-width one; a handful say little).
+constexpr unsigned kMinClusters = 5;
 
 std::string fixed(const json& x, int decimals) {
   return x.is_number() ? fmt::format("{:.{}f}", x.get<double>(), decimals) : kNone;
@@ -42,7 +45,9 @@ std::vector<std::string> success_row(const json& s, const std::string& cell) {
           count(s["episodes"]),
           percent(s["rate"]),
           range(fixed(lo, 1), fixed(hi, 1)),
-          range(fixed(pct(s["cluster_lo"]), 1), fixed(pct(s["cluster_hi"]), 1)) + " (" + count(s["clusters"]) + ")",
+          s["clusters"].get<unsigned>() < kMinClusters
+              ? std::string(kNone) + " (" + count(s["clusters"]) + ")"
+              : range(fixed(pct(s["cluster_lo"]), 1), fixed(pct(s["cluster_hi"]), 1)) + " (" + count(s["clusters"]) + ")",
           count(s["infrastructure"]),
           count(s["tick_limit"])};
 }
@@ -87,8 +92,9 @@ void success(const json& s, const PlotResult& plots, Document& doc) {
   doc.push_back(Paragraph{fmt::format(
       "Wilson treats every episode as independent. A task's seeds only jitter one layout, so beside it stands "
       "the 95 % percentile interval of a bootstrap over whole cell/task clusters ({} resamples, seed {}; in "
-      "brackets, the number of clusters). Where the two differ, the clustered one is the honest one.",
-      count(s["bootstrap"]["resamples"]), s["bootstrap"]["seed"].get<std::uint64_t>())});
+      "brackets, the number of clusters; none below {} clusters). Where the two differ, the episodes are not "
+      "independent draws; with about ten clusters a percentile bootstrap is itself somewhat too narrow.",
+      count(s["bootstrap"]["resamples"]), s["bootstrap"]["seed"].get<std::uint64_t>(), kMinClusters)});
   Table t{{"Arm", "Cell", "Successes", "Episodes", "Rate", "Wilson 95 % (%)", "Cell/task bootstrap 95 % (%)",
            "Infrastructure", "Tick limit"},
           {}};
@@ -229,8 +235,6 @@ void policy(const json& s, Document& doc) {
   doc.push_back(std::move(c));
 }
 
-}  // namespace
-
 void attribution(const json& s, Document& doc) {
   doc.push_back(Heading{2, "Failures by layer"});
   const json& a = s["attribution"];
@@ -251,6 +255,8 @@ void attribution(const json& s, Document& doc) {
   }
   doc.push_back(std::move(t));
 }
+
+}  // namespace
 
 Document build_document(const json& summary, const PlotResult& plots) {
   Document doc{Heading{1, summary["title"]}, Note{summary["benchmark_note"]}};

@@ -8,6 +8,7 @@
 #include <fstream>
 #include <map>
 #include <numeric>
+#include <set>
 #include <sstream>
 #include <tuple>
 
@@ -141,13 +142,16 @@ json policy_json(const std::filesystem::path& dir) {
           {"curve", curve}};
 }
 
+using FailedKey = std::tuple<std::string, std::string, unsigned, unsigned>;  // arm, cell, task, seed
+
 /// Failures by layer per arm and cell, over the rows counted (first of each key) that failed.
-json attribution_json(const std::vector<Source>& sources, const std::vector<std::string>& arms,
-                      const std::vector<std::string>& cells, const std::map<std::pair<std::string, std::string>, Tally>& tallies,
-                      const ReportOptions& options) {
-  std::map<std::tuple<std::string, std::string, unsigned, unsigned>, const Attributed*> by_key;
+json attribution_json(const std::vector<Source>& sources, const std::set<FailedKey>& failed,
+                      const std::vector<std::string>& arms, const std::vector<std::string>& cells,
+                      const std::map<std::pair<std::string, std::string>, Tally>& tallies, const ReportOptions& options) {
+  std::map<FailedKey, const Attributed*> by_key;
   for (const Source& source : sources)
-    for (const Attributed& a : source.attributed) by_key.emplace(std::make_tuple(a.arm, a.cell, a.task, a.seed), &a);
+    for (const Attributed& a : source.attributed)
+      if (const FailedKey k{a.arm, a.cell, a.task, a.seed}; failed.count(k)) by_key.emplace(k, &a);
   if (by_key.empty()) return {{"config", nullptr}, {"cells", json::array()}};
   json out = json::array();
   for (const std::string& arm : arms)
@@ -194,6 +198,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
   std::map<std::string, std::map<PairKey, bool>> success_by_key;
   std::map<std::string, Latencies> latency_by_arm;
   std::map<std::string, Mechanisms> mechanisms_by_arm;
+  std::set<FailedKey> failed;  // the counted rows that failed
   unsigned rows = 0, duplicates = 0, infrastructure = 0;
   std::map<EvidenceStatus, unsigned> evidence;
   json source_list = json::array();
@@ -213,6 +218,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
       }
       arms.see(r.arm);
       cells.see(r.cell);
+      if (!r.success || r.infrastructure) failed.insert({r.arm, r.cell, r.task, r.seed});
       by_arm_cell[{r.arm, r.cell}].add(r);
       by_arm[r.arm].add(r);
       by_task[{r.arm, r.cell, r.task}].add(r);
@@ -281,7 +287,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
           {"arm_totals", totals},
           {"paired", paired_comparisons(arms.names, cells.names, success_by_key, options)},
           {"bootstrap", {{"resamples", options.bootstrap_resamples}, {"seed", options.bootstrap_seed}}},
-          {"attribution", attribution_json(sources, arms.names, cells.names, by_arm_cell, options)},
+          {"attribution", attribution_json(sources, failed, arms.names, cells.names, by_arm_cell, options)},
           {"tasks", tasks},
           {"wall_clock", wall},
           {"latency",

@@ -107,6 +107,8 @@ class Channel {
         render_(std::move(rendering)), log_(std::move(log)) {}
 
   EventQueue<Event>& queue() { return queue_; }
+  /// Ends run() after its current event (deactivate), as a process-wide stop does.
+  void stop() { stop_ = true; }
 
   void run() {
     if (render_.gl) {
@@ -119,7 +121,7 @@ class Channel {
       }
     }
     announce(msg::CHANNEL_IDLE);
-    while (!shutdown_requested()) {
+    while (!shutdown_requested() && !stop_) {
       if (auto e = queue_.pop(std::chrono::milliseconds(20))) std::visit([&](auto& ev) { handle(ev); }, *e);
       publish(core_.on_tick(Clock::now()));
     }
@@ -415,6 +417,7 @@ class Channel {
   std::uint32_t images_ = 0;
   std::shared_ptr<spdlog::logger> log_;
   EventQueue<Event> queue_;
+  std::atomic<bool> stop_{false};
   std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  // one model per scene (and swap)
   std::string last_episode_, last_error_;
   double reset_s_ = 0, last_physics_s_ = 0;  ///< wall time inside MuJoCo: the reset, the last episode in all
@@ -599,8 +602,9 @@ int run(int argc, char** argv) {
               first + channels - 1, dds::domain_id(), rgbd_names.empty() ? "none" : rgbd_names);
     for (auto& c : chans) threads.emplace_back([&c] { c->run(); });
   };
-  // Each channel runs on its own thread until a stop is asked for; deactivate waits for them.
+  // Each channel runs on its own thread; deactivate stops and waits for them.
   service.transitions.deactivate = [&] {
+    for (auto& c : chans) c->stop();
     for (auto& t : threads) t.join();
     threads.clear();
     remove_readers();

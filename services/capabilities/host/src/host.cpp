@@ -146,6 +146,7 @@ int run_capability_host(int argc, char** argv, const std::string& family,
   add_options(app);
   CLI11_PARSE(app, argc, argv);
   auto log = make_logger(service);
+  EventQueue<Event> queue;  // declared first: the readers that push into it go before it
   std::vector<Served> served;
   std::optional<dds::Participant> participant;
   std::optional<HostCore> core;
@@ -153,7 +154,6 @@ int run_capability_host(int argc, char** argv, const std::string& family,
   std::optional<dds::Writer<msg::CapabilityAnnouncePubSubType>> announce;
   std::optional<Readers> readers;
   std::optional<dds::Heartbeat> alive;
-  EventQueue<Event> queue;
   // The loop beats each turn; the heartbeat asserts liveliness while the last beat is recent enough.
   std::atomic<Clock::rep> beat{Clock::now().time_since_epoch().count()};
   const auto assert_every = std::chrono::milliseconds(static_cast<int>(dds::kLivelinessLeaseSec * 1000 / 4));
@@ -201,7 +201,7 @@ int run_capability_host(int argc, char** argv, const std::string& family,
     log->info("family={} draining: {} command(s) running", family, core->running());
   };
   m.transitions.deactivate = [&] {
-    if (core->running() > 0) log->warn("family={} drain timed out with {} command(s) running", family, core->running());
+    if (core->running() > 0) log->warn("family={} stops with {} command(s) running", family, core->running());
     alive.reset();
     readers.reset();
   };

@@ -18,6 +18,7 @@ Descriptor load_descriptor(const std::filesystem::path& file, const CapabilityDe
   d.preconditions = root.get<std::vector<std::string>>("preconditions");
   const ConfigNode params = root.child("parameters");
   for (const auto& k : params.keys()) d.parameters[k] = params.get<double>(k);
+  d.ranges = load_theta_ranges(root, d.parameters);
   try {
     d.cost_steps = def.make(d.parameters)->cost_steps();
   } catch (const std::invalid_argument& e) {

@@ -2,10 +2,12 @@
 
 #include <cstdio>
 #include <cstring>
+#include <set>
 
 #include "dh/cap/descriptor.hpp"
 #include "dh/cap/library.hpp"
 #include "dh/common/config.hpp"
+#include "dh/common/paths.hpp"
 
 namespace dh::cap {
 namespace {
@@ -16,6 +18,24 @@ void fnv(std::uint64_t& h, const void* data, std::size_t n) {
 }
 
 void fnv(std::uint64_t& h, const std::string& s) { fnv(h, s.c_str(), s.size() + 1); }  // with its terminator
+
+/// Names a θ may not be keyed to: every scene's entities and regions, every asset.
+std::set<std::string> case_names() {
+  std::set<std::string> names;
+  const auto dir = paths::config_dir();
+  for (const char* sub : {"scenes", "assets"}) {
+    if (!std::filesystem::is_directory(dir / sub)) continue;
+    for (const auto& entry : std::filesystem::directory_iterator(dir / sub)) {
+      if (entry.path().extension() != ".yaml") continue;
+      const ConfigNode root = ConfigNode::load_file(entry.path());
+      if (root.has("asset")) names.insert(root.get<std::string>("asset"));
+      for (const char* list : {"entities", "regions"})
+        if (root.has(list))
+          for (const ConfigNode& e : root.items(list)) names.insert(e.get<std::string>("name"));
+    }
+  }
+  return names;
+}
 
 }  // namespace
 
@@ -37,6 +57,7 @@ LibraryTheta load_library_theta(const std::filesystem::path& dir) {
   if (!std::filesystem::is_directory(dir))
     throw ConfigError(dir.string() + ": no such library folder (a folder of capability descriptors, like configs/library)");
   const auto defs = all_capabilities();
+  const std::set<std::string> names = case_names();
   LibraryTheta lib;
   for (const auto& entry : std::filesystem::directory_iterator(dir)) {
     if (entry.path().extension() != ".yaml") continue;
@@ -48,13 +69,17 @@ LibraryTheta load_library_theta(const std::filesystem::path& dir) {
     for (const auto& d : defs)
       if (d.name == name) def = &d;
     if (def) {
-      lib.theta[name] = load_descriptor(entry.path(), *def).parameters;
+      Descriptor d = load_descriptor(entry.path(), *def);
+      lib.theta[name] = std::move(d.parameters);
+      lib.ranges[name] = std::move(d.ranges);
     } else {
       // Served only by its own process here (vla_act needs its policy): read as written; its process
       // checks it when a command brings it.
       const ConfigNode params = root.child("parameters");
       for (const auto& k : params.keys()) lib.theta[name][k] = params.get<double>(k);
+      lib.ranges[name] = load_theta_ranges(root, lib.theta[name]);
     }
+    refuse_keyed_parameters(root, lib.theta[name], names);
   }
   if (lib.theta.empty()) throw ConfigError(dir.string() + ": no capability descriptor (*.yaml) in the library folder");
   lib.version = library_version(lib.theta);

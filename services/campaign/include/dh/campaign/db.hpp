@@ -68,8 +68,9 @@ class CampaignDb {
   std::vector<EpisodeRecord> rows() const;  ///< ordered by arm, cell, task, seed
   std::size_t count() const;
 
-  /// Stores (or replaces) one episode's attribution under its configuration's hash.
-  void record_attribution(const AttributionRow& a);
+  /// Replaces every attribution stored under `config` by `rows` (each with that config), in one
+  /// transaction: an episode no longer labelled loses its old label.
+  void replace_attributions(const std::string& config, const std::vector<AttributionRow>& rows);
   /// The attributions stored under `config`, ordered by arm, cell, task, seed.
   std::vector<AttributionRow> attributions(const std::string& config) const;
 
@@ -93,6 +94,7 @@ class CampaignDb {
   CampaignDb(std::filesystem::path path, bool read_only);
   void check_or_create_schema(bool read_only);
   Stmt prepare(const char* sql) const;
+  void run_sql(const char* sql);
   [[noreturn]] void fail(const std::string& what) const;
 
   std::filesystem::path path_;

@@ -3,7 +3,9 @@
 // A_N(E) = min{ j : d_j(E) = 1 }. The layers, their order, their checks and whether a failure there is
 // the harness's (u_d counts those) are configuration (configs/attribution.yaml); the checks are named
 // here, so a coarser N is another file, not other code. An episode no check matches is an error,
-// never labelled silently.
+// never labelled silently. A check looks for its fault anywhere in the episode (the paper's d_j), not only
+// at its end: a planner that fell silent once and was asked again still counts, upstream of the execution
+// failure that ended the episode.
 #pragma once
 
 #include <filesystem>
@@ -25,8 +27,9 @@ struct AttributionConfig {
   std::vector<Layer> layers;  ///< upstream first
 };
 
-/// The configuration's content hash ("attr-" + 16 hex digits of SHA-256 over its layers, harness flags
-/// and checks in order; comments and formatting do not change it): labels are stored under it.
+/// The configuration's content hash ("attr-" + 16 hex digits of SHA-256 over the checks' version and the
+/// layers, harness flags and checks in order; comments and formatting do not change it): labels are
+/// stored under it.
 std::string config_version(const AttributionConfig& config);
 
 /// Every check a layer may name, with one line on what it looks for.

@@ -13,14 +13,24 @@
 namespace dh::evo {
 
 struct CommandFacts {
-  std::string id, capability;
+  std::string id, capability, instance;
   nlohmann::json args = nlohmann::json::object();
   std::uint32_t dispatch_step = 0;
   bool recovery = false;  ///< dispatched by an insert_recovery decision
-  std::string state;      ///< its last recorded status: accepted, completed, failed, ... ("" when none came)
+  /// Its last recorded status: accepted, running, completed, failed, refused, expired ("" when none came);
+  /// "preempted" when the governor moved on (another dispatch, the end) before it reported an end.
+  std::string state;
   std::string failure = "none", stage;
   std::uint32_t end_step = 0;  ///< the step of its last status
 };
+
+struct RefusalFacts {
+  std::string code;        ///< grounding's Refusal: planner_refused, unknown_capability, precondition, ...
+  std::string capability;  ///< the advised capability, when the record names it
+};
+
+/// Whether the command ended in failure: failed, refused or expired (not completed, preempted or running).
+bool failed(const CommandFacts& c);
 
 struct EpisodeFacts {
   bool ended = false;  ///< an episode_end record exists
@@ -28,10 +38,10 @@ struct EpisodeFacts {
   std::string outcome;  ///< success, budget_exhausted, gave_up, infrastructure, rejected
   std::uint32_t steps = 0;
   bool infrastructure = false;        ///< flagged lost (the campaign's row says so)
-  bool capabilities_missing = false;  ///< it started without an instance of a capability it may use
-  bool capability_lost = false;       ///< an instance it used lost its liveliness
+  std::vector<std::string> missing;   ///< capabilities it started without (capabilities_missing)
+  bool capability_lost = false;       ///< the instance running its command lost its liveliness
   std::vector<std::string> missed_waits;  ///< deadline_missed "wait" codes, in order
-  std::vector<std::string> refusals;      ///< refusal codes, in order
+  std::vector<RefusalFacts> refusals;     ///< in order
   std::vector<CommandFacts> commands;     ///< in dispatch order
   bool planner_done = false;      ///< the last advice said every step is done
   bool verdict_lost = false;      ///< the task predicate held at some step and later did not
@@ -41,7 +51,7 @@ struct EpisodeFacts {
 
 /// Reads `records` (one episode's evidence). `flagged_infrastructure`: the campaign's row says the
 /// episode was lost to infrastructure. Throws std::runtime_error naming the record that lacks a field it
-/// needs.
+/// needs (evidence written by a build before attribution: run the episodes again with this one).
 EpisodeFacts read_facts(const std::vector<nlohmann::json>& records, bool flagged_infrastructure = false);
 
 }  // namespace dh::evo

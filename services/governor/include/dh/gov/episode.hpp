@@ -152,8 +152,9 @@ class EpisodeMachine {
   std::function<void()> unrecorded_status_;  ///< the ending command's status, recorded after its decision
   Clock::time_point capability_wait_until_;  ///< the bare arm waits this long for vla_act's announcement
   std::string deadline_what_;
-  /// What the wait is for, as a code the evidence records beside the text (attribution reads it):
-  /// first_observation, observation, planner, perception, announcement, acknowledgement.
+  /// What a missed wait was for, as a code its deadline_missed record carries beside the text (attribution
+  /// reads it): first_observation, observation, planner, acknowledgement. (Waits for an announcement or a
+  /// scene estimate end in a refusal, which is recorded instead.)
   std::string deadline_wait_;
 
   Observation last_obs_;

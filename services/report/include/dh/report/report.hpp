@@ -23,9 +23,6 @@ inline constexpr const char* kBenchmarkNote =
     "LIBERO-Pro perturbations. It is NOT LIBERO or LIBERO-Pro, and its results are not comparable with "
     "published LIBERO numbers.";
 
-/// The rows of one campaign database; `label` names it in the report (e.g. its file name). Rows of all
-/// sources are pooled: an (arm, cell, task, seed) key seen twice in one arm is counted as a duplicate;
-/// only its first row (in source, then row order) counts anywhere else (rates, pairs, tasks, times).
 /// A failed episode's attribution layer, as `dh attribute` stored it in the campaign database.
 struct Attributed {
   std::string arm, cell;
@@ -35,6 +32,10 @@ struct Attributed {
   bool harness = false;
 };
 
+/// The rows of one campaign database; `label` names it in the report (e.g. its file name). Rows of all
+/// sources are pooled: an (arm, cell, task, seed) key seen twice in one arm is counted as a duplicate;
+/// only its first row (in source, then row order) counts anywhere else (rates, pairs, tasks, times,
+/// failures by layer).
 struct Source {
   std::string label;
   std::vector<EpisodeRecord> rows;

@@ -9,16 +9,20 @@
 #include <string>
 
 #include "dh/cap/skill.hpp"
+#include "dh/cap/theta_ranges.hpp"
 
 namespace dh::cap {
 
 struct LibraryTheta {
   std::string version;                 ///< "lib-" + 16 hex digits of the hash over every capability's θ
   std::map<std::string, Theta> theta;  ///< by capability
+  std::map<std::string, ThetaRanges> ranges;  ///< by capability: where θ may go (the version ignores them)
 };
 
 /// Every descriptor (*.yaml) in `dir`. The θ of a capability this build serves in process is checked as
-/// its skill checks it (every parameter, none unknown); throws ConfigError naming the file and key.
+/// its skill checks it (every parameter, none unknown); every θ against its declared range, and against
+/// the benchmark's object, fixture and asset names (configs/scenes, configs/assets: no θ is keyed to a
+/// case); throws ConfigError naming the file and key.
 LibraryTheta load_library_theta(const std::filesystem::path& dir);
 
 /// The content hash of θ: by capability and parameter name, each value bit for bit; formatting, comments
