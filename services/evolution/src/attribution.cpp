@@ -82,18 +82,21 @@ const std::vector<NamedCheck>& checks() {
        [](const EpisodeFacts& f) {
          return any_refusal(f, {"unknown_capability", "capability_masked", "missing_argument", "unresolved_entity"});
        }},
-      {"grounding_refused", "a step's precondition or cost did not hold at grounding",
-       [](const EpisodeFacts& f) { return any_refusal(f, {"precondition", "budget"}); }},
-      {"dispatch_failed", "no live instance, no acknowledgement, or a lease that expired",
-       [](const EpisodeFacts& f) {
-         return any_wait(f, {"acknowledgement"}) || any_refusal(f, {"capability_not_alive"}) ||
-                any_command(f, [](const CommandFacts& c) { return c.state == "expired"; });
-       }},
+      {"grounding_refused", "a step's precondition did not hold at grounding",
+       [](const EpisodeFacts& f) { return any_refusal(f, {"precondition"}); }},
+      // The remaining budget could not pay for a step: a consequence of what spent it, so it sits with the
+      // budget, downstream of a failure that made the steps run out.
+      {"budget_refused", "the remaining steps could not pay for a step's cost at grounding",
+       [](const EpisodeFacts& f) { return any_refusal(f, {"budget"}); }},
+      {"dispatch_failed", "no live instance, or no acknowledgement of a dispatched command",
+       [](const EpisodeFacts& f) { return any_wait(f, {"acknowledgement"}) || any_refusal(f, {"capability_not_alive"}); }},
       {"capability_refused", "a capability refused a command at its check",
        [](const EpisodeFacts& f) { return any_command(f, [](const CommandFacts& c) { return c.state == "refused"; }); }},
-      {"execution_failed", "a step's command failed with a typed failure",
+      {"execution_failed", "a step's command failed with a typed failure, or spent its command budget unfinished",
        [](const EpisodeFacts& f) {
-         return any_command(f, [](const CommandFacts& c) { return !c.recovery && c.state == "failed"; });
+         return any_command(f, [](const CommandFacts& c) {
+           return !c.recovery && (c.state == "failed" || c.state == "expired");
+         });
        }},
       {"effect_absent", "a step completed but its effect did not hold (asked again, or the plan done and the goal unmet)",
        [](const EpisodeFacts& f) { return completed_then_again(f) || f.planner_done; }},
@@ -149,7 +152,7 @@ const std::vector<std::pair<std::string, std::string>>& check_names() {
 std::string config_version(const AttributionConfig& config) {
   // The checks' own version: a change to what a check looks for changes every file's hash, so labels
   // made by the old checks are not read as the new ones'.
-  std::string text = "checks-2\n";
+  std::string text = "checks-4\n";
   for (const Layer& l : config.layers) {
     text += l.name + (l.harness ? ":harness:" : ":other:");
     for (const auto& c : l.checks) text += c + ",";

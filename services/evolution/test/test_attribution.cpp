@@ -99,8 +99,19 @@ TEST(Attribution, OneConstructedEpisodePerLayer) {
   EXPECT_EQ(Evidence().add("deadline_missed", {{"wait", "planner"}}).end().label(), "planner_unavailable");
   EXPECT_EQ(Evidence().add("refusal", {{"refusal", "unresolved_entity"}}).end().label(), "planning");
   EXPECT_EQ(Evidence().add("refusal", {{"refusal", "precondition"}}).end().label(), "grounding");
+  EXPECT_EQ(Evidence().add("refusal", {{"refusal", "budget"}}).end().label(), "budget");
+  EXPECT_EQ(Evidence()
+                .command("c0", "pick_place", "failed", "grasp_missed")
+                .add("refusal", {{"refusal", "budget"}, {"capability", "pick_place"}})
+                .end()
+                .label(),
+            "capability_execution")
+      << "the failed grasp spent the steps the retry could not pay for";
   EXPECT_EQ(Evidence().add("deadline_missed", {{"wait", "acknowledgement"}}).end().label(), "dispatch");
-  EXPECT_EQ(Evidence().command("c0", "pick_place", "expired").end().label(), "dispatch");
+  EXPECT_EQ(Evidence().add("refusal", {{"refusal", "capability_not_alive"}, {"capability", "push"}}).end().label(),
+            "dispatch");
+  EXPECT_EQ(Evidence().command("c0", "pick_place", "expired").end().label(), "capability_execution")
+      << "a command that spent its own budget unfinished";
   EXPECT_EQ(Evidence().command("c0", "pick_place", "refused").end().label(), "capability_refusal");
   EXPECT_EQ(Evidence().command("c0", "pick_place", "failed", "grasp_missed").end().label(), "capability_execution");
   EXPECT_EQ(Evidence().command("c0", "pick_place", "completed").command("c1", "pick_place", "completed").end().label(),
