@@ -1,12 +1,14 @@
 // Episodes recorded over DDS (every process of campaign_local.yaml: two simulator workers, the governor,
 // the planner, every capability family, perception) replay in process bit for bit: every state digest,
-// every skill action and every verdict as recorded. And `dh replay` refuses a changed θ.
+// every skill action and every verdict as recorded. Every command of them, probed from the state recorded
+// at its start under the recorded θ, runs as recorded. And `dh replay` refuses a changed θ.
 #include <nlohmann/json.hpp>
 
 #include <fstream>
 #include <map>
 #include <set>
 
+#include "dh/evo/probe.hpp"
 #include "dh/inproc/replay.hpp"
 #include "campaign_helpers.hpp"
 #include "harness.hpp"
@@ -27,7 +29,8 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
   ASSERT_EQ(rows.size(), 60u);
 
   std::set<std::string> arms, cells;
-  std::size_t identical = 0, compared = 0, resumed = 0, resumed_mid = 0;
+  std::size_t identical = 0, compared = 0, resumed = 0, resumed_mid = 0, probed = 0, probes_reproduce = 0,
+              failures_reproduce = 0;
   for (const auto& row : rows) {
     ASSERT_FALSE(row.infrastructure) << row.episode_id << ": " << row.reason;
     const auto r = inproc::replay(row.evidence_path, {paths::config_dir(), {}, std::nullopt, false});
@@ -55,11 +58,26 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
       resumed += k.identical;
       resumed_mid += k.identical && k.from_step > 0;
     }
+    // The probe: each command closed-loop on the bus, from its recorded start, under the recorded θ.
+    for (std::uint32_t c = 0; row.arm != "full-perception" && c < r.commands; ++c) {
+      const auto p = evo::probe(row.evidence_path, {paths::config_dir(), {}, c});
+      EXPECT_TRUE(p.reproduces) << row.evidence_path << " probe of command " << c << " (" << p.capability
+                                << "): ended " << p.state << " at " << p.end_step << ", recorded "
+                                << (p.recorded ? p.recorded->state + " at " + std::to_string(p.recorded->step) : "none")
+                                << (p.first_divergence ? ", diverged at " + std::to_string(p.first_divergence->step) : "");
+      ++probed;
+      probes_reproduce += p.reproduces;
+      failures_reproduce += p.reproduces && p.recorded && p.recorded->state == "failed";
+    }
     arms.insert(row.arm);
     cells.insert(row.cell);
   }
   EXPECT_EQ(identical, rows.size());
   EXPECT_GE(resumed_mid, 20u) << "restored mid-episode states replay identically";
+  EXPECT_EQ(probes_reproduce, probed);
+  EXPECT_GE(probed, 50u);
+  std::printf("%zu commands probed under the recorded θ, %zu reproduced (%zu of them recorded failures)\n", probed,
+              probes_reproduce, failures_reproduce);
   EXPECT_EQ(arms.size(), 5u);
   EXPECT_EQ(cells.size(), 6u);
   std::printf("%zu episodes over DDS replayed, %zu identical, %zu skill actions compared; %zu replays from a "

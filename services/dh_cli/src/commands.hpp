@@ -20,6 +20,15 @@ struct ReplayArgs {
 /// Exit codes of its own: 0 identical, 3 diverged, 4 refused (a fingerprint differs), 2 bad input.
 int cmd_replay(const ReplayArgs& a);
 
+struct ProbeArgs {
+  std::string evidence, library;
+  std::uint32_t command = 0;
+  bool json = false;
+};
+/// Exit codes: 0 the command's effect held, 3 it did not, 2 bad input (a missing or corrupt recording, a
+/// command out of range or one a probe cannot re-run, a library that does not load).
+int cmd_probe(const ProbeArgs& a);
+
 struct RunArgs {
   std::string suite, launch_file, library;
   unsigned task = 0, seed = 0, timeout_s = 180, ready_ms = 2500;

@@ -12,6 +12,9 @@
 //   dh replay EVIDENCE [--from-command K] [--library DIR] [--json] [--allow-drift]
 //                                            re-runs a recorded episode in process and compares it step by
 //                                            step (exit 0 identical, 3 diverged, 4 a fingerprint differs)
+//   dh probe --evidence E --command K [--library DIR] [--json]
+//                                            re-runs command K from the state recorded at its start under the
+//                                            recorded θ or DIR's (exit 0 its effect held, 3 it did not)
 //   dh attribute --db FILE [--config FILE] [--export F.jsonl] [--json] | dh attribute --checks
 //                                            labels every failed episode with its attribution layer (exit 3:
 //                                            one matched no layer or its evidence is unreadable)
@@ -159,6 +162,15 @@ int main(int argc, char** argv) {
                    "replay even when the model, MuJoCo or θ differs from the recording, and say what differs");
   replay->add_flag("--json", replay_args.json,
                    "one JSON object: identical, steps, first_divergence {step, body, quantity} or null, ...");
+  ProbeArgs probe_args;
+  auto* probe = app.add_subcommand("probe", "re-run one recorded command from the state at its start");
+  probe->add_option("--evidence", probe_args.evidence, "the episode's evidence file (<episode>.jsonl; the seam's "
+                                                       "<episode>.steps and .states beside it)")->required();
+  probe->add_option("--command", probe_args.command, "K: the K-th dispatched command (from 0)")->required();
+  probe->add_option("--library", probe_args.library,
+                    "a candidate library folder (descriptors as configs/library); default: the θ the episode recorded");
+  probe->add_flag("--json", probe_args.json,
+                  "one JSON object: state, failure, effect, effect_held, reproduces, first_divergence, ...");
   AttributeArgs attr;
   auto* attribute = app.add_subcommand("attribute", "label every failed episode of a campaign database by layer");
   attribute->add_option("--db", attr.db, "campaign database");
@@ -183,6 +195,7 @@ int main(int argc, char** argv) {
     if (*train) return cmd_train_policy(train_args);
     if (*replay) return cmd_replay(replay_args);
     if (*attribute) return cmd_attribute(attr);
+    if (*probe) return cmd_probe(probe_args);
   } catch (const dh::ConfigError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;

@@ -7,8 +7,8 @@
 #include <stdexcept>
 
 #include "dh/common/config.hpp"
+#include "dh/common/digest.hpp"
 
-#include <openssl/evp.h>
 
 #include <cstdio>
 
@@ -158,17 +158,7 @@ std::string config_version(const AttributionConfig& config) {
     for (const auto& c : l.checks) text += c + ",";
     text += "\n";
   }
-  unsigned char md[EVP_MAX_MD_SIZE];
-  unsigned len = 0;
-  if (EVP_Digest(text.data(), text.size(), md, &len, EVP_sha256(), nullptr) != 1)
-    throw std::runtime_error("SHA-256 of the attribution configuration failed");
-  std::string hex = "attr-";
-  char byte[3];
-  for (unsigned i = 0; i < 8; ++i) {
-    std::snprintf(byte, sizeof byte, "%02x", md[i]);
-    hex += byte;
-  }
-  return hex;
+  return "attr-" + sha256_hex(text).substr(0, 16);
 }
 
 bool check(const std::string& name, const EpisodeFacts& facts) {

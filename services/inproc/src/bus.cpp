@@ -11,9 +11,14 @@ void CommandRunner::begin_episode(const std::string& episode_id) {
   host_.on_observation(*seam_.start(cell_, episode_id, episode_budget_, "", step_time(0)).observation, step_time(0));
 }
 
+void CommandRunner::resume_episode(const std::string& episode_id, const std::string& predicate,
+                                   const sim::StateRecord& from) {
+  const auto now = step_time(from.step);
+  host_.on_observation(*seam_.resume(cell_, episode_id, episode_budget_, predicate, from, now).observation, now);
+}
+
 CommandOutcome CommandRunner::run(const std::string& capability, const cap::Bindings& args,
                                   const cap::Theta& theta, std::uint32_t budget_steps) {
-  if (!seam_.running()) throw std::logic_error("CommandRunner::run before begin_episode");
   const cap::ServedCapability* served = host_.serving(capability);
   if (!served) throw std::invalid_argument("the host core serves no capability '" + capability + "'");
   cap::CommandStart c;
@@ -23,8 +28,14 @@ CommandOutcome CommandRunner::run(const std::string& capability, const cap::Bind
   c.instance = served->instance;
   c.args = args;
   c.theta = theta;
-  c.start_step = seam_.step();
   c.budget_steps = budget_steps;
+  return run(std::move(c));
+}
+
+CommandOutcome CommandRunner::run(cap::CommandStart c) {
+  if (!seam_.running()) throw std::logic_error("CommandRunner::run before begin_episode or resume_episode");
+  c.start_step = seam_.step();
+  const std::uint32_t budget_steps = c.budget_steps;
   seam_.on_lease({seam_.episode_id(), c.command_id, c.start_step + budget_steps, c.start_step + budget_steps, false},
                  step_time(c.start_step));
 
@@ -53,6 +64,7 @@ CommandOutcome CommandRunner::run(const std::string& capability, const cap::Bind
                              std::to_string(a.step) + (sx.ended ? ": " + *sx.ended : std::string()));
     obs = *sx.observation;
     out.last = obs;
+    if (after_step) after_step(obs.step);
     out.goal |= obs.goal_holds;
     fx = host_.on_observation(obs, step_time(obs.step));
   }

@@ -13,7 +13,7 @@
 
 int main(int argc, char** argv) {
   CLI::App app{"dh_inproc: episodes of the whole stack in one process (no DDS)"};
-  std::string cells = "goal", tasks = "0-9", seeds = "1-5", arm = "full", out = "runs/inproc", policy;
+  std::string cells = "goal", tasks = "0-9", seeds = "1-5", arm = "full", out = "runs/inproc", policy, library;
   bool quiet = false;
   app.add_option("--cells", cells, "comma-separated cells (goal, goal-task, goal-swap, long, ...)");
   app.add_option("--tasks", tasks, "task ids, e.g. 0-9 or 1,3");
@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   app.add_option("--arm", arm, "arm of configs/governor.yaml");
   app.add_option("--out", out, "evidence folder");
   app.add_option("--policy", policy, "embedded policy weight file: serve vla_act with it (dh train-policy)");
+  app.add_option("--library", library, "capability library folder (default configs/library)");
   app.add_flag("--quiet", quiet, "only the summary");
   CLI11_PARSE(app, argc, argv);
   auto range = [](const std::string& s) {
@@ -40,10 +41,11 @@ int main(int argc, char** argv) {
   };
   try {
     const auto suites = dh::load_suites(dh::paths::config_dir());
-    dh::inproc::Stack stack(dh::paths::config_dir());
+    const auto library_dir = library.empty() ? dh::paths::config_dir() / "library" : std::filesystem::path(library);
+    dh::inproc::Stack stack(dh::paths::config_dir(), library_dir);
     if (!policy.empty())
       stack.add_capability(dh::cap::vla_act_def(std::make_shared<dh::cap::EmbeddedPolicy>(dh::policy::load_policy(policy))),
-                           dh::paths::config_dir() / "library");
+                           library_dir);
     std::map<std::string, std::pair<int, int>> per_task, per_cell;
     int ok = 0, n = 0;
     const auto t0 = std::chrono::steady_clock::now();

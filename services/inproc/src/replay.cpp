@@ -25,73 +25,8 @@ namespace {
 
 using nlohmann::json;
 
-/// A command as the evidence recorded it: its grounding (capability, arguments, θ) and its dispatch.
-struct RecordedCommand {
-  std::string id, capability, version;
-  json args, theta;
-  std::uint32_t start_step = 0, budget_steps = 0;
-};
-
-struct Recorded {
-  std::string suite, arm, episode_id, build, instruction;
-  std::set<std::string> predicates;         ///< the goal's text as the seam stated it
-  unsigned task = 0;
-  std::uint64_t seed = 0;
-  std::uint32_t budget_steps = 0, decision_period = 10;
-  std::vector<RecordedCommand> commands;    ///< in dispatch order
-  std::map<std::uint32_t, bool> verdicts;   ///< step -> value of each predicate change
-};
-
 [[noreturn]] void bad(const std::filesystem::path& evidence, const std::string& what) {
   throw std::runtime_error("evidence " + evidence.string() + ": " + what);
-}
-
-Recorded read_recorded(const std::filesystem::path& evidence) {
-  if (!std::filesystem::exists(evidence)) bad(evidence, "no such file");
-  const std::vector<json> records = read_evidence(evidence);
-  Recorded r;
-  bool request = false, start = false;
-  std::map<std::string, RecordedCommand> grounded;
-  try {
-    for (const auto& e : records) {
-      const std::string kind = e.value("kind", "");
-      if (kind == "episode_request") {
-        request = true;
-        r.suite = e.at("suite").get<std::string>();
-        r.task = e.at("task").get<unsigned>();
-        r.seed = e.at("seed").get<std::uint64_t>();
-        r.arm = e.value("arm", "full");
-        r.build = e.value("build", "");
-      } else if (kind == "episode_start") {
-        start = true;
-        r.episode_id = e.at("episode_id").get<std::string>();
-        r.budget_steps = e.at("budget_steps").get<std::uint32_t>();
-        r.instruction = e.value("instruction", "");
-        r.decision_period = e.value("decision_period", 10u);
-      } else if (kind == "grounding" && e.value("result", "") == "grounded") {
-        RecordedCommand& c = grounded[e.at("command_id").get<std::string>()];
-        c.id = e.at("command_id").get<std::string>();
-        c.capability = e.at("capability").get<std::string>();
-        c.version = e.value("version", "");
-        c.args = e.value("args", json::object());
-        c.theta = e.value("theta", json::object());
-      } else if (kind == "dispatch") {
-        const auto id = e.at("command_id").get<std::string>();
-        if (!grounded.count(id)) bad(evidence, "command " + id + " was dispatched without a grounding record");
-        RecordedCommand c = grounded.at(id);
-        c.start_step = e.at("step").get<std::uint32_t>();
-        c.budget_steps = e.at("budget_steps").get<std::uint32_t>();
-        r.commands.push_back(std::move(c));
-      } else if (kind == "verdict_event") {
-        r.verdicts[e.at("step").get<std::uint32_t>()] = e.at("value").get<bool>();
-        r.predicates.insert(e.value("predicate", ""));
-      }
-    }
-  } catch (const json::exception& e) {
-    bad(evidence, std::string("a record lacks a field the replay needs: ") + e.what());
-  }
-  if (!request || !start) bad(evidence, "no episode_request or episode_start record (not a governor's evidence?)");
-  return r;
 }
 
 const cap::CapabilityDef* find_def(const std::vector<cap::CapabilityDef>& defs, const std::string& name) {
@@ -101,7 +36,7 @@ const cap::CapabilityDef* find_def(const std::vector<cap::CapabilityDef>& defs, 
 }
 
 /// θ of each grounded capability against the library's descriptor; each difference named.
-std::vector<std::string> theta_drift(const Recorded& rec, const std::vector<cap::CapabilityDef>& defs,
+std::vector<std::string> theta_drift(const Recording& rec, const std::vector<cap::CapabilityDef>& defs,
                                      const std::filesystem::path& library) {
   std::vector<std::string> drift;
   std::map<std::string, bool> checked;
@@ -127,46 +62,10 @@ std::vector<std::string> theta_drift(const Recorded& rec, const std::vector<cap:
   return drift;
 }
 
-std::string joint_name(const mjModel* m, int j) {
-  const char* n = mj_id2name(m, mjOBJ_JOINT, j);
-  return n ? n : "joint" + std::to_string(j);
-}
-
-std::string body_name(const mjModel* m, int b) {
-  const char* n = mj_id2name(m, mjOBJ_BODY, b);
-  return n ? n : "body" + std::to_string(b);
-}
-
-/// Where two digests of the same model differ: the first joint and quantity, else the solver state.
-Divergence where(const mjModel* m, std::uint32_t step, const sim::StateDigest& got, const sim::StateDigest& want) {
-  for (std::size_t i = 0; i < got.joints.size() && i < want.joints.size(); ++i)
-    if (got.joints[i] != want.joints[i]) {
-      const int j = static_cast<int>(i / 2);
-      return {step, body_name(m, m->jnt_bodyid[j]), std::string(i % 2 ? "qvel:" : "qpos:") + joint_name(m, j)};
-    }
-  static const char* aux[] = {"time", "act", "ctrl", "qacc_warmstart"};
-  for (std::size_t i = 0; i < 4; ++i)
-    if (got.aux[i] != want.aux[i]) return {step, "world", aux[i]};
-  return {step, "world", "state"};
-}
-
-cap::Bindings bindings(const json& args) {
-  cap::Bindings b;
-  for (const auto& [k, v] : args.items()) b.emplace_back(k, v.is_string() ? v.get<std::string>() : v.dump());
-  return b;
-}
-
-cap::Theta theta(const json& t) {
-  cap::Theta th;
-  for (const auto& [k, v] : t.items())
-    if (v.is_number()) th[k] = v.get<double>();
-  return th;
-}
-
 }  // namespace
 
 ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& o) {
-  const Recorded rec = read_recorded(evidence);
+  const Recording rec = read_recording(evidence);
   const auto steps_file = std::filesystem::path(evidence).replace_extension(".steps");
   const sim::StepLog log = sim::read_step_log(steps_file);
   if (log.records.empty()) bad(steps_file, "the step log has no record of step 0");
@@ -261,24 +160,8 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
   }
 
   cell.reset(rec.seed, task.goal);
-  // The capability host's state at K's start: the keyframes the commands before K left, each taken as the
-  // host took it, from the observation of the state recorded at that command's start.
-  const auto command_start = [&](const RecordedCommand& c, std::uint32_t at) {
-    return cap::CommandStart{0, rec.episode_id, c.id, c.capability, c.capability + "@replay", bindings(c.args),
-                             theta(c.theta), at, c.budget_steps, rec.decision_period, cap::Grounding::State};
-  };
-  for (std::size_t i = 0; resume_from && i < *o.from_command; ++i) {
-    const sim::StateRecord* r = states.for_command(rec.commands[i].id);
-    if (!r) continue;  // its lease never reached the seam: it never started
-    cell.restore(r->state);
-    Observation at = cell.observe();
-    at.episode_id = rec.episode_id;
-    at.step = r->step;
-    at.budget_steps = rec.budget_steps;
-    host.on_observation(at, step_time(r->step));
-    host.on_start(command_start(rec.commands[i], r->step), step_time(r->step));
-    host.on_cancel({0, rec.episode_id, rec.commands[i].id, rec.commands[i].capability + "@replay"});
-  }
+  // The capability host's state at K's start: the keyframes the commands before K left.
+  if (resume_from) restore_host(host, cell, rec, states, *o.from_command, "replay");
   sim::SeamCore seam(0, kBusSeam);
   const std::string predicate = goal_text(task.goal);
   const std::uint32_t first = resume_from ? resume_from->step : 0;
@@ -294,7 +177,7 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
   // start from; a resumed one is the record itself, its digest is what says it was restored exactly).
   const auto check_states = [&](std::uint32_t step, bool whole) {
     if (cell.digest() != log.records[step].digest)
-      note(where(cell.model(), step, cell.digest(), log.records[step].digest));
+      note(divergence_at(cell, step, log.records[step].digest));
     for (const auto& r : states.records)
       if (whole && r.step == step) {
         ++report.states_checked;
@@ -316,7 +199,7 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
     for (; next < rec.commands.size() && rec.commands[next].start_step <= t; ++next) {
       const RecordedCommand& c = rec.commands[next];
       if (!rerun(c)) continue;
-      take(host.on_start(command_start(c, c.start_step), step_time(t)));
+      take(host.on_start(command_start(rec, c, c.start_step, theta_of(c.theta), "replay"), step_time(t)));
     }
     const auto cmd = by_id.find(r.command_id);
     if (cmd == by_id.end())
@@ -365,11 +248,7 @@ nlohmann::json to_json(const ReplayReport& r) {
          {"recorded_only", r.recorded_only},
          {"drift", r.drift},
          {"verdicts_identical", r.verdicts_identical},
-         {"first_divergence", nullptr}};
-  if (r.first_divergence)
-    j["first_divergence"] = {{"step", r.first_divergence->step},
-                             {"body", r.first_divergence->body},
-                             {"quantity", r.first_divergence->quantity}};
+         {"first_divergence", to_json(r.first_divergence)}};
   return j;
 }
 

@@ -13,12 +13,13 @@
 
 namespace dh::inproc {
 
-Stack::Stack(const std::filesystem::path& config_dir)
+Stack::Stack(const std::filesystem::path& config_dir, const std::filesystem::path& library_dir)
     : governor_(gov::load_config(config_dir / "governor.yaml"), load_arms(config_dir / "governor.yaml"),
                 // Every capability is served before the first request: nothing to wait for.
                 {{}, gov::Clock::time_point{}, std::nullopt}),
-      host_({}), library_(cap::load_library_theta(config_dir / "library")) {
-  for (auto& def : cap::all_capabilities()) add_capability(std::move(def), config_dir / "library");
+      host_({}), library_(cap::load_library_theta(library_dir.empty() ? config_dir / "library" : library_dir)) {
+  const auto dir = library_dir.empty() ? config_dir / "library" : library_dir;
+  for (auto& def : cap::all_capabilities()) add_capability(std::move(def), dir);
 }
 
 void Stack::add_capability(cap::CapabilityDef def, const std::filesystem::path& library_dir) {

@@ -1,6 +1,6 @@
 #include "dh/policy/model.hpp"
 
-#include <openssl/evp.h>
+#include "dh/common/digest.hpp"
 
 #include <algorithm>
 #include <cstdio>
@@ -16,19 +16,6 @@ void append(std::string& out, const float* p, std::size_t n) {
   out.append(reinterpret_cast<const char*>(p), n * sizeof(float));
 }
 }  // namespace
-
-std::string sha256_hex(const void* data, std::size_t size) {
-  unsigned char md[EVP_MAX_MD_SIZE];
-  unsigned int len = 0;
-  if (EVP_Digest(data, size, md, &len, EVP_sha256(), nullptr) != 1) throw PolicyFileError("SHA-256 failed");
-  std::string hex;
-  char buf[3];
-  for (unsigned i = 0; i < len; ++i) {
-    std::snprintf(buf, sizeof buf, "%02x", md[i]);
-    hex += buf;
-  }
-  return hex;
-}
 
 Eigen::VectorXf PolicyModel::normalise(const Eigen::VectorXf& f) const {
   return (f - feature_mean).cwiseQuotient(feature_scale);

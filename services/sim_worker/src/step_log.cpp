@@ -13,18 +13,6 @@ using binlog::put;
 
 }  // namespace
 
-std::uint64_t fnv1a64(const void* data, std::size_t n, std::uint64_t h) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ull;
-  return h;
-}
-
-std::uint32_t fnv1a32(const void* data, std::size_t n, std::uint32_t h) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x01000193u;
-  return h;
-}
-
 StepLogWriter::StepLogWriter(const std::filesystem::path& path, const StepLogHeader& header)
     : path_(path), joints_(header.joints) {
   std::string out(kMagic, sizeof kMagic);

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "dh/common/digest.hpp"
 #include "dh/common/geometry.hpp"
 #include "dh/sim/model.hpp"
 

@@ -14,6 +14,7 @@
 #include "dh/common/suite.hpp"
 #include "dh/sim/scene.hpp"
 #include "dh/sim/seam_core.hpp"
+#include "dh/sim/worker_ports.hpp"
 #include "dh/sim/workcell.hpp"
 
 using namespace dh;
@@ -191,10 +192,10 @@ TEST_F(SeamCoreTest, NothingForTheAbandonPeriodAbandonsTheEpisode) {
   EXPECT_TRUE(refused(act("c0", 0, t0 + 61s), "c0", SeamEventKind::RejectedCommand));
 }
 
-TEST(SeamCorePorts, MatchTheServiceReadme) {
+TEST(WorkerPorts, MatchTheServiceReadme) {
   const char* home = std::getenv("DH_HOME");
   ASSERT_TRUE(home) << "DH_HOME names the checkout";
-  EXPECT_EQ(port_table(std::filesystem::path(home) / "services/sim_worker/README.md"), port_table(SeamCore::ports()));
+  EXPECT_EQ(port_table(std::filesystem::path(home) / "services/sim_worker/README.md"), port_table(sim::worker_ports()));
 }
 
 // The step log the seam writes beside the evidence: one record per step, read back as written, and a

@@ -33,6 +33,8 @@ const Ports& HostCore::ports() {
       {Out, topics::kAction, "dh::msg::Action", dds::Qos::Action, "the action answering an observation"},
       {Out, topics::kCommandStatus, "dh::msg::CommandStatus", dds::Qos::Status,
        "the command's state and reason"},
+      {Out, topics::kAnnounce, "dh::msg::CapabilityAnnounce", dds::Qos::Announce,
+       "one per capability served, again with `draining` set on drain; liveliness asserted from the loop"},
   };
   return p;
 }

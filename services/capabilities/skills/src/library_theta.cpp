@@ -7,17 +7,13 @@
 #include "dh/cap/descriptor.hpp"
 #include "dh/cap/library.hpp"
 #include "dh/common/config.hpp"
+#include "dh/common/digest.hpp"
 #include "dh/common/paths.hpp"
 
 namespace dh::cap {
 namespace {
 
-void fnv(std::uint64_t& h, const void* data, std::size_t n) {
-  const auto* p = static_cast<const unsigned char*>(data);
-  for (std::size_t i = 0; i < n; ++i) h = (h ^ p[i]) * 0x100000001b3ull;
-}
-
-void fnv(std::uint64_t& h, const std::string& s) { fnv(h, s.c_str(), s.size() + 1); }  // with its terminator
+void fnv(std::uint64_t& h, const std::string& s) { h = fnv1a64(s.c_str(), s.size() + 1, h); }  // with its terminator
 
 /// Names a θ may not be keyed to: every scene's entities and regions, every asset.
 std::set<std::string> case_names() {
@@ -40,12 +36,12 @@ std::set<std::string> case_names() {
 }  // namespace
 
 std::string library_version(const std::map<std::string, Theta>& theta) {
-  std::uint64_t h = 0xcbf29ce484222325ull;
+  std::uint64_t h = kFnv1a64Basis;
   for (const auto& [capability, params] : theta) {
     fnv(h, capability);
     for (const auto& [name, value] : params) {
       fnv(h, name);
-      fnv(h, &value, sizeof value);
+      h = fnv1a64(&value, sizeof value, h);
     }
   }
   char hex[17];

@@ -52,9 +52,16 @@ class CommandRunner {
 
   /// A new episode on the cell as it is now (reset it first for a seeded start).
   void begin_episode(const std::string& episode_id);
+  /// Resumes a recorded episode from the state recorded at `from` (a command's start), checking `predicate`.
+  void resume_episode(const std::string& episode_id, const std::string& predicate, const sim::StateRecord& from);
   /// Runs `capability` with `args` under `theta` until it ends or its `budget_steps` run out.
   CommandOutcome run(const std::string& capability, const cap::Bindings& args, const cap::Theta& theta,
                      std::uint32_t budget_steps);
+  /// Runs `c` from the current step (its start_step is set to it) until it ends or its budget runs out.
+  CommandOutcome run(cap::CommandStart c);
+
+  /// Called after each applied action with the step it led to, the cell in that step's state.
+  std::function<void(std::uint32_t step)> after_step;
 
  private:
   sim::Workcell& cell_;

@@ -22,6 +22,8 @@
 #include <string>
 #include <vector>
 
+#include "dh/inproc/recording.hpp"
+
 namespace dh::inproc {
 
 struct ReplayOptions {
@@ -30,12 +32,6 @@ struct ReplayOptions {
   std::optional<std::uint32_t> from_command;  ///< K: restore the state at the K-th dispatched command's
                                              ///< start (0-based) and replay its actions, to its last one
   bool allow_drift = false;                  ///< run despite differing fingerprints, and say which
-};
-
-struct Divergence {
-  std::uint32_t step = 0;
-  std::string body;      ///< the joint's body, "world" for the solver state, or the capability for actions
-  std::string quantity;  ///< e.g. "qpos:joint3", "qvel:bowl_joint", "qacc_warmstart", "action[2]"
 };
 
 struct ReplayReport {

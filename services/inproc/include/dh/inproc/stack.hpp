@@ -41,9 +41,10 @@ struct EpisodeOutcome {
 
 class Stack {
  public:
-  /// Loads the governor configuration, the arms and every capability descriptor under `config_dir`; its
-  /// episodes run the library of `config_dir`/library, as `dh campaign` sends it by default.
-  explicit Stack(const std::filesystem::path& config_dir);
+  /// Loads the governor configuration and the arms under `config_dir`, and every capability descriptor
+  /// under `library_dir` (default `config_dir`/library, as `dh campaign` sends it); its episodes run that
+  /// library.
+  explicit Stack(const std::filesystem::path& config_dir, const std::filesystem::path& library_dir = {});
   /// Runs one episode of `task` with `seed` under `arm`; evidence goes to `evidence` (JSON lines).
   EpisodeOutcome run(const TaskDef& task, std::uint64_t seed, const std::string& arm,
                      const std::filesystem::path& evidence, const StepTap& tap = {});

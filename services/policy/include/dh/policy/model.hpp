@@ -48,6 +48,4 @@ void save_policy(PolicyModel& m, const std::filesystem::path& file);
 /// Reads and verifies a weight file; throws PolicyFileError naming the file and the fault.
 PolicyModel load_policy(const std::filesystem::path& file);
 
-std::string sha256_hex(const void* data, std::size_t size);
-
 }  // namespace dh::policy

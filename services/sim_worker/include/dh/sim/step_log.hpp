@@ -59,10 +59,6 @@ struct StepLog {
   std::vector<StepRecord> records;  ///< complete records only (a torn last one is dropped)
 };
 
-/// FNV-1a over `n` bytes, continuing from `h` (start with the defaults).
-std::uint64_t fnv1a64(const void* data, std::size_t n, std::uint64_t h = 0xcbf29ce484222325ull);
-std::uint32_t fnv1a32(const void* data, std::size_t n, std::uint32_t h = 0x811c9dc5u);
-
 /// Reads a step log; throws std::runtime_error naming the file when it is missing or not one.
 StepLog read_step_log(const std::filesystem::path& path);
 

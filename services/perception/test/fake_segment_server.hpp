@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "../support/python_server.hpp"
+#include "python_server.hpp"  // tests/support
 
 #ifndef DH_FAKE_SEGMENT_SERVER
 #error "DH_FAKE_SEGMENT_SERVER must name fake_segment_server.py"

@@ -1,40 +1,15 @@
 #include <gtest/gtest.h>
 
-#include <filesystem>
-#include <fstream>
-
+#include "config_files.hpp"  // tests/support
 #include "dh/common/arms.hpp"
 #include "dh/common/config.hpp"
 #include "dh/common/evidence.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
-#include "dh/sim/scene.hpp"
 
 using namespace dh;
-namespace fs = std::filesystem;
-
-namespace {
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const ConfigError& e) {
-    return e.what();
-  }
-  return "";
-}
-
-struct TempDir {
-  fs::path dir = fs::temp_directory_path() /
-                 ("dh_cfg_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-  TempDir() { fs::create_directories(dir); }
-  ~TempDir() { fs::remove_all(dir); }
-  fs::path write(const std::string& name, const std::string& text) {
-    fs::create_directories((dir / name).parent_path());
-    std::ofstream(dir / name) << text;
-    return dir / name;
-  }
-};
-}  // namespace
+using test::error_of;
+using test::TempDir;
 
 TEST(Config, MissingFileIsNamed) {
   const auto e = error_of([] { ConfigNode::load_file("/nonexistent/dh.yaml"); });
@@ -75,28 +50,6 @@ TEST(Suites, ASuiteWithoutAGoalIsRejected) {
   t.write("suites/x.yaml", "suite: x\nbudget_steps: 10\nscene: s.yaml\ntasks:\n  - {id: 0, instruction: hi, goal: []}\n");
   const auto e = error_of([&] { load_suites(t.dir); });
   EXPECT_NE(e.find("x.yaml: key 'tasks[0].goal'"), std::string::npos) << e;
-}
-
-TEST(Scene, UnknownAssetBadGeomAndBadUrdfAreNamed) {
-  TempDir t;
-  const std::string head = "scene: s\ntable: {size: [1, 1, 0.05]}\nworkspace: {min: [0,0,0], max: [1,1,1]}\n";
-  t.write("robots/bad.urdf", "<robot name='x'><link name='a'/></robot>");
-  auto f = t.write("scenes/s1.yaml", head + "robot: {urdf: ../robots/bad.urdf, base: [0,0,0], ready_q: [0,0,0,0,0,0,0]}\nentities: []\n");
-  auto e = error_of([&] { sim::load_scene(f); });
-  EXPECT_NE(e.find("bad.urdf: expected 7 revolute arm joints"), std::string::npos) << e;
-  const fs::path urdf = paths::config_dir() / "robots" / "panda.urdf";
-  const std::string robot = "robot: {urdf: " + urdf.string() + ", base: [0,0,0], ready_q: [0,0,0,0,0,0,0]}\n";
-  f = t.write("scenes/s2.yaml", head + robot + "entities:\n  - {name: t, asset: teapot, xy: [0, 0]}\n");
-  e = error_of([&] { sim::load_scene(f); });
-  EXPECT_NE(e.find("key 'entities[0].asset': no asset 'teapot'"), std::string::npos) << e;
-  t.write("assets/blob.yaml", "asset: blob\nkind: blob\nmass: 1\nrgba: [1,1,1,1]\ngeoms:\n  - {type: sphere, size: [1,1,1], pos: [0,0,0]}\n");
-  f = t.write("scenes/s3.yaml", head + robot + "entities:\n  - {name: b, asset: blob, xy: [0, 0]}\n");
-  e = error_of([&] { sim::load_scene(f); });
-  EXPECT_NE(e.find("blob.yaml: key 'geoms[0].type': unknown geom type 'sphere'"), std::string::npos) << e;
-  t.write("assets/shelf.yaml", "asset: shelf\nkind: shelf\nfixture: true\nrgba: [1,1,1,1]\ngeoms:\n  - {type: box, size: [0.1,0.1,0.1], pos: [0,0,0.1]}\n");
-  f = t.write("scenes/s4.yaml", head + robot + "entities:\n  - {name: s, asset: shelf, xy: [0, 0], jitter: 0.1}\n");
-  e = error_of([&] { sim::load_scene(f); });
-  EXPECT_NE(e.find("key 'entities[0].jitter': fixtures stand where the scene puts them"), std::string::npos) << e;
 }
 
 TEST(Evidence, AppendsFlushedRecordsAndSkipsATornLine) {

@@ -1,0 +1,55 @@
+// The probe (issue 16): a recorded command re-run from the state the harness left the arm in. The
+// workcell is restored to the physics state recorded at command K's start, the capability host core to
+// the keyframes the earlier commands left, and K runs again on the in-process bus — the same host and seam
+// cores the services run — under the parent library (the θ the episode recorded) or a candidate's.
+// It reports how the command ended, whether its effect held (effect.hpp), and, step by step, whether
+// the physics followed the recording: under the parent library a probe reproduces the recorded command
+// bit for bit.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "dh/inproc/recording.hpp"
+#include "dh/inproc/replay.hpp"
+
+namespace dh::evo {
+
+struct ProbeOptions {
+  std::filesystem::path config_dir;   ///< suites, scenes, arms
+  std::filesystem::path library_dir;  ///< a candidate library; empty: the θ the episode recorded (the parent)
+  std::uint32_t command = 0;          ///< K, 0-based in dispatch order
+};
+
+struct ProbeReport {
+  std::string episode_id, command_id, capability;
+  std::string library;          ///< "recorded" or the candidate library's version (lib-...)
+  nlohmann::json theta;         ///< the θ the command ran with
+  std::uint32_t from_step = 0;  ///< the restored state's step (the command's start)
+  std::uint32_t end_step = 0;   ///< the step its end was reported at
+  std::uint32_t budget_steps = 0;
+  std::string state, failure, stage, reason;  ///< how it ended (CommandState, FailureCode as text)
+  std::string effect;           ///< the effect's predicates, or "completion" when its arguments name none
+  bool effect_held = false;
+  // Against the recording:
+  std::optional<inproc::RecordedEnd> recorded;  ///< none: the governor moved on before the command ended
+  bool same_end = false;                        ///< state, failure, stage and step as recorded
+  std::uint32_t steps_compared = 0;             ///< steps whose physics digest was compared with the step log
+  std::optional<inproc::Divergence> first_divergence;
+  bool reproduces = false;  ///< every compared step identical, and the recorded end (if any) the same
+};
+
+/// Probes command `options.command` of the episode recorded at `evidence` (with its .steps and .states
+/// beside it). Throws std::runtime_error naming the file for missing or corrupt recordings,
+/// std::invalid_argument for a command number out of range or a command the probe cannot re-run (one
+/// grounded in perception, or a capability that is not an analytic or recovery skill of this build),
+/// cap's ConfigError for a candidate library that does not load.
+ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& options);
+
+nlohmann::json to_json(const ProbeReport& r);
+
+}  // namespace dh::evo

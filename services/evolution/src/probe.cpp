@@ -1,0 +1,151 @@
+#include "dh/evo/probe.hpp"
+
+#include <mujoco/mujoco.h>
+
+#include <stdexcept>
+
+#include "dh/cap/descriptor.hpp"
+#include "dh/cap/library.hpp"
+#include "dh/cap/library_theta.hpp"
+#include "dh/common/arms.hpp"
+#include "dh/common/suite.hpp"
+#include "dh/evo/effect.hpp"
+#include "dh/gov/grounding.hpp"
+#include "dh/inproc/bus.hpp"
+#include "dh/sim/scene.hpp"
+#include "dh/sim/state_log.hpp"
+#include "dh/sim/step_log.hpp"
+
+namespace dh::evo {
+namespace {
+
+using nlohmann::json;
+constexpr const char* kHost = "probe";
+
+const cap::CapabilityDef* find_def(const std::vector<cap::CapabilityDef>& defs, const std::string& name) {
+  for (const auto& d : defs)
+    if (d.name == name) return &d;
+  return nullptr;
+}
+
+}  // namespace
+
+ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) {
+  const inproc::Recording rec = inproc::read_recording(evidence);
+  if (o.command >= rec.commands.size())
+    throw std::invalid_argument("--command " + std::to_string(o.command) + ": the episode dispatched " +
+                                std::to_string(rec.commands.size()) + " command(s), numbered from 0");
+  const inproc::RecordedCommand& k = rec.commands[o.command];
+  const auto arms = load_arms(o.config_dir / "governor.yaml");
+  if (find_arm(arms, rec.arm).grounding == "perception")
+    throw std::invalid_argument("command " + k.id + " was grounded in perception estimates, which a probe does not re-make");
+  const std::vector<cap::CapabilityDef> defs = cap::all_capabilities();
+  const cap::CapabilityDef* def = find_def(defs, k.capability);
+  if (!def)
+    throw std::invalid_argument("command " + k.id + " ran " + k.capability + " " + k.version +
+                                ", not an analytic or recovery skill of this build: a probe cannot re-run it");
+
+  const auto states_file = std::filesystem::path(evidence).replace_extension(".states");
+  const auto steps_file = std::filesystem::path(evidence).replace_extension(".steps");
+  const sim::StateLog states = sim::read_state_log(states_file);
+  const sim::StepLog log = sim::read_step_log(steps_file);
+  if (static_cast<std::uint32_t>(mj_version()) != log.header.mujoco_version)
+    throw std::runtime_error("step log " + steps_file.string() + " was recorded with MuJoCo " +
+                             std::to_string(log.header.mujoco_version) + "; this build runs " +
+                             std::to_string(mj_version()) + ", which does not step the same");
+  const sim::StateRecord* from = states.for_command(k.id);
+  if (!from)
+    throw std::runtime_error("state log " + states_file.string() + ": no state recorded at the start of command " +
+                             k.id + " (its lease never reached the seam, so it never ran)");
+
+  const auto suites = load_suites(o.config_dir);
+  const TaskDef& task = find_task(suites, rec.suite, rec.task);
+  sim::Workcell cell(sim::load_task_scene(task));
+  if (cell.model_hash() != states.header.model_hash)
+    throw std::runtime_error("state log " + states_file.string() + " is of another model than " +
+                             task.scene_file.string() + " compiles to (scene, assets or robot changed)");
+  cell.reset(rec.seed, task.goal);
+
+  ProbeReport r;
+  r.episode_id = rec.episode_id;
+  r.command_id = k.id;
+  r.capability = k.capability;
+  r.from_step = from->step;
+  r.recorded = k.end;
+  cap::Theta theta = inproc::theta_of(k.theta);
+  r.budget_steps = k.budget_steps;
+  r.library = "recorded";
+  if (!o.library_dir.empty()) {
+    const cap::LibraryTheta lib = cap::load_library_theta(o.library_dir);
+    const auto t = lib.theta.find(k.capability);
+    if (t == lib.theta.end())
+      throw std::invalid_argument("library " + o.library_dir.string() + " has no " + k.capability + ".yaml");
+    theta = t->second;
+    r.library = lib.version;
+    // The budget the governor would give the candidate: its cost model, within what the episode had left.
+    const int cost = cap::load_descriptor(o.library_dir / (k.capability + ".yaml"), *def).cost_steps;
+    r.budget_steps = gov::command_budget(static_cast<std::uint32_t>(cost), rec.budget_steps - from->step);
+  }
+  r.theta = json(theta);
+
+  std::vector<cap::ServedCapability> served;
+  for (const auto& d : defs) served.push_back({d, d.name + "@" + kHost});
+  cap::HostCore host(served);
+  inproc::restore_host(host, cell, rec, states, o.command, kHost);
+
+  inproc::CommandRunner runner(cell, host, rec.budget_steps);
+  runner.resume_episode(rec.episode_id, goal_text(task.goal), *from);
+  // Each step's physics against the step log, while the recording ran this command.
+  runner.after_step = [&](std::uint32_t step) {
+    if (step >= log.records.size() || log.records[step].command_id != k.id) return;
+    ++r.steps_compared;
+    if (!r.first_divergence && cell.digest() != log.records[step].digest)
+      r.first_divergence = inproc::divergence_at(cell, step, log.records[step].digest);
+  };
+  cap::CommandStart start = inproc::command_start(rec, k, from->step, theta, kHost);
+  start.budget_steps = r.budget_steps;
+  const inproc::CommandOutcome out = runner.run(std::move(start));
+
+  r.end_step = out.last.step;
+  r.state = to_string(out.state);
+  r.failure = to_string(out.failure);
+  r.stage = out.stage;
+  r.reason = out.reason;
+  const std::vector<PredicateSpec> effect = command_effect(inproc::bindings(k.args), task.goal);
+  r.effect = effect.empty() ? "completion" : goal_text(effect);
+  r.effect_held = out.state == CommandState::Completed && (effect.empty() || cell.holds(effect));
+  r.same_end = k.end && k.end->state == r.state && k.end->failure == r.failure && k.end->stage == r.stage &&
+               k.end->step == r.end_step;
+  r.reproduces = !r.first_divergence && (!k.end || r.same_end);
+  return r;
+}
+
+json to_json(const ProbeReport& r) {
+  json j{{"episode_id", r.episode_id},
+         {"command_id", r.command_id},
+         {"capability", r.capability},
+         {"library", r.library},
+         {"theta", r.theta},
+         {"from_step", r.from_step},
+         {"end_step", r.end_step},
+         {"budget_steps", r.budget_steps},
+         {"state", r.state},
+         {"failure", r.failure},
+         {"stage", r.stage},
+         {"reason", r.reason},
+         {"effect", r.effect},
+         {"effect_held", r.effect_held},
+         {"recorded", nullptr},
+         {"same_end", r.same_end},
+         {"steps_compared", r.steps_compared},
+         {"first_divergence", inproc::to_json(r.first_divergence)},
+         {"reproduces", r.reproduces}};
+  if (r.recorded)
+    j["recorded"] = {{"state", r.recorded->state},
+                     {"failure", r.recorded->failure},
+                     {"stage", r.recorded->stage},
+                     {"step", r.recorded->step}};
+  return j;
+}
+
+}  // namespace dh::evo

@@ -1,0 +1,163 @@
+// The probe: a recorded command re-run from the state at its start. Under the recorded θ it reproduces the
+// command bit for bit (a success and a refusal of Figure 3's episode); under a candidate library it runs
+// the candidate's θ and says whether the effect held; bad input is named. The effect of a command is
+// derived from its arguments.
+#include <gtest/gtest.h>
+
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "dh/common/paths.hpp"
+#include "dh/common/suite.hpp"
+#include "dh/evo/effect.hpp"
+#include "dh/evo/probe.hpp"
+#include "dh/inproc/stack.hpp"
+
+using namespace dh;
+namespace fs = std::filesystem;
+
+namespace {
+
+// Figure 3's episode: push refused at its check (command 0), pick and place substituted (command 1).
+struct Probe : ::testing::Test {
+  static void SetUpTestSuite() {
+    // One folder per process: ctest runs each test of this suite as a process of its own, side by side.
+    dir = new fs::path(fs::path(::testing::TempDir()) / ("dh_probe_test_" + std::to_string(getpid())));
+    fs::remove_all(*dir);
+    inproc::Stack stack(paths::config_dir());
+    const auto suites = load_suites(paths::config_dir());
+    outcome = new inproc::EpisodeOutcome(stack.run(find_task(suites, "goal-swap", 5), 22, "full", *dir / "ep.jsonl"));
+    // A grasp that misses (the jaw closes on nothing), then a reseat and a grasp that holds.
+    missed = new inproc::EpisodeOutcome(stack.run(find_task(suites, "goal-task", 1), 21, "full", *dir / "missed.jsonl"));
+  }
+  static void TearDownTestSuite() {
+    fs::remove_all(*dir);
+    delete outcome;
+    delete missed;
+    delete dir;
+  }
+  /// configs/library with `line` of `capability`'s descriptor replaced by `with`.
+  static fs::path library_with(const std::string& capability, const std::string& line, const std::string& with) {
+    const fs::path lib = *dir / ("lib_" + capability + "_" + std::to_string(std::hash<std::string>{}(with)));
+    fs::create_directories(lib);
+    for (const auto& e : fs::directory_iterator(paths::config_dir() / "library"))
+      fs::copy_file(e.path(), lib / e.path().filename(), fs::copy_options::overwrite_existing);
+    std::ifstream in(lib / (capability + ".yaml"));
+    std::string text((std::istreambuf_iterator<char>(in)), {});
+    const auto at = text.find(line);
+    EXPECT_NE(at, std::string::npos) << line;
+    text.replace(at, line.size(), with);
+    std::ofstream(lib / (capability + ".yaml")) << text;
+    return lib;
+  }
+  static fs::path* dir;
+  static inproc::EpisodeOutcome* outcome;
+  static inproc::EpisodeOutcome* missed;
+};
+fs::path* Probe::dir = nullptr;
+inproc::EpisodeOutcome* Probe::outcome = nullptr;
+inproc::EpisodeOutcome* Probe::missed = nullptr;
+
+}  // namespace
+
+TEST_F(Probe, UnderTheRecordedThetaACompletedCommandReproducesBitForBit) {
+  ASSERT_TRUE(outcome->success) << outcome->reason;
+  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 1});
+  EXPECT_EQ(r.capability, "pick_place");
+  EXPECT_EQ(r.library, "recorded");
+  EXPECT_EQ(r.state, "completed");
+  EXPECT_TRUE(r.effect_held) << r.effect;
+  const auto suites = load_suites(paths::config_dir());
+  EXPECT_EQ(r.effect, goal_text(find_task(suites, "goal-swap", 5).goal)) << "the goal's own term over its arguments";
+  EXPECT_FALSE(r.recorded) << "the governor ended the episode on the latched verdict before the command ended";
+  EXPECT_GT(r.end_step, outcome->steps) << "the probe runs the command to its own end";
+  EXPECT_EQ(r.steps_compared, outcome->steps - r.from_step) << "every recorded step of the command";
+  EXPECT_FALSE(r.first_divergence);
+  EXPECT_TRUE(r.reproduces);
+  const auto j = evo::to_json(r);
+  EXPECT_TRUE(j["reproduces"].get<bool>());
+  EXPECT_TRUE(j["first_divergence"].is_null());
+}
+
+TEST_F(Probe, UnderTheRecordedThetaARefusedCommandIsRefusedAgainAtItsStep) {
+  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 0});
+  EXPECT_EQ(r.capability, "push");
+  EXPECT_EQ(r.state, "refused");
+  EXPECT_FALSE(r.effect_held);
+  EXPECT_EQ(r.end_step, r.from_step) << "refused at its check, before any action";
+  EXPECT_EQ(r.steps_compared, 0u);
+  ASSERT_TRUE(r.recorded);
+  EXPECT_EQ(r.recorded->state, "refused");
+  EXPECT_TRUE(r.same_end);
+  EXPECT_TRUE(r.reproduces);
+}
+
+TEST_F(Probe, UnderTheRecordedThetaAFailedCommandFailsAgainBitForBit) {
+  const auto r = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 0});
+  EXPECT_EQ(r.capability, "pick_place");
+  EXPECT_EQ(r.state, "failed");
+  EXPECT_EQ(r.failure, "grasp_missed");
+  EXPECT_EQ(r.effect, "On(cream_cheese, stove_cook_region)");
+  EXPECT_FALSE(r.effect_held);
+  ASSERT_TRUE(r.recorded);
+  EXPECT_EQ(r.recorded->failure, "grasp_missed");
+  EXPECT_EQ(r.recorded->step, r.end_step);
+  EXPECT_TRUE(r.same_end);
+  EXPECT_EQ(r.steps_compared, r.end_step - r.from_step);
+  EXPECT_FALSE(r.first_divergence);
+  EXPECT_TRUE(r.reproduces);
+  // The command after the reseat, from the state the reseat left: its grasp holds.
+  const auto retry = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 2});
+  EXPECT_EQ(retry.capability, "pick_place");
+  EXPECT_TRUE(retry.reproduces);
+}
+
+TEST_F(Probe, ACandidateLibraryRunsItsThetaAndDepartsFromTheRecording) {
+  // A slower carry: the same command, other actions, so the physics leaves the recording.
+  const auto lib = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
+  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), lib, 1});
+  EXPECT_NE(r.library, "recorded");
+  EXPECT_EQ(r.library.rfind("lib-", 0), 0u) << r.library;
+  EXPECT_DOUBLE_EQ(r.theta["max_speed"].get<double>(), 0.2);
+  EXPECT_TRUE(r.first_divergence) << "another θ, other actions";
+  EXPECT_FALSE(r.reproduces);
+}
+
+TEST_F(Probe, BadInputIsNamed) {
+  EXPECT_THROW(evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 2}), std::invalid_argument);
+  EXPECT_THROW(evo::probe(*dir / "missing.jsonl", {paths::config_dir(), {}, 0}), std::runtime_error);
+  const auto lib = library_with("pick_place", "max_speed: 0.35", "max_speed: 3.5");  // outside its range
+  try {
+    evo::probe(*dir / "ep.jsonl", {paths::config_dir(), lib, 1});
+    ADD_FAILURE() << "a θ outside its range was run";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("max_speed"), std::string::npos) << e.what();
+  }
+  // A recording without its state log cannot start from a command.
+  fs::copy_file(*dir / "ep.jsonl", *dir / "nostates.jsonl", fs::copy_options::overwrite_existing);
+  fs::copy_file(*dir / "ep.steps", *dir / "nostates.steps", fs::copy_options::overwrite_existing);
+  try {
+    evo::probe(*dir / "nostates.jsonl", {paths::config_dir(), {}, 1});
+    ADD_FAILURE() << "probed without a state log";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("nostates.states"), std::string::npos) << e.what();
+  }
+}
+
+TEST(CommandEffect, FollowsTheArguments) {
+  const std::vector<PredicateSpec> goal{{"In", {"bowl", "basket_region"}}};
+  EXPECT_EQ(evo::command_effect({{"object", "bowl"}, {"target", "basket_region"}}, goal).front().text(),
+            "In(bowl, basket_region)");
+  EXPECT_EQ(evo::command_effect({{"object", "bowl"}, {"target", "plate"}}, goal).front().text(), "On(bowl, plate)");
+  EXPECT_EQ(evo::command_effect({{"object", "bowl"}, {"target", "basket"}}, goal).front().text(),
+            "In(bowl, basket_region)")
+      << "a site of the target";
+  EXPECT_EQ(evo::command_effect({{"drawer", "top_drawer"}, {"state", "open"}}, goal).front().text(), "Open(top_drawer)");
+  EXPECT_EQ(evo::command_effect({{"door", "door"}, {"state", "closed"}}, goal).front().text(), "Close(door)");
+  EXPECT_EQ(evo::command_effect({{"knob", "stove"}, {"state", "on"}}, goal).front().text(), "TurnOn(stove)");
+  EXPECT_EQ(evo::command_effect({{"knob", "stove"}, {"state", "off"}}, goal).front().text(), "TurnOff(stove)");
+  EXPECT_TRUE(evo::command_effect({{"object", "bowl"}}, goal).empty()) << "a recovery: its completion";
+  EXPECT_TRUE(evo::command_effect({}, goal).empty());
+}

@@ -1,0 +1,80 @@
+// An episode's recording as the replay and the probe read it: the governor's evidence (<episode>.jsonl)
+// gives the task, the seed, and each command's grounding, dispatch and end; the seam's state log
+// (<episode>.states) gives the physics state at each command's start. From them the capability host core's
+// state at a command's start is re-made: the keyframes the earlier commands left.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "dh/cap/host_core.hpp"
+#include "dh/sim/state_log.hpp"
+#include "dh/sim/step_log.hpp"
+#include "dh/sim/workcell.hpp"
+
+namespace dh::inproc {
+
+/// Where a re-run first departs from its recording.
+struct Divergence {
+  std::uint32_t step = 0;
+  std::string body;      ///< the joint's body, "world" for the solver state, or the capability for actions
+  std::string quantity;  ///< e.g. "qpos:joint3", "qvel:bowl_joint", "qacc_warmstart", "action[2]"
+};
+
+/// Where the cell's state at `step` differs from the recorded digest `want`: the first joint and
+/// quantity, else the solver state.
+Divergence divergence_at(const sim::Workcell& cell, std::uint32_t step, const sim::StateDigest& want);
+/// {step, body, quantity}, or null.
+nlohmann::json to_json(const std::optional<Divergence>& d);
+
+/// A command's end as the host reported it (the evidence's command_status record).
+struct RecordedEnd {
+  std::string state, failure, stage;  ///< to_string of CommandState and FailureCode
+  std::uint32_t step = 0;             ///< the step the end was reported at
+  std::uint32_t steps_used = 0;
+};
+
+/// A command as the evidence recorded it: its grounding (capability, arguments, θ) and its dispatch.
+struct RecordedCommand {
+  std::string id, capability, version;
+  nlohmann::json args, theta;
+  std::uint32_t start_step = 0, budget_steps = 0;
+  std::optional<RecordedEnd> end;  ///< none when the governor moved on before the command ended
+};
+
+struct Recording {
+  std::filesystem::path evidence;
+  std::string suite, arm, episode_id, build, instruction;
+  std::set<std::string> predicates;         ///< the goal's text as the seam stated it
+  unsigned task = 0;
+  std::uint64_t seed = 0;
+  std::uint32_t budget_steps = 0, decision_period = 10;
+  std::vector<RecordedCommand> commands;    ///< in dispatch order
+  std::map<std::uint32_t, bool> verdicts;   ///< step -> value of each predicate change
+};
+
+/// Reads the governor's evidence; throws std::runtime_error naming the file when it is missing, corrupt,
+/// or lacks what a re-run needs.
+Recording read_recording(const std::filesystem::path& evidence);
+
+cap::Bindings bindings(const nlohmann::json& args);
+cap::Theta theta_of(const nlohmann::json& theta);
+
+/// The command as the host core receives it, started at `at` with `theta`, served by `<capability>@<host>`.
+cap::CommandStart command_start(const Recording& rec, const RecordedCommand& c, std::uint32_t at,
+                                const cap::Theta& theta, const std::string& host);
+
+/// Gives `host` the state it had at the start of command `k`: each earlier command is started on the
+/// observation of the state recorded at its start, as the host saw it, and cancelled (its keyframe stays).
+/// Leaves `cell` at the last of those states; the caller restores the one it starts from.
+void restore_host(cap::HostCore& host, sim::Workcell& cell, const Recording& rec, const sim::StateLog& states,
+                  std::size_t k, const std::string& host_name);
+
+}  // namespace dh::inproc

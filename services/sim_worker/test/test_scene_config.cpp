@@ -1,0 +1,37 @@
+// Scene files: a bad robot, an unknown asset, a bad geom and a jittered fixture are named.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "config_files.hpp"  // tests/support
+#include "dh/common/config.hpp"
+#include "dh/common/paths.hpp"
+#include "dh/sim/scene.hpp"
+
+using namespace dh;
+namespace fs = std::filesystem;
+
+using test::error_of;
+using test::TempDir;
+
+TEST(Scene, UnknownAssetBadGeomAndBadUrdfAreNamed) {
+  TempDir t;
+  const std::string head = "scene: s\ntable: {size: [1, 1, 0.05]}\nworkspace: {min: [0,0,0], max: [1,1,1]}\n";
+  t.write("robots/bad.urdf", "<robot name='x'><link name='a'/></robot>");
+  auto f = t.write("scenes/s1.yaml", head + "robot: {urdf: ../robots/bad.urdf, base: [0,0,0], ready_q: [0,0,0,0,0,0,0]}\nentities: []\n");
+  auto e = error_of([&] { sim::load_scene(f); });
+  EXPECT_NE(e.find("bad.urdf: expected 7 revolute arm joints"), std::string::npos) << e;
+  const fs::path urdf = paths::config_dir() / "robots" / "panda.urdf";
+  const std::string robot = "robot: {urdf: " + urdf.string() + ", base: [0,0,0], ready_q: [0,0,0,0,0,0,0]}\n";
+  f = t.write("scenes/s2.yaml", head + robot + "entities:\n  - {name: t, asset: teapot, xy: [0, 0]}\n");
+  e = error_of([&] { sim::load_scene(f); });
+  EXPECT_NE(e.find("key 'entities[0].asset': no asset 'teapot'"), std::string::npos) << e;
+  t.write("assets/blob.yaml", "asset: blob\nkind: blob\nmass: 1\nrgba: [1,1,1,1]\ngeoms:\n  - {type: sphere, size: [1,1,1], pos: [0,0,0]}\n");
+  f = t.write("scenes/s3.yaml", head + robot + "entities:\n  - {name: b, asset: blob, xy: [0, 0]}\n");
+  e = error_of([&] { sim::load_scene(f); });
+  EXPECT_NE(e.find("blob.yaml: key 'geoms[0].type': unknown geom type 'sphere'"), std::string::npos) << e;
+  t.write("assets/shelf.yaml", "asset: shelf\nkind: shelf\nfixture: true\nrgba: [1,1,1,1]\ngeoms:\n  - {type: box, size: [0.1,0.1,0.1], pos: [0,0,0.1]}\n");
+  f = t.write("scenes/s4.yaml", head + robot + "entities:\n  - {name: s, asset: shelf, xy: [0, 0], jitter: 0.1}\n");
+  e = error_of([&] { sim::load_scene(f); });
+  EXPECT_NE(e.find("key 'entities[0].jitter': fixtures stand where the scene puts them"), std::string::npos) << e;
+}
