@@ -29,6 +29,9 @@ struct ProbeArgs {
 /// command out of range or one a probe cannot re-run, a library that does not load).
 int cmd_probe(const ProbeArgs& a);
 
+/// `dh library perturb`: writes `out`, prints the drawn library's version (or a JSON object with it and θ).
+int cmd_library_perturb(const std::string& from, std::uint64_t seed, const std::string& out, bool json);
+
 struct RunArgs {
   std::string suite, launch_file, library;
   unsigned task = 0, seed = 0, timeout_s = 180, ready_ms = 2500;

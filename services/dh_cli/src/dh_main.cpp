@@ -15,6 +15,8 @@
 //   dh probe --evidence E --command K [--library DIR] [--json]
 //                                            re-runs command K from the state recorded at its start under the
 //                                            recorded θ or DIR's (exit 0 its effect held, 3 it did not)
+//   dh library perturb --from DIR --seed S --out DIR
+//                                            every θ drawn uniformly within its range: an untuned library
 //   dh attribute --db FILE [--config FILE] [--export F.jsonl] [--json] | dh attribute --checks
 //                                            labels every failed episode with its attribution layer (exit 3:
 //                                            one matched no layer or its evidence is unreadable)
@@ -171,6 +173,15 @@ int main(int argc, char** argv) {
                     "a candidate library folder (descriptors as configs/library); default: the θ the episode recorded");
   probe->add_flag("--json", probe_args.json,
                   "one JSON object: state, failure, effect, effect_held, reproduces, first_divergence, ...");
+  auto* library = app.add_subcommand("library", "capability libraries");
+  auto* perturb = library->add_subcommand("perturb", "draw every θ uniformly within its declared range");
+  library->require_subcommand(1);
+  std::string perturb_from, perturb_out;
+  std::uint64_t perturb_seed = 0;
+  perturb->add_option("--from", perturb_from, "library folder to start from (descriptors as configs/library)")->required();
+  perturb->add_option("--seed", perturb_seed, "seed of the draw (the same seed draws the same θ)")->required();
+  perturb->add_option("--out", perturb_out, "new or empty folder for the drawn library")->required();
+  perturb->add_flag("--json", json, "one JSON object: version, theta by capability");
   AttributeArgs attr;
   auto* attribute = app.add_subcommand("attribute", "label every failed episode of a campaign database by layer");
   attribute->add_option("--db", attr.db, "campaign database");
@@ -196,6 +207,7 @@ int main(int argc, char** argv) {
     if (*replay) return cmd_replay(replay_args);
     if (*attribute) return cmd_attribute(attr);
     if (*probe) return cmd_probe(probe_args);
+    if (*perturb) return cmd_library_perturb(perturb_from, perturb_seed, perturb_out, json);
   } catch (const dh::ConfigError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;

@@ -1,7 +1,9 @@
+// The self-evolution commands: `dh probe` and `dh library perturb`.
 #include <iostream>
 
 #include "commands.hpp"
 #include "dh/common/paths.hpp"
+#include "dh/evo/perturb.hpp"
 #include "dh/evo/probe.hpp"
 
 namespace dh::cli {
@@ -37,6 +39,19 @@ int cmd_probe(const ProbeArgs& a) {
                                    : std::string("identical"))
             << (r.reproduces ? "; the recorded command reproduced bit for bit" : "") << "\n";
   return code;
+}
+
+int cmd_library_perturb(const std::string& from, std::uint64_t seed, const std::string& out, bool json) {
+  const evo::PerturbedLibrary p = evo::perturb_library(from, seed, out);
+  if (json) {
+    std::cout << nlohmann::json{{"version", p.version}, {"out", out}, {"seed", seed}, {"theta", p.theta}}.dump() << "\n";
+    return 0;
+  }
+  std::size_t n = 0;
+  for (const auto& [capability, theta] : p.theta) n += theta.size();
+  std::cout << "library " << p.version << " written to " << out << ": " << n << " parameters of " << p.theta.size()
+            << " capabilities drawn within their ranges (seed " << seed << ")\n";
+  return 0;
 }
 
 }  // namespace dh::cli
