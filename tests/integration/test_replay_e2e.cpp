@@ -60,7 +60,7 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
     }
     // The probe: each command closed-loop on the bus, from its recorded start, under the recorded θ.
     for (std::uint32_t c = 0; row.arm != "full-perception" && c < r.commands; ++c) {
-      const auto p = evo::probe(row.evidence_path, {paths::config_dir(), {}, c});
+      const auto p = evo::probe(row.evidence_path, {paths::config_dir(), {}, c, std::nullopt});
       EXPECT_TRUE(p.reproduces) << row.evidence_path << " probe of command " << c << " (" << p.capability
                                 << "): ended " << p.state << " at " << p.end_step << ", recorded "
                                 << (p.recorded ? p.recorded->state + " at " + std::to_string(p.recorded->step) : "none")

@@ -22,12 +22,35 @@ int cmd_replay(const ReplayArgs& a);
 
 struct ProbeArgs {
   std::string evidence, library;
-  std::uint32_t command = 0;
+  std::optional<std::uint32_t> command;
+  // A probe set instead of one command:
+  std::string db, capability, arm = "full";
+  std::size_t successes = 20;
+  std::uint64_t draw_seed = 0;
+  unsigned jobs = 0;  ///< 0: every core
   bool json = false;
 };
-/// Exit codes: 0 the command's effect held, 3 it did not, 2 bad input (a missing or corrupt recording, a
-/// command out of range or one a probe cannot re-run, a library that does not load).
+/// One command: exit 0 its effect held, 3 it did not. A probe set: exit 0 when every state was probed.
+/// 2 bad input (a missing or corrupt recording or database, a command out of range or one a probe cannot
+/// re-run, a library that does not load).
 int cmd_probe(const ProbeArgs& a);
+
+struct ReviseArgs {
+  std::string db, capability, arm = "full", library, out;
+  unsigned max_evals = 40, jobs = 0;
+  std::size_t successes = 20;
+  std::uint64_t draw_seed = 0;
+  bool json = false;
+};
+/// `dh revise`: exit 0 with a candidate written to --out, 3 when no θ did better than the parent's.
+int cmd_revise(const ReviseArgs& a);
+
+struct GateArgs {
+  std::string parent, candidate, bare, capability, library, config, arm = "full", bare_arm = "bare";
+  bool json = false;
+};
+/// `dh gate`: exit 0 the candidate passes Eq. 6's four conditions, 3 it does not.
+int cmd_gate(const GateArgs& a);
 
 /// `dh library perturb`: writes `out`, prints the drawn library's version (or a JSON object with it and θ).
 int cmd_library_perturb(const std::string& from, std::uint64_t seed, const std::string& out, bool json);

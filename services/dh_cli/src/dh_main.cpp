@@ -15,6 +15,15 @@
 //   dh probe --evidence E --command K [--library DIR] [--json]
 //                                            re-runs command K from the state recorded at its start under the
 //                                            recorded θ or DIR's (exit 0 its effect held, 3 it did not)
+//   dh probe --db FILE --capability C [--library DIR] [--jobs N] [--json]
+//                                            the capability's probe set (its failed commands and as many
+//                                            successes), probed in parallel
+//   dh revise --db FILE --capability C [--library DIR] [--max-evals N] [--out DIR]
+//                                            searches C's θ within its ranges on its probe set; writes the
+//                                            candidate library (exit 3: nothing better than the parent)
+//   dh gate --parent DB --candidate DB --library DIR --capability C [--bare DB]
+//                                            the paired gate (Eq. 6) of a candidate against its parent, on
+//                                            the pairs where C's failures were attributed (exit 3: fails)
 //   dh library perturb --from DIR --seed S --out DIR
 //                                            every θ drawn uniformly within its range: an untuned library
 //   dh attribute --db FILE [--config FILE] [--export F.jsonl] [--json] | dh attribute --checks
@@ -165,14 +174,50 @@ int main(int argc, char** argv) {
   replay->add_flag("--json", replay_args.json,
                    "one JSON object: identical, steps, first_divergence {step, body, quantity} or null, ...");
   ProbeArgs probe_args;
-  auto* probe = app.add_subcommand("probe", "re-run one recorded command from the state at its start");
+  auto* probe = app.add_subcommand("probe", "re-run recorded commands from the state at their start: one (--evidence, "
+                                            "--command) or a capability's probe set (--db, --capability)");
   probe->add_option("--evidence", probe_args.evidence, "the episode's evidence file (<episode>.jsonl; the seam's "
-                                                       "<episode>.steps and .states beside it)")->required();
-  probe->add_option("--command", probe_args.command, "K: the K-th dispatched command (from 0)")->required();
+                                                       "<episode>.steps and .states beside it)");
+  probe->add_option("--command", probe_args.command, "K: the K-th dispatched command (from 0)");
+  probe->add_option("--db", probe_args.db, "a campaign database: probe the capability's probe set of its episodes");
+  probe->add_option("--capability", probe_args.capability, "with --db: whose commands");
+  probe->add_option("--arm", probe_args.arm, "with --db: the arm whose episodes (default full)");
+  probe->add_option("--successes", probe_args.successes,
+                    "with --db: successful commands kept beside the failing ones, at least (default 20)");
+  probe->add_option("--draw-seed", probe_args.draw_seed, "with --db: seed of the draw of successes (default 0)");
+  probe->add_option("--jobs", probe_args.jobs, "with --db: probes at once (default: every core)");
   probe->add_option("--library", probe_args.library,
                     "a candidate library folder (descriptors as configs/library); default: the θ the episode recorded");
   probe->add_flag("--json", probe_args.json,
-                  "one JSON object: state, failure, effect, effect_held, reproduces, first_divergence, ...");
+                  "one JSON object: state, failure, effect, effect_held, reproduces, first_divergence, ... (a set: "
+                  "failing, fixed, successes, kept, states)");
+  ReviseArgs revise_args;
+  auto* revise = app.add_subcommand("revise", "search a capability's θ within its ranges on its probe set");
+  revise->add_option("--db", revise_args.db, "campaign database of the parent library")->required();
+  revise->add_option("--capability", revise_args.capability, "whose θ")->required();
+  revise->add_option("--arm", revise_args.arm, "the arm whose episodes (default full)");
+  revise->add_option("--library", revise_args.library, "the parent library the campaign ran (default configs/library)");
+  revise->add_option("--max-evals", revise_args.max_evals, "candidate θ probed at most, the parent's included (default 40)")
+      ->check(CLI::Range(1u, 100000u));
+  revise->add_option("--jobs", revise_args.jobs, "probes at once (default: every core)");
+  revise->add_option("--successes", revise_args.successes, "successes in the probe set, at least (default 20)");
+  revise->add_option("--draw-seed", revise_args.draw_seed, "seed of the draw of successes (default 0)");
+  revise->add_option("--out", revise_args.out, "folder for the candidate library (default runs/candidates/<version>)");
+  revise->add_flag("--json", revise_args.json, "one JSON object: kappa, counts, evals, wall_s, out");
+  GateArgs gate_args;
+  auto* gate = app.add_subcommand("gate", "the paired gate (Eq. 6): a candidate library against its parent");
+  gate->add_option("--parent", gate_args.parent, "campaign database of the parent library")->required();
+  gate->add_option("--candidate", gate_args.candidate, "campaign database of the candidate, same cells, tasks and seeds")
+      ->required();
+  gate->add_option("--library", gate_args.library, "the candidate library folder (its episodes must have run it)")
+      ->required();
+  gate->add_option("--capability", gate_args.capability, "the revised capability: D holds the (cell, task) pairs "
+                                                          "where the parent's failures were attributed to it")->required();
+  gate->add_option("--bare", gate_args.bare, "campaign database of the bare arm on the same seeds (for D_π)");
+  gate->add_option("--arm", gate_args.arm, "the arm compared (default full)");
+  gate->add_option("--bare-arm", gate_args.bare_arm, "the bare arm's name in --bare (default bare)");
+  gate->add_option("--config", gate_args.config, "attribution layers (default configs/attribution.yaml)");
+  gate->add_flag("--json", gate_args.json, "one JSON object: pass, conditions, pairs, unpaired, contaminated");
   auto* library = app.add_subcommand("library", "capability libraries");
   auto* perturb = library->add_subcommand("perturb", "draw every θ uniformly within its declared range");
   library->require_subcommand(1);
@@ -207,6 +252,8 @@ int main(int argc, char** argv) {
     if (*replay) return cmd_replay(replay_args);
     if (*attribute) return cmd_attribute(attr);
     if (*probe) return cmd_probe(probe_args);
+    if (*revise) return cmd_revise(revise_args);
+    if (*gate) return cmd_gate(gate_args);
     if (*perturb) return cmd_library_perturb(perturb_from, perturb_seed, perturb_out, json);
   } catch (const dh::ConfigError& e) {
     std::cerr << "error: " << e.what() << "\n";

@@ -1,6 +1,10 @@
 #include "dh/evo/gate.hpp"
 
+#include <filesystem>
 #include <tuple>
+
+#include "dh/common/evidence.hpp"
+#include "dh/evo/facts.hpp"
 
 namespace dh::evo {
 namespace {
@@ -23,6 +27,41 @@ std::string contamination(const EpisodeRecord& r, const std::string& library_ver
     return std::string("its evidence says ") + (*evidence_success ? "success" : "failure") +
            " where the campaign recorded " + (r.success ? "success" : "failure");
   return "";
+}
+
+std::vector<GateRow> gate_rows(const std::vector<EpisodeRecord>& rows, const AttributionConfig& config,
+                               const std::string& library_version) {
+  std::vector<GateRow> out;
+  for (const EpisodeRecord& r : rows) {
+    GateRow g;
+    g.episode = {r.cell, r.task, r.seed, r.success && !r.infrastructure, false, false};
+    std::optional<std::string> evidence_library;
+    std::optional<bool> evidence_success;
+    try {
+      if (r.evidence_path.empty() || !std::filesystem::exists(r.evidence_path))
+        throw std::runtime_error("no evidence");
+      const auto records = read_evidence(r.evidence_path);
+      for (const auto& e : records) {
+        if (e.value("kind", "") == "episode_start") evidence_library = e.value("library_version", "");
+        if (e.value("kind", "") == "episode_end") evidence_success = e.value("success", false);
+      }
+      if (!g.episode.success) {
+        if (const auto a = attribute(read_facts(records, r.infrastructure), config)) {
+          g.episode.harness_failure = a->harness;
+          g.signature = a->signature;
+        }
+      }
+    } catch (const std::exception&) {
+      evidence_library.reset();  // unreadable: contaminated when checked
+      evidence_success.reset();
+    }
+    if (!library_version.empty()) {
+      g.contamination = contamination(r, library_version, evidence_library, evidence_success);
+      g.episode.contaminated = !g.contamination.empty();
+    }
+    out.push_back(std::move(g));
+  }
+  return out;
 }
 
 GateResult paired_gate(const std::vector<GateEpisode>& parent, const std::vector<GateEpisode>& candidate,

@@ -42,13 +42,32 @@ std::string with_theta(const std::string& text, const cap::Theta& theta) {
 
 }  // namespace
 
-PerturbedLibrary perturb_library(const std::filesystem::path& from, std::uint64_t seed,
-                                 const std::filesystem::path& out) {
-  const cap::LibraryTheta lib = cap::load_library_theta(from);
+std::string write_library(const std::filesystem::path& from, const std::map<std::string, cap::Theta>& theta,
+                          const std::filesystem::path& out, const std::string& note) {
   if (std::filesystem::exists(out) && !std::filesystem::is_empty(out))
     throw std::invalid_argument(out.string() + " holds files: give `--out` a new or empty folder");
   std::filesystem::create_directories(out);
+  for (const auto& e : std::filesystem::directory_iterator(from)) {
+    if (e.path().extension() != ".yaml") continue;
+    std::string text = read_text(e.path());
+    if (const auto t = theta.find(e.path().stem().string()); t != theta.end())
+      text = "# " + note + "\n" + with_theta(text, t->second);
+    std::ofstream o(out / e.path().filename());
+    o << text;
+    if (!o) throw std::runtime_error("cannot write " + (out / e.path().filename()).string());
+  }
+  // What was written is what was given: the files load, within their ranges, with exactly this θ.
+  const cap::LibraryTheta written = cap::load_library_theta(out);
+  for (const auto& [capability, t] : theta)
+    if (written.theta.at(capability) != t)
+      throw std::runtime_error("the library written to " + out.string() + " does not read back " + capability +
+                               "'s θ as given");
+  return written.version;
+}
 
+PerturbedLibrary perturb_library(const std::filesystem::path& from, std::uint64_t seed,
+                                 const std::filesystem::path& out) {
+  const cap::LibraryTheta lib = cap::load_library_theta(from);
   // One generator, capabilities and parameters in name order: the same library and seed draw the same θ.
   std::mt19937_64 rng(seed);
   PerturbedLibrary p;
@@ -63,22 +82,9 @@ PerturbedLibrary perturb_library(const std::filesystem::path& from, std::uint64_
         drawn[name] = std::uniform_real_distribution<double>(r.min, r.max)(rng);
     }
   }
-  for (const auto& e : std::filesystem::directory_iterator(from)) {
-    if (e.path().extension() != ".yaml") continue;
-    const std::string capability = e.path().stem().string();
-    std::string text = read_text(e.path());
-    if (const auto t = p.theta.find(capability); t != p.theta.end())
-      text = "# θ drawn uniformly within its ranges by `dh library perturb --seed " + std::to_string(seed) +
-             "` from " + from.string() + "\n" + with_theta(text, t->second);
-    std::ofstream o(out / e.path().filename());
-    o << text;
-    if (!o) throw std::runtime_error("cannot write " + (out / e.path().filename()).string());
-  }
-  // What was written is what was drawn: the files load, within their ranges, with exactly this θ.
-  const cap::LibraryTheta written = cap::load_library_theta(out);
-  if (written.theta != p.theta)
-    throw std::runtime_error("the perturbed library in " + out.string() + " does not read back as drawn");
-  p.version = written.version;
+  p.version = write_library(from, p.theta, out,
+                            "θ drawn uniformly within its ranges by `dh library perturb --seed " + std::to_string(seed) +
+                                "` from " + from.string());
   return p;
 }
 

@@ -75,15 +75,21 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
   cap::Theta theta = inproc::theta_of(k.theta);
   r.budget_steps = k.budget_steps;
   r.library = "recorded";
+  std::optional<cap::Theta> candidate = o.theta;
   if (!o.library_dir.empty()) {
     const cap::LibraryTheta lib = cap::load_library_theta(o.library_dir);
     const auto t = lib.theta.find(k.capability);
     if (t == lib.theta.end())
       throw std::invalid_argument("library " + o.library_dir.string() + " has no " + k.capability + ".yaml");
-    theta = t->second;
+    candidate = t->second;
     r.library = lib.version;
+  } else if (o.theta) {
+    r.library = "theta " + cap::library_version({{k.capability, *o.theta}});
+  }
+  if (candidate) {
+    theta = *candidate;
     // The budget the governor would give the candidate: its cost model, within what the episode had left.
-    const int cost = cap::load_descriptor(o.library_dir / (k.capability + ".yaml"), *def).cost_steps;
+    const int cost = def->make(theta)->cost_steps();
     r.budget_steps = gov::command_budget(static_cast<std::uint32_t>(cost), rec.budget_steps - from->step);
   }
   r.theta = json(theta);
@@ -113,7 +119,9 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
   r.reason = out.reason;
   const std::vector<PredicateSpec> effect = command_effect(inproc::bindings(k.args), task.goal);
   r.effect = effect.empty() ? "completion" : goal_text(effect);
-  r.effect_held = out.state == CommandState::Completed && (effect.empty() || cell.holds(effect));
+  // The effect is the world's state at the command's end, however the command ended; a command whose
+  // arguments name none is judged by its completion.
+  r.effect_held = effect.empty() ? out.state == CommandState::Completed : cell.holds(effect);
   r.same_end = k.end && k.end->state == r.state && k.end->failure == r.failure && k.end->stage == r.stage &&
                k.end->step == r.end_step;
   r.reproduces = !r.first_divergence && (!k.end || r.same_end);

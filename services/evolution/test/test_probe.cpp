@@ -12,7 +12,11 @@
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/evo/effect.hpp"
+#include "dh/evo/gate.hpp"
 #include "dh/evo/probe.hpp"
+#include "dh/evo/probe_set.hpp"
+#include "dh/evo/revise.hpp"
+#include "dh/cap/library_theta.hpp"
 #include "dh/inproc/stack.hpp"
 
 using namespace dh;
@@ -52,6 +56,18 @@ struct Probe : ::testing::Test {
     std::ofstream(lib / (capability + ".yaml")) << text;
     return lib;
   }
+  /// The campaign row of the recording `name` (ep: Figure 3's, missed: the missed grasp's).
+  static EpisodeRecord row(const std::string& name) {
+    EpisodeRecord r;
+    r.arm = "full";
+    const bool fig3 = name == "ep";
+    r.cell = fig3 ? "goal-swap" : "goal-task";
+    r.task = fig3 ? 5 : 1;
+    r.seed = fig3 ? 22 : 21;
+    r.success = (fig3 ? outcome : missed)->success;
+    r.evidence_path = (*dir / (name + ".jsonl")).string();
+    return r;
+  }
   static fs::path* dir;
   static inproc::EpisodeOutcome* outcome;
   static inproc::EpisodeOutcome* missed;
@@ -64,7 +80,7 @@ inproc::EpisodeOutcome* Probe::missed = nullptr;
 
 TEST_F(Probe, UnderTheRecordedThetaACompletedCommandReproducesBitForBit) {
   ASSERT_TRUE(outcome->success) << outcome->reason;
-  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 1});
+  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 1, std::nullopt});
   EXPECT_EQ(r.capability, "pick_place");
   EXPECT_EQ(r.library, "recorded");
   EXPECT_EQ(r.state, "completed");
@@ -82,7 +98,7 @@ TEST_F(Probe, UnderTheRecordedThetaACompletedCommandReproducesBitForBit) {
 }
 
 TEST_F(Probe, UnderTheRecordedThetaARefusedCommandIsRefusedAgainAtItsStep) {
-  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 0});
+  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 0, std::nullopt});
   EXPECT_EQ(r.capability, "push");
   EXPECT_EQ(r.state, "refused");
   EXPECT_FALSE(r.effect_held);
@@ -95,7 +111,7 @@ TEST_F(Probe, UnderTheRecordedThetaARefusedCommandIsRefusedAgainAtItsStep) {
 }
 
 TEST_F(Probe, UnderTheRecordedThetaAFailedCommandFailsAgainBitForBit) {
-  const auto r = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 0});
+  const auto r = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 0, std::nullopt});
   EXPECT_EQ(r.capability, "pick_place");
   EXPECT_EQ(r.state, "failed");
   EXPECT_EQ(r.failure, "grasp_missed");
@@ -109,7 +125,7 @@ TEST_F(Probe, UnderTheRecordedThetaAFailedCommandFailsAgainBitForBit) {
   EXPECT_FALSE(r.first_divergence);
   EXPECT_TRUE(r.reproduces);
   // The command after the reseat, from the state the reseat left: its grasp holds.
-  const auto retry = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 2});
+  const auto retry = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 2, std::nullopt});
   EXPECT_EQ(retry.capability, "pick_place");
   EXPECT_TRUE(retry.reproduces);
 }
@@ -117,7 +133,7 @@ TEST_F(Probe, UnderTheRecordedThetaAFailedCommandFailsAgainBitForBit) {
 TEST_F(Probe, ACandidateLibraryRunsItsThetaAndDepartsFromTheRecording) {
   // A slower carry: the same command, other actions, so the physics leaves the recording.
   const auto lib = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
-  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), lib, 1});
+  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), lib, 1, std::nullopt});
   EXPECT_NE(r.library, "recorded");
   EXPECT_EQ(r.library.rfind("lib-", 0), 0u) << r.library;
   EXPECT_DOUBLE_EQ(r.theta["max_speed"].get<double>(), 0.2);
@@ -126,11 +142,11 @@ TEST_F(Probe, ACandidateLibraryRunsItsThetaAndDepartsFromTheRecording) {
 }
 
 TEST_F(Probe, BadInputIsNamed) {
-  EXPECT_THROW(evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 2}), std::invalid_argument);
-  EXPECT_THROW(evo::probe(*dir / "missing.jsonl", {paths::config_dir(), {}, 0}), std::runtime_error);
+  EXPECT_THROW(evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 2, std::nullopt}), std::invalid_argument);
+  EXPECT_THROW(evo::probe(*dir / "missing.jsonl", {paths::config_dir(), {}, 0, std::nullopt}), std::runtime_error);
   const auto lib = library_with("pick_place", "max_speed: 0.35", "max_speed: 3.5");  // outside its range
   try {
-    evo::probe(*dir / "ep.jsonl", {paths::config_dir(), lib, 1});
+    evo::probe(*dir / "ep.jsonl", {paths::config_dir(), lib, 1, std::nullopt});
     ADD_FAILURE() << "a θ outside its range was run";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("max_speed"), std::string::npos) << e.what();
@@ -139,11 +155,79 @@ TEST_F(Probe, BadInputIsNamed) {
   fs::copy_file(*dir / "ep.jsonl", *dir / "nostates.jsonl", fs::copy_options::overwrite_existing);
   fs::copy_file(*dir / "ep.steps", *dir / "nostates.steps", fs::copy_options::overwrite_existing);
   try {
-    evo::probe(*dir / "nostates.jsonl", {paths::config_dir(), {}, 1});
+    evo::probe(*dir / "nostates.jsonl", {paths::config_dir(), {}, 1, std::nullopt});
     ADD_FAILURE() << "probed without a state log";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("nostates.states"), std::string::npos) << e.what();
   }
+}
+
+TEST_F(Probe, AProbeSetHoldsTheFailingStatesAndDrawnSuccessesTheSameOnAnyNumberOfThreads) {
+  const std::vector<EpisodeRecord> rows{row("ep"), row("missed")};
+  // pick_place ran three commands: Figure 3's substitute and the missed grasp's two.
+  const auto set = evo::probe_set(rows, {"pick_place", 1, 7}, paths::config_dir(), 1);
+  ASSERT_EQ(set.size(), 2u) << "the one failing state and one drawn success (as many as failing, at least 1)";
+  EXPECT_TRUE(set[0].state.failing);
+  EXPECT_EQ(set[0].state.label, "goal-task/1 seed 21 command 0");
+  EXPECT_EQ(set[0].report->failure, "grasp_missed");
+  EXPECT_FALSE(set[1].state.failing);
+  EXPECT_TRUE(set[1].report->effect_held);
+  const auto all = evo::probe_set(rows, {"pick_place", 20, 7}, paths::config_dir(), 2);
+  ASSERT_EQ(all.size(), 3u) << "every success there is, when fewer than asked";
+  // The same states under a candidate, on one thread and on two: the same results.
+  std::vector<evo::ProbeState> states;
+  for (const auto& o : all) states.push_back(o.state);
+  const auto lib = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
+  const auto one = evo::probe_states(states, paths::config_dir(), lib, 1);
+  const auto two = evo::probe_states(states, paths::config_dir(), lib, 2);
+  for (std::size_t i = 0; i < states.size(); ++i) {
+    ASSERT_TRUE(one[i].report && two[i].report) << one[i].error << two[i].error;
+    EXPECT_EQ(one[i].report->end_step, two[i].report->end_step) << states[i].label;
+    EXPECT_EQ(one[i].report->effect_held, two[i].report->effect_held) << states[i].label;
+    EXPECT_EQ(one[i].report->state, two[i].report->state) << states[i].label;
+  }
+}
+
+TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParentsTheta) {
+  const auto set = evo::probe_set({row("missed")}, {"pick_place", 1, 0}, paths::config_dir(), 2);
+  ASSERT_EQ(set.size(), 2u);
+  const auto parent = paths::config_dir() / "library";
+  const evo::Revision rev = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2});
+  EXPECT_LE(rev.evals, 4u);
+  EXPECT_GE(rev.evals, 1u);
+  EXPECT_EQ(rev.states, 2u);
+  EXPECT_EQ(rev.failing, 1u);
+  EXPECT_EQ(rev.parent_held, 1u) << "the success holds under the parent";
+  EXPECT_GE(rev.best_held, rev.parent_held);
+  EXPECT_EQ(rev.improved(), !rev.kappa.empty());
+  const cap::LibraryTheta lib = cap::load_library_theta(parent);
+  for (const auto& [name, v] : rev.best) {
+    const auto& range = lib.ranges.at("pick_place").at(name);
+    EXPECT_GE(v, range.min) << name;
+    EXPECT_LE(v, range.max) << name;
+  }
+  // A set recorded under other θ than the parent library's is refused.
+  const auto other = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
+  EXPECT_THROW(evo::revise(set, {"pick_place", paths::config_dir(), other, 4, 2}), std::invalid_argument);
+  EXPECT_THROW(evo::revise({}, {"pick_place", paths::config_dir(), parent, 4, 2}), std::invalid_argument);
+}
+
+TEST_F(Probe, TheGateReadsAnEpisodesLibraryAndOutcomeFromItsEvidence) {
+  const EpisodeRecord r = row("ep");
+  EpisodeRecord gone = r;
+  gone.seed = 23;
+  gone.evidence_path = (*dir / "gone.jsonl").string();
+  const auto config = evo::load_attribution(paths::config_dir() / "attribution.yaml");
+  const std::string shipped = cap::load_library_theta(paths::config_dir() / "library").version;
+  const auto rows = evo::gate_rows({r, gone}, config, shipped);
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_TRUE(rows[0].episode.success);
+  EXPECT_FALSE(rows[0].episode.contaminated) << rows[0].contamination;
+  EXPECT_TRUE(rows[1].episode.contaminated);
+  EXPECT_NE(rows[1].contamination.find("gone.jsonl"), std::string::npos) << rows[1].contamination;
+  const auto other = evo::gate_rows({r}, config, "lib-0000000000000000");
+  EXPECT_NE(other[0].contamination.find("lib-0000000000000000"), std::string::npos) << other[0].contamination;
+  EXPECT_FALSE(evo::gate_rows({gone}, config, "")[0].episode.contaminated) << "the parent's episodes are not checked";
 }
 
 TEST(CommandEffect, FollowsTheArguments) {

@@ -3,6 +3,7 @@
 #include <mujoco/mujoco.h>
 
 #include <cstring>
+#include <mutex>
 #include <stdexcept>
 
 namespace dh::sim {
@@ -18,7 +19,14 @@ ModelPtr compile_model(const std::string& xml, const std::string& origin) {
     throw std::runtime_error("MuJoCo VFS: cannot hold the model of " + origin);
   std::memcpy(vfs->filedata[mj_findFileVFS(vfs.get(), fname)], xml.data(), xml.size());
   char err[1024] = "";
-  ModelPtr m(mj_loadXML(fname, vfs.get(), err, sizeof err));
+  // mj_loadXML keeps process-wide state (the last model loaded, for mj_saveLastXML): one load at a time,
+  // so simulator channels and parallel probes may compile their models from several threads.
+  static std::mutex load;
+  ModelPtr m;
+  {
+    std::lock_guard lock(load);
+    m.reset(mj_loadXML(fname, vfs.get(), err, sizeof err));
+  }
   mj_deleteVFS(vfs.get());
   if (!m) throw std::runtime_error(origin + ": MuJoCo rejected the workcell model: " + err);
   return m;

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "dh/common/episode_record.hpp"
+#include "dh/evo/attribution.hpp"
 
 namespace dh::evo {
 
@@ -59,6 +60,20 @@ struct GateResult {
   std::map<CellTask, PairCounts> pairs;   ///< D, with its counts
   std::vector<std::string> unpaired;      ///< episodes of the parent in D the candidate lacks (the gate fails)
 };
+
+/// A campaign's episode as the gate reads it, from its row and its evidence.
+struct GateRow {
+  GateEpisode episode;
+  std::optional<Signature> signature;  ///< a failed episode's, when a layer matched
+  std::string contamination;           ///< why it does not count ("" when it does or was not checked)
+};
+
+/// Reads each row's evidence: a failed episode is attributed under `config` (harness_failure from its
+/// layer); with a non-empty `library_version` each episode is checked against it (contamination()).
+/// An episode whose evidence does not read is contaminated when checked, else neither success nor
+/// harness failure is taken from it beyond its row.
+std::vector<GateRow> gate_rows(const std::vector<EpisodeRecord>& rows, const AttributionConfig& config,
+                               const std::string& library_version);
 
 /// `parent` and `candidate` are the two libraries' episodes, `bare` the bare arm's (may be empty), all on
 /// the same seeds; `targeted` is D. Episodes outside D are ignored.

@@ -14,6 +14,7 @@
 #include <optional>
 #include <string>
 
+#include "dh/cap/skill.hpp"
 #include "dh/inproc/recording.hpp"
 #include "dh/inproc/replay.hpp"
 
@@ -23,18 +24,19 @@ struct ProbeOptions {
   std::filesystem::path config_dir;   ///< suites, scenes, arms
   std::filesystem::path library_dir;  ///< a candidate library; empty: the θ the episode recorded (the parent)
   std::uint32_t command = 0;          ///< K, 0-based in dispatch order
+  std::optional<cap::Theta> theta;    ///< without library_dir: a candidate θ of the command's capability
 };
 
 struct ProbeReport {
   std::string episode_id, command_id, capability;
-  std::string library;          ///< "recorded" or the candidate library's version (lib-...)
+  std::string library;          ///< "recorded", the candidate library's version (lib-...) or "theta lib-..."
   nlohmann::json theta;         ///< the θ the command ran with
   std::uint32_t from_step = 0;  ///< the restored state's step (the command's start)
   std::uint32_t end_step = 0;   ///< the step its end was reported at
   std::uint32_t budget_steps = 0;
   std::string state, failure, stage, reason;  ///< how it ended (CommandState, FailureCode as text)
   std::string effect;           ///< the effect's predicates, or "completion" when its arguments name none
-  bool effect_held = false;
+  bool effect_held = false;     ///< the effect's predicates hold at the command's end (or it completed)
   // Against the recording:
   std::optional<inproc::RecordedEnd> recorded;  ///< none: the governor moved on before the command ended
   bool same_end = false;                        ///< state, failure, stage and step as recorded

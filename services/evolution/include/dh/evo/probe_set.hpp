@@ -1,0 +1,52 @@
+// A capability's probe set (issue 16): the command states a revision of that capability is judged on.
+// Every command of the capability is probed first under the θ it recorded (the parent library): those
+// whose effect did not hold are the failing states (a typed failure, an expiry, or a completion without
+// its effect), and as many of those whose effect held (at least `min_successes`) are drawn by seed: the
+// successes guard against a revision that fixes one state and breaks others. Probes run in parallel, one
+// workcell per thread.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dh/common/episode_record.hpp"
+#include "dh/evo/probe.hpp"
+
+namespace dh::evo {
+
+struct ProbeState {
+  std::filesystem::path evidence;
+  std::uint32_t command = 0;  ///< K, 0-based in dispatch order
+  bool failing = false;       ///< its effect did not hold under the recorded θ
+  std::string label;          ///< "goal-task/1 seed 21 command 0"
+};
+
+struct ProbeSetOptions {
+  std::string capability;
+  std::size_t min_successes = 20;
+  std::uint64_t draw_seed = 0;
+};
+
+struct ProbeOutcome {
+  ProbeState state;
+  std::optional<ProbeReport> report;  ///< none when the probe could not run
+  std::string error;
+};
+
+/// The probe set over `rows` (a campaign's episodes, one arm), probed on `jobs` threads: failing states
+/// first, in the rows' order, then the drawn successes, each with its probe under the recorded θ.
+/// Episodes without evidence, or grounded in perception, give none. Throws std::runtime_error naming an
+/// evidence file that does not read or a command whose probe could not run.
+std::vector<ProbeOutcome> probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions& options,
+                                    const std::filesystem::path& config_dir, unsigned jobs);
+
+/// Probes every state under `library_dir`, or else `theta` for the commands' capability, or else each
+/// recording's own θ, on `jobs` threads; results in the states' order.
+std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states, const std::filesystem::path& config_dir,
+                                       const std::filesystem::path& library_dir, unsigned jobs,
+                                       const std::optional<cap::Theta>& theta = std::nullopt);
+
+}  // namespace dh::evo

@@ -1,0 +1,68 @@
+#include "dh/evo/probe_set.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <random>
+#include <thread>
+
+#include "dh/common/arms.hpp"
+#include "dh/inproc/recording.hpp"
+
+namespace dh::evo {
+
+std::vector<ProbeOutcome> probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions& o,
+                                    const std::filesystem::path& config_dir, unsigned jobs) {
+  const auto arms = load_arms(config_dir / "governor.yaml");
+  std::vector<ProbeState> all;
+  for (const EpisodeRecord& r : rows) {
+    if (r.evidence_path.empty() || !std::filesystem::exists(r.evidence_path)) continue;
+    if (find_arm(arms, r.arm).grounding == "perception") continue;  // a probe re-makes no estimates
+    const inproc::Recording rec = inproc::read_recording(r.evidence_path);
+    for (std::size_t k = 0; k < rec.commands.size(); ++k)
+      if (rec.commands[k].capability == o.capability)
+        all.push_back({r.evidence_path, static_cast<std::uint32_t>(k), false,
+                       r.cell + "/" + std::to_string(r.task) + " seed " + std::to_string(r.seed) + " command " +
+                           std::to_string(k)});
+  }
+  std::vector<ProbeOutcome> parent = probe_states(all, config_dir, {}, jobs);
+  std::vector<ProbeOutcome> failing, held;
+  for (auto& p : parent) {
+    if (!p.report) throw std::runtime_error(p.state.label + " (" + p.state.evidence.string() + "): " + p.error);
+    p.state.failing = !p.report->effect_held;
+    (p.state.failing ? failing : held).push_back(std::move(p));
+  }
+  // The successes kept: a draw by seed, listed in the rows' order.
+  std::vector<std::size_t> order(held.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::shuffle(order.begin(), order.end(), std::mt19937_64(o.draw_seed));
+  order.resize(std::min(order.size(), std::max(o.min_successes, failing.size())));
+  std::sort(order.begin(), order.end());
+  for (std::size_t i : order) failing.push_back(std::move(held[i]));
+  return failing;
+}
+
+std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states, const std::filesystem::path& config_dir,
+                                       const std::filesystem::path& library_dir, unsigned jobs,
+                                       const std::optional<cap::Theta>& theta) {
+  std::vector<ProbeOutcome> out(states.size());
+  std::atomic<std::size_t> next{0};
+  // Each probe owns its workcell, host and seam; MuJoCo models and data are not shared between threads
+  // (as the simulator worker runs one channel per thread).
+  const auto work = [&] {
+    for (std::size_t i = next++; i < states.size(); i = next++) {
+      out[i].state = states[i];
+      try {
+        out[i].report = probe(states[i].evidence, {config_dir, library_dir, states[i].command, theta});
+      } catch (const std::exception& e) {
+        out[i].error = e.what();
+      }
+    }
+  };
+  std::vector<std::thread> threads;
+  for (unsigned j = 1; j < std::max(1u, jobs); ++j) threads.emplace_back(work);
+  work();
+  for (auto& t : threads) t.join();
+  return out;
+}
+
+}  // namespace dh::evo

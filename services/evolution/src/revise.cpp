@@ -1,0 +1,104 @@
+#include "dh/evo/revise.hpp"
+
+#include <nlopt.hpp>
+
+#include <chrono>
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <stdexcept>
+
+#include "dh/cap/library_theta.hpp"
+
+namespace dh::evo {
+
+Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
+  if (set.empty()) throw std::invalid_argument("the probe set of '" + o.capability + "' is empty: nothing to search on");
+  const cap::LibraryTheta lib = cap::load_library_theta(o.library_dir);
+  const auto t = lib.theta.find(o.capability);
+  if (t == lib.theta.end())
+    throw std::invalid_argument("library " + o.library_dir.string() + " has no " + o.capability + ".yaml");
+  Revision rev;
+  rev.parent = t->second;
+  const cap::ThetaRanges& ranges = lib.ranges.at(o.capability);
+  std::vector<ProbeState> states;
+  for (const auto& p : set) {
+    if (!p.report || p.report->capability != o.capability)
+      throw std::invalid_argument(p.state.label + " is not a probed command of '" + o.capability + "'");
+    if (nlohmann::json(rev.parent) != p.report->theta)
+      throw std::invalid_argument(p.state.label + " recorded θ " + p.report->theta.dump() + ", not the θ of " +
+                                  o.library_dir.string() + ": probe a campaign of the parent library");
+    states.push_back(p.state);
+    rev.failing += p.state.failing;
+    rev.parent_held += p.report->effect_held;
+  }
+  rev.states = static_cast<unsigned>(states.size());
+
+  std::vector<std::string> names;
+  std::vector<double> x;
+  for (const auto& [name, value] : rev.parent) {
+    const cap::ParameterRange& r = ranges.at(name);
+    names.push_back(name);
+    x.push_back((value - r.min) / (r.max - r.min));
+  }
+  const std::vector<double> x0 = x;
+  const auto theta_at = [&](const std::vector<double>& at) {
+    cap::Theta th;
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      if (at[i] == x0[i]) {  // the parent's own value, not its round trip through the scaling
+        th[names[i]] = rev.parent.at(names[i]);
+        continue;
+      }
+      const cap::ParameterRange& r = ranges.at(names[i]);
+      const double v = r.min + std::clamp(at[i], 0.0, 1.0) * (r.max - r.min);
+      th[names[i]] = r.unit == "steps" ? std::round(v) : v;
+    }
+    return th;
+  };
+  // The parent's own point is the first evaluation: the search starts from what the set already holds.
+  rev.best = rev.parent;
+  rev.best_held = rev.parent_held;
+  const auto t0 = std::chrono::steady_clock::now();
+  struct Context {
+    std::function<double(const std::vector<double>&)> f;
+  } context{[&](const std::vector<double>& at) {
+    const cap::Theta th = theta_at(at);
+    ++rev.evals;
+    unsigned held = 0, fixed = 0, kept = 0;
+    for (const auto& r : probe_states(states, o.config_dir, {}, o.jobs, th)) {
+      const bool h = r.report && r.report->effect_held;
+      held += h;
+      (r.state.failing ? fixed : kept) += h;
+    }
+    if (held > rev.best_held) {
+      rev.best = th;
+      rev.best_held = held;
+      rev.fixed = fixed;
+      rev.kept = kept;
+    }
+    return static_cast<double>(held);
+  }};
+  rev.kept = rev.parent_held;
+  nlopt::opt opt(nlopt::LN_SBPLX, static_cast<unsigned>(names.size()));
+  opt.set_lower_bounds(0.0);
+  opt.set_upper_bounds(1.0);
+  opt.set_initial_step(0.25);
+  opt.set_maxeval(static_cast<int>(o.max_evals));
+  opt.set_max_objective(
+      [](const std::vector<double>& at, std::vector<double>&, void* data) {
+        return static_cast<Context*>(data)->f(at);
+      },
+      &context);
+  double fx = 0;
+  try {
+    opt.optimize(x, fx);
+  } catch (const nlopt::roundoff_limited&) {
+    // The fitness is a count: a plateau stops Subplex; what it found stands.
+  }
+  rev.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  for (const auto& [name, value] : rev.best)
+    if (value != rev.parent.at(name)) rev.kappa[name] = {rev.parent.at(name), value};
+  return rev;
+}
+
+}  // namespace dh::evo
