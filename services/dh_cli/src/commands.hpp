@@ -47,10 +47,15 @@ int cmd_revise(const ReviseArgs& a);
 
 struct GateArgs {
   std::string parent, candidate, bare, capability, library, config, arm = "full", bare_arm = "bare";
-  bool json = false;
+  std::string regression_parent, regression_candidate;  ///< the broader round's two campaigns
+  std::string registry;                                 ///< with register: the registry folder
+  bool register_decision = false, json = false;
 };
-/// `dh gate`: exit 0 the candidate passes Eq. 6's four conditions, 3 it does not.
+/// `dh gate`: exit 0 the candidate passes Eq. 6's four conditions (and the broader regression, when
+/// given), 3 it does not. With --register the decision goes to the registry.
 int cmd_gate(const GateArgs& a);
+/// `dh registry list` (id empty) or `dh registry show ID`.
+int cmd_registry(const std::string& dir, const std::string& id, bool json);
 
 /// `dh library perturb`: writes `out`, prints the drawn library's version (or a JSON object with it and θ).
 int cmd_library_perturb(const std::string& from, std::uint64_t seed, const std::string& out, bool json);

@@ -24,6 +24,7 @@
 //   dh gate --parent DB --candidate DB --library DIR --capability C [--bare DB]
 //                                            the paired gate (Eq. 6) of a candidate against its parent, on
 //                                            the pairs where C's failures were attributed (exit 3: fails)
+//   dh registry list | dh registry show ID   the candidates and the decisions on them
 //   dh library perturb --from DIR --seed S --out DIR
 //                                            every θ drawn uniformly within its range: an untuned library
 //   dh attribute --db FILE [--config FILE] [--export F.jsonl] [--json] | dh attribute --checks
@@ -217,7 +218,23 @@ int main(int argc, char** argv) {
   gate->add_option("--arm", gate_args.arm, "the arm compared (default full)");
   gate->add_option("--bare-arm", gate_args.bare_arm, "the bare arm's name in --bare (default bare)");
   gate->add_option("--config", gate_args.config, "attribution layers (default configs/attribution.yaml)");
+  gate->add_option("--regression-parent", gate_args.regression_parent,
+                   "the broader round: the parent's campaign over every cell on a separate block of seeds");
+  gate->add_option("--regression-candidate", gate_args.regression_candidate,
+                   "the broader round: the candidate's campaign on the same cells, tasks and seeds");
+  gate->add_flag("--register", gate_args.register_decision,
+                 "append the decision to the registry (admitted: passes the gate and the broader round)");
+  gate->add_option("--registry", gate_args.registry, "registry folder (default $DH_RUNS_DIR/registry)");
   gate->add_flag("--json", gate_args.json, "one JSON object: pass, conditions, pairs, unpaired, contaminated");
+  std::string registry_dir, registry_id;
+  auto* registry = app.add_subcommand("registry", "the candidates and the decisions on them");
+  registry->require_subcommand(1);
+  auto* registry_list = registry->add_subcommand("list", "every candidate, in order");
+  registry_list->add_option("--registry", registry_dir, "registry folder (default $DH_RUNS_DIR/registry)");
+  registry_list->add_flag("--json", json, "one JSON array of the entries");
+  auto* registry_show = registry->add_subcommand("show", "one candidate's entry");
+  registry_show->add_option("id", registry_id, "its id (r1, r2, ...)")->required();
+  registry_show->add_option("--registry", registry_dir, "registry folder (default $DH_RUNS_DIR/registry)");
   auto* library = app.add_subcommand("library", "capability libraries");
   auto* perturb = library->add_subcommand("perturb", "draw every θ uniformly within its declared range");
   library->require_subcommand(1);
@@ -254,6 +271,8 @@ int main(int argc, char** argv) {
     if (*probe) return cmd_probe(probe_args);
     if (*revise) return cmd_revise(revise_args);
     if (*gate) return cmd_gate(gate_args);
+    if (*registry_list) return cmd_registry(registry_dir, "", json);
+    if (*registry_show) return cmd_registry(registry_dir, registry_id, true);
     if (*perturb) return cmd_library_perturb(perturb_from, perturb_seed, perturb_out, json);
   } catch (const dh::ConfigError& e) {
     std::cerr << "error: " << e.what() << "\n";

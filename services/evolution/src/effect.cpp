@@ -22,7 +22,8 @@ std::vector<PredicateSpec> command_effect(const std::vector<std::pair<std::strin
     if (term.args == std::vector<std::string>{object->second, target->second}) return {term};
   // A site of the target entity is named "<entity>_<site>" (stove_cook_region, cabinet_top_side).
   for (const PredicateSpec& term : goal)
-    if (term.args.size() == 2 && term.args[0] == object->second && term.args[1].rfind(target->second + "_", 0) == 0)
+    if (term.args.size() == 2 && term.args[0] == object->second &&
+        term.args[1].rfind(target->second + "_", 0) == 0)
       return {term};
   return {{"On", {object->second, target->second}}};
 }

@@ -103,7 +103,8 @@ GateResult paired_gate(const std::vector<GateEpisode>& parent, const std::vector
   }
 
   GateCondition s{"successes", true, 0, 0, ""}, u{"harness_failures", true, 0, 0, ""};
-  GateCondition pi{"bare_policy_pairs", true, 0, 0, ""}, x{"contaminated", contaminated == 0, contaminated, 0, ""};
+  GateCondition pi{"bare_policy_pairs", true, 0, 0, ""},
+      x{"contaminated", contaminated == 0, contaminated, 0, ""};
   for (const auto& [d, n] : g.pairs) {
     s.candidate += n.candidate_s;
     s.parent += n.parent_s;
@@ -114,8 +115,8 @@ GateResult paired_gate(const std::vector<GateEpisode>& parent, const std::vector
     pi.parent += n.parent_s;
     if (n.candidate_s < n.parent_s) {
       pi.pass = false;
-      pi.detail += (pi.detail.empty() ? "" : ", ") + pair_text(d) + " " + std::to_string(n.candidate_s) + " < " +
-                   std::to_string(n.parent_s);
+      pi.detail += (pi.detail.empty() ? "" : ", ") + pair_text(d) + " " + std::to_string(n.candidate_s) +
+                   " < " + std::to_string(n.parent_s);
     }
   }
   s.pass = s.candidate >= s.parent;
@@ -125,6 +126,37 @@ GateResult paired_gate(const std::vector<GateEpisode>& parent, const std::vector
   g.conditions = {s, u, pi, x};
   g.pass = g.unpaired.empty() && !g.pairs.empty() && s.pass && u.pass && pi.pass && x.pass;
   return g;
+}
+
+RegressionResult broader_regression(const std::vector<GateEpisode>& parent,
+                                    const std::vector<GateEpisode>& candidate,
+                                    const std::set<std::string>& cells) {
+  RegressionResult r;
+  std::map<Key, const GateEpisode*> by_key;
+  std::set<std::string> ran;
+  for (const auto& e : candidate) {
+    by_key[{e.cell, e.task, e.seed}] = &e;
+    ran.insert(e.cell);
+  }
+  for (const auto& p : parent) {
+    const std::string key = p.cell + "/" + std::to_string(p.task) + " seed " + std::to_string(p.seed);
+    const auto c = by_key.find({p.cell, p.task, p.seed});
+    if (c == by_key.end()) {
+      r.unpaired.push_back(key);
+      continue;
+    }
+    ++r.paired;
+    r.parent += p.success;
+    r.candidate += c->second->success;
+    r.contaminated += c->second->contaminated;
+    if (p.success && !c->second->success) r.lost.push_back(key);
+    if (!p.success && c->second->success) r.gained.push_back(key);
+  }
+  for (const auto& cell : cells)
+    if (!ran.count(cell)) r.missing_cells.push_back(cell);
+  r.pass = r.unpaired.empty() && r.missing_cells.empty() && r.contaminated == 0 && r.paired > 0 &&
+           r.candidate >= r.parent;
+  return r;
 }
 
 }  // namespace dh::evo

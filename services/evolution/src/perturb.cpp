@@ -33,7 +33,8 @@ std::string with_theta(const std::string& text, const cap::Theta& theta) {
     std::smatch m;
     if (in_parameters && std::regex_match(line, m, entry)) {
       const auto it = theta.find(m[2].str());
-      if (it != theta.end()) line = m[1].str() + m[2].str() + m[3].str() + fmt::format("{}", it->second) + m[5].str();
+      if (it != theta.end())
+        line = m[1].str() + m[2].str() + m[3].str() + fmt::format("{}", it->second) + m[5].str();
     }
     out += line + "\n";
   }
@@ -60,8 +61,8 @@ std::string write_library(const std::filesystem::path& from, const std::map<std:
   const cap::LibraryTheta written = cap::load_library_theta(out);
   for (const auto& [capability, t] : theta)
     if (written.theta.at(capability) != t)
-      throw std::runtime_error("the library written to " + out.string() + " does not read back " + capability +
-                               "'s θ as given");
+      throw std::runtime_error("the library written to " + out.string() + " does not read back " +
+                               capability + "'s θ as given");
   return written.version;
 }
 
@@ -77,14 +78,15 @@ PerturbedLibrary perturb_library(const std::filesystem::path& from, std::uint64_
     for (const auto& [name, value] : theta) {
       const cap::ParameterRange& r = ranges.at(name);
       if (r.unit == "steps")
-        drawn[name] = static_cast<double>(std::uniform_int_distribution<long>(std::lround(r.min), std::lround(r.max))(rng));
+        drawn[name] = static_cast<double>(
+            std::uniform_int_distribution<long>(std::lround(r.min), std::lround(r.max))(rng));
       else
         drawn[name] = std::uniform_real_distribution<double>(r.min, r.max)(rng);
     }
   }
   p.version = write_library(from, p.theta, out,
-                            "θ drawn uniformly within its ranges by `dh library perturb --seed " + std::to_string(seed) +
-                                "` from " + from.string());
+                            "θ drawn uniformly within its ranges by `dh library perturb --seed " +
+                                std::to_string(seed) + "` from " + from.string());
   return p;
 }
 

@@ -38,12 +38,14 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
   const inproc::RecordedCommand& k = rec.commands[o.command];
   const auto arms = load_arms(o.config_dir / "governor.yaml");
   if (find_arm(arms, rec.arm).grounding == "perception")
-    throw std::invalid_argument("command " + k.id + " was grounded in perception estimates, which a probe does not re-make");
+    throw std::invalid_argument("command " + k.id +
+                                " was grounded in perception estimates, which a probe does not re-make");
   const std::vector<cap::CapabilityDef> defs = cap::all_capabilities();
   const cap::CapabilityDef* def = find_def(defs, k.capability);
   if (!def)
-    throw std::invalid_argument("command " + k.id + " ran " + k.capability + " " + k.version +
-                                ", not an analytic or recovery skill of this build: a probe cannot re-run it");
+    throw std::invalid_argument(
+        "command " + k.id + " ran " + k.capability + " " + k.version +
+        ", not an analytic or recovery skill of this build: a probe cannot re-run it");
 
   const auto states_file = std::filesystem::path(evidence).replace_extension(".states");
   const auto steps_file = std::filesystem::path(evidence).replace_extension(".steps");
@@ -55,8 +57,9 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
                              std::to_string(mj_version()) + ", which does not step the same");
   const sim::StateRecord* from = states.for_command(k.id);
   if (!from)
-    throw std::runtime_error("state log " + states_file.string() + ": no state recorded at the start of command " +
-                             k.id + " (its lease never reached the seam, so it never ran)");
+    throw std::runtime_error("state log " + states_file.string() +
+                             ": no state recorded at the start of command " + k.id +
+                             " (its lease never reached the seam, so it never ran)");
 
   const auto suites = load_suites(o.config_dir);
   const TaskDef& task = find_task(suites, rec.suite, rec.task);

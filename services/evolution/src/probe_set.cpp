@@ -21,13 +21,14 @@ std::vector<ProbeOutcome> probe_set(const std::vector<EpisodeRecord>& rows, cons
     for (std::size_t k = 0; k < rec.commands.size(); ++k)
       if (rec.commands[k].capability == o.capability)
         all.push_back({r.evidence_path, static_cast<std::uint32_t>(k), false,
-                       r.cell + "/" + std::to_string(r.task) + " seed " + std::to_string(r.seed) + " command " +
-                           std::to_string(k)});
+                       r.cell + "/" + std::to_string(r.task) + " seed " + std::to_string(r.seed) +
+                           " command " + std::to_string(k)});
   }
   std::vector<ProbeOutcome> parent = probe_states(all, config_dir, {}, jobs);
   std::vector<ProbeOutcome> failing, held;
   for (auto& p : parent) {
-    if (!p.report) throw std::runtime_error(p.state.label + " (" + p.state.evidence.string() + "): " + p.error);
+    if (!p.report)
+      throw std::runtime_error(p.state.label + " (" + p.state.evidence.string() + "): " + p.error);
     p.state.failing = !p.report->effect_held;
     (p.state.failing ? failing : held).push_back(std::move(p));
   }
@@ -41,7 +42,8 @@ std::vector<ProbeOutcome> probe_set(const std::vector<EpisodeRecord>& rows, cons
   return failing;
 }
 
-std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states, const std::filesystem::path& config_dir,
+std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
+                                       const std::filesystem::path& config_dir,
                                        const std::filesystem::path& library_dir, unsigned jobs,
                                        const std::optional<cap::Theta>& theta) {
   std::vector<ProbeOutcome> out(states.size());

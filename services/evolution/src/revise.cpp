@@ -1,11 +1,10 @@
 #include "dh/evo/revise.hpp"
 
-#include <nlopt.hpp>
-
-#include <chrono>
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <functional>
+#include <nlopt.hpp>
 #include <stdexcept>
 
 #include "dh/cap/library_theta.hpp"
@@ -13,7 +12,8 @@
 namespace dh::evo {
 
 Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
-  if (set.empty()) throw std::invalid_argument("the probe set of '" + o.capability + "' is empty: nothing to search on");
+  if (set.empty())
+    throw std::invalid_argument("the probe set of '" + o.capability + "' is empty: nothing to search on");
   const cap::LibraryTheta lib = cap::load_library_theta(o.library_dir);
   const auto t = lib.theta.find(o.capability);
   if (t == lib.theta.end())
@@ -26,8 +26,9 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
     if (!p.report || p.report->capability != o.capability)
       throw std::invalid_argument(p.state.label + " is not a probed command of '" + o.capability + "'");
     if (nlohmann::json(rev.parent) != p.report->theta)
-      throw std::invalid_argument(p.state.label + " recorded θ " + p.report->theta.dump() + ", not the θ of " +
-                                  o.library_dir.string() + ": probe a campaign of the parent library");
+      throw std::invalid_argument(p.state.label + " recorded θ " + p.report->theta.dump() +
+                                  ", not the θ of " + o.library_dir.string() +
+                                  ": probe a campaign of the parent library");
     states.push_back(p.state);
     rev.failing += p.state.failing;
     rev.parent_held += p.report->effect_held;
@@ -84,11 +85,9 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
   opt.set_upper_bounds(1.0);
   opt.set_initial_step(0.25);
   opt.set_maxeval(static_cast<int>(o.max_evals));
-  opt.set_max_objective(
-      [](const std::vector<double>& at, std::vector<double>&, void* data) {
-        return static_cast<Context*>(data)->f(at);
-      },
-      &context);
+  opt.set_max_objective([](const std::vector<double>& at, std::vector<double>&,
+                           void* data) { return static_cast<Context*>(data)->f(at); },
+                        &context);
   double fx = 0;
   try {
     opt.optimize(x, fx);

@@ -108,8 +108,29 @@ TEST(Contamination, NamesEachCause) {
   EXPECT_EQ(contamination(r, "lib-a", std::string("lib-a"), true), "");
   EXPECT_NE(contamination(r, "lib-a", std::string("lib-b"), true).find("lib-b"), std::string::npos);
   EXPECT_NE(contamination(r, "lib-a", std::nullopt, std::nullopt).find("e.jsonl"), std::string::npos);
-  EXPECT_NE(contamination(r, "lib-a", std::string("lib-a"), false).find("evidence says failure"), std::string::npos);
+  EXPECT_NE(contamination(r, "lib-a", std::string("lib-a"), false).find("evidence says failure"),
+            std::string::npos);
   r.infrastructure = true;
   r.reason = "simulator worker lost";
   EXPECT_NE(contamination(r, "lib-a", std::string("lib-a"), true).find("infrastructure"), std::string::npos);
+}
+
+TEST(BroaderRegression, PairedSuccessesMustNotFallOverEveryCell) {
+  const std::set<std::string> cells{"goal-swap", "goal-task"};
+  EXPECT_TRUE(broader_regression(kParent, both("SSSF", "SSSH"), cells).pass);
+  // The paper's rejected hob candidate in small: better where it was aimed, worse elsewhere.
+  const auto hob = broader_regression(kParent, both("SSSS", "FFFH"), cells);
+  EXPECT_FALSE(hob.pass);
+  EXPECT_EQ(hob.parent, 5);
+  EXPECT_EQ(hob.candidate, 4);
+  EXPECT_EQ(hob.lost,
+            (std::vector<std::string>{"goal-task/1 seed 1", "goal-task/1 seed 2", "goal-task/1 seed 3"}));
+  EXPECT_EQ(hob.gained, (std::vector<std::string>{"goal-swap/5 seed 3", "goal-swap/5 seed 4"}));
+  EXPECT_TRUE(broader_regression(kParent, both("SSSS", "FSSH"), cells).pass)
+      << "as many successes: not fallen";
+  const auto short_round =
+      broader_regression(kParent, both("SSSF", "SSSH"), {"goal-swap", "goal-task", "long"});
+  EXPECT_FALSE(short_round.pass);
+  EXPECT_EQ(short_round.missing_cells, std::vector<std::string>{"long"});
+  EXPECT_FALSE(broader_regression(kParent, both("SXSF", "SSSH"), cells).pass) << "a contaminated episode";
 }

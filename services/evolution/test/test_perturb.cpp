@@ -1,12 +1,11 @@
 // `dh library perturb`: every θ drawn within its range (whole step counts), the same seed the same draw,
 // the files otherwise kept, a folder with files refused.
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <cmath>
 #include <sstream>
 
 #include "dh/cap/library_theta.hpp"
@@ -49,18 +48,22 @@ TEST(LibraryPerturb, DrawsEveryThetaWithinItsRangeTheSameForTheSameSeed) {
       const cap::ParameterRange& r = lib.ranges.at(capability).at(name);
       EXPECT_GE(v, r.min) << capability << "." << name;
       EXPECT_LE(v, r.max) << capability << "." << name;
-      if (r.unit == "steps") EXPECT_EQ(v, std::round(v)) << capability << "." << name << " is a step count";
+      if (r.unit == "steps") {
+        EXPECT_EQ(v, std::round(v)) << capability << "." << name << " is a step count";
+      }
       ++parameters;
       moved += v != shipped_value;
     }
   }
   EXPECT_GT(parameters, 50u);
   EXPECT_GT(moved, parameters * 3 / 4) << "a draw, not the shipped values";
-  // The written files load with exactly the drawn θ, keep their ranges and comments, and say how they were made.
+  // The written files load with exactly the drawn θ, keep their ranges and comments, and say how they were
+  // made.
   EXPECT_EQ(cap::load_library_theta(dir_a).theta, a.theta);
   const std::string text = read_text(dir_b / "pick_place.yaml");
   EXPECT_NE(text.find("dh library perturb --seed 2"), std::string::npos);
-  EXPECT_NE(text.find("# m above the grasp point before the guarded descent"), std::string::npos) << "comments kept";
+  EXPECT_NE(text.find("# m above the grasp point before the guarded descent"), std::string::npos)
+      << "comments kept";
   EXPECT_NE(text.find("ranges:"), std::string::npos);
   for (const char* d : {"a", "b", "again"}) fs::remove_all(temp(d));
 }

@@ -3,12 +3,12 @@
 // the candidate's θ and says whether the effect held; bad input is named. The effect of a command is
 // derived from its arguments.
 #include <gtest/gtest.h>
-
 #include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
 
+#include "dh/cap/library_theta.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/evo/effect.hpp"
@@ -16,7 +16,6 @@
 #include "dh/evo/probe.hpp"
 #include "dh/evo/probe_set.hpp"
 #include "dh/evo/revise.hpp"
-#include "dh/cap/library_theta.hpp"
 #include "dh/inproc/stack.hpp"
 
 using namespace dh;
@@ -32,9 +31,11 @@ struct Probe : ::testing::Test {
     fs::remove_all(*dir);
     inproc::Stack stack(paths::config_dir());
     const auto suites = load_suites(paths::config_dir());
-    outcome = new inproc::EpisodeOutcome(stack.run(find_task(suites, "goal-swap", 5), 22, "full", *dir / "ep.jsonl"));
+    outcome = new inproc::EpisodeOutcome(
+        stack.run(find_task(suites, "goal-swap", 5), 22, "full", *dir / "ep.jsonl"));
     // A grasp that misses (the jaw closes on nothing), then a reseat and a grasp that holds.
-    missed = new inproc::EpisodeOutcome(stack.run(find_task(suites, "goal-task", 1), 21, "full", *dir / "missed.jsonl"));
+    missed = new inproc::EpisodeOutcome(
+        stack.run(find_task(suites, "goal-task", 1), 21, "full", *dir / "missed.jsonl"));
   }
   static void TearDownTestSuite() {
     fs::remove_all(*dir);
@@ -43,7 +44,8 @@ struct Probe : ::testing::Test {
     delete dir;
   }
   /// configs/library with `line` of `capability`'s descriptor replaced by `with`.
-  static fs::path library_with(const std::string& capability, const std::string& line, const std::string& with) {
+  static fs::path library_with(const std::string& capability, const std::string& line,
+                               const std::string& with) {
     const fs::path lib = *dir / ("lib_" + capability + "_" + std::to_string(std::hash<std::string>{}(with)));
     fs::create_directories(lib);
     for (const auto& e : fs::directory_iterator(paths::config_dir() / "library"))
@@ -86,8 +88,10 @@ TEST_F(Probe, UnderTheRecordedThetaACompletedCommandReproducesBitForBit) {
   EXPECT_EQ(r.state, "completed");
   EXPECT_TRUE(r.effect_held) << r.effect;
   const auto suites = load_suites(paths::config_dir());
-  EXPECT_EQ(r.effect, goal_text(find_task(suites, "goal-swap", 5).goal)) << "the goal's own term over its arguments";
-  EXPECT_FALSE(r.recorded) << "the governor ended the episode on the latched verdict before the command ended";
+  EXPECT_EQ(r.effect, goal_text(find_task(suites, "goal-swap", 5).goal))
+      << "the goal's own term over its arguments";
+  EXPECT_FALSE(r.recorded)
+      << "the governor ended the episode on the latched verdict before the command ended";
   EXPECT_GT(r.end_step, outcome->steps) << "the probe runs the command to its own end";
   EXPECT_EQ(r.steps_compared, outcome->steps - r.from_step) << "every recorded step of the command";
   EXPECT_FALSE(r.first_divergence);
@@ -142,8 +146,10 @@ TEST_F(Probe, ACandidateLibraryRunsItsThetaAndDepartsFromTheRecording) {
 }
 
 TEST_F(Probe, BadInputIsNamed) {
-  EXPECT_THROW(evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 2, std::nullopt}), std::invalid_argument);
-  EXPECT_THROW(evo::probe(*dir / "missing.jsonl", {paths::config_dir(), {}, 0, std::nullopt}), std::runtime_error);
+  EXPECT_THROW(evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 2, std::nullopt}),
+               std::invalid_argument);
+  EXPECT_THROW(evo::probe(*dir / "missing.jsonl", {paths::config_dir(), {}, 0, std::nullopt}),
+               std::runtime_error);
   const auto lib = library_with("pick_place", "max_speed: 0.35", "max_speed: 3.5");  // outside its range
   try {
     evo::probe(*dir / "ep.jsonl", {paths::config_dir(), lib, 1, std::nullopt});
@@ -227,21 +233,25 @@ TEST_F(Probe, TheGateReadsAnEpisodesLibraryAndOutcomeFromItsEvidence) {
   EXPECT_NE(rows[1].contamination.find("gone.jsonl"), std::string::npos) << rows[1].contamination;
   const auto other = evo::gate_rows({r}, config, "lib-0000000000000000");
   EXPECT_NE(other[0].contamination.find("lib-0000000000000000"), std::string::npos) << other[0].contamination;
-  EXPECT_FALSE(evo::gate_rows({gone}, config, "")[0].episode.contaminated) << "the parent's episodes are not checked";
+  EXPECT_FALSE(evo::gate_rows({gone}, config, "")[0].episode.contaminated)
+      << "the parent's episodes are not checked";
 }
 
 TEST(CommandEffect, FollowsTheArguments) {
   const std::vector<PredicateSpec> goal{{"In", {"bowl", "basket_region"}}};
   EXPECT_EQ(evo::command_effect({{"object", "bowl"}, {"target", "basket_region"}}, goal).front().text(),
             "In(bowl, basket_region)");
-  EXPECT_EQ(evo::command_effect({{"object", "bowl"}, {"target", "plate"}}, goal).front().text(), "On(bowl, plate)");
+  EXPECT_EQ(evo::command_effect({{"object", "bowl"}, {"target", "plate"}}, goal).front().text(),
+            "On(bowl, plate)");
   EXPECT_EQ(evo::command_effect({{"object", "bowl"}, {"target", "basket"}}, goal).front().text(),
             "In(bowl, basket_region)")
       << "a site of the target";
-  EXPECT_EQ(evo::command_effect({{"drawer", "top_drawer"}, {"state", "open"}}, goal).front().text(), "Open(top_drawer)");
+  EXPECT_EQ(evo::command_effect({{"drawer", "top_drawer"}, {"state", "open"}}, goal).front().text(),
+            "Open(top_drawer)");
   EXPECT_EQ(evo::command_effect({{"door", "door"}, {"state", "closed"}}, goal).front().text(), "Close(door)");
   EXPECT_EQ(evo::command_effect({{"knob", "stove"}, {"state", "on"}}, goal).front().text(), "TurnOn(stove)");
-  EXPECT_EQ(evo::command_effect({{"knob", "stove"}, {"state", "off"}}, goal).front().text(), "TurnOff(stove)");
+  EXPECT_EQ(evo::command_effect({{"knob", "stove"}, {"state", "off"}}, goal).front().text(),
+            "TurnOff(stove)");
   EXPECT_TRUE(evo::command_effect({{"object", "bowl"}}, goal).empty()) << "a recovery: its completion";
   EXPECT_TRUE(evo::command_effect({}, goal).empty());
 }

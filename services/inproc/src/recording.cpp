@@ -32,7 +32,8 @@ Divergence divergence_at(const sim::Workcell& cell, std::uint32_t step, const si
   for (std::size_t i = 0; i < got.joints.size() && i < want.joints.size(); ++i)
     if (got.joints[i] != want.joints[i]) {
       const int j = static_cast<int>(i / 2);
-      return {step, body_name(m, m->jnt_bodyid[j]), std::string(i % 2 ? "qvel:" : "qpos:") + joint_name(m, j)};
+      return {step, body_name(m, m->jnt_bodyid[j]),
+              std::string(i % 2 ? "qvel:" : "qpos:") + joint_name(m, j)};
     }
   static const char* aux[] = {"time", "act", "ctrl", "qacc_warmstart"};
   for (std::size_t i = 0; i < 4; ++i)
@@ -78,7 +79,8 @@ Recording read_recording(const std::filesystem::path& evidence) {
         c.theta = e.value("theta", json::object());
       } else if (kind == "dispatch") {
         const auto id = e.at("command_id").get<std::string>();
-        if (!grounded.count(id)) bad(evidence, "command " + id + " was dispatched without a grounding record");
+        if (!grounded.count(id))
+          bad(evidence, "command " + id + " was dispatched without a grounding record");
         RecordedCommand c = grounded.at(id);
         c.start_step = e.at("step").get<std::uint32_t>();
         c.budget_steps = e.at("budget_steps").get<std::uint32_t>();
@@ -88,8 +90,9 @@ Recording read_recording(const std::filesystem::path& evidence) {
         const auto it = dispatched.find(e.at("command_id").get<std::string>());
         const std::string state = e.at("state").get<std::string>();
         if (it == dispatched.end() || state == "accepted" || state == "running") continue;
-        r.commands[it->second].end = RecordedEnd{state, e.value("failure", "none"), e.value("stage", ""),
-                                                 e.at("step").get<std::uint32_t>(), e.value("steps_used", 0u)};
+        r.commands[it->second].end =
+            RecordedEnd{state, e.value("failure", "none"), e.value("stage", ""),
+                        e.at("step").get<std::uint32_t>(), e.value("steps_used", 0u)};
       } else if (kind == "verdict_event") {
         r.verdicts[e.at("step").get<std::uint32_t>()] = e.at("value").get<bool>();
         r.predicates.insert(e.value("predicate", ""));
@@ -98,7 +101,8 @@ Recording read_recording(const std::filesystem::path& evidence) {
   } catch (const json::exception& e) {
     bad(evidence, std::string("a record lacks a field a re-run needs: ") + e.what());
   }
-  if (!request || !start) bad(evidence, "no episode_request or episode_start record (not a governor's evidence?)");
+  if (!request || !start)
+    bad(evidence, "no episode_request or episode_start record (not a governor's evidence?)");
   return r;
 }
 
@@ -117,8 +121,17 @@ cap::Theta theta_of(const json& t) {
 
 cap::CommandStart command_start(const Recording& rec, const RecordedCommand& c, std::uint32_t at,
                                 const cap::Theta& theta, const std::string& host) {
-  return cap::CommandStart{0, rec.episode_id, c.id, c.capability, c.capability + "@" + host, bindings(c.args),
-                           theta, at, c.budget_steps, rec.decision_period, cap::Grounding::State};
+  return cap::CommandStart{0,
+                           rec.episode_id,
+                           c.id,
+                           c.capability,
+                           c.capability + "@" + host,
+                           bindings(c.args),
+                           theta,
+                           at,
+                           c.budget_steps,
+                           rec.decision_period,
+                           cap::Grounding::State};
 }
 
 void restore_host(cap::HostCore& host, sim::Workcell& cell, const Recording& rec, const sim::StateLog& states,

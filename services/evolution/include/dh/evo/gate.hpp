@@ -7,7 +7,7 @@
 //   4. x(ℒ') = 0                            no contaminated episode of the candidate.
 // D_π holds the pairs of D on which the bare arm, on the same seeds, succeeds on more than half; without
 // a bare campaign, or when no pair qualifies, condition 3 is vacuous and the result says so. Every
-// condition is reported with its numbers. Admission also needs the broader regression, which is not here.
+// condition is reported with its numbers. Admission also needs the broader regression (below).
 #pragma once
 
 #include <map>
@@ -42,7 +42,7 @@ std::string contamination(const EpisodeRecord& r, const std::string& library_ver
                           const std::optional<bool>& evidence_success);
 
 struct GateCondition {
-  std::string name;   ///< "successes", "harness_failures", "bare_policy_pairs", "contaminated"
+  std::string name;  ///< "successes", "harness_failures", "bare_policy_pairs", "contaminated"
   bool pass = false;
   long candidate = 0, parent = 0;  ///< the two sides compared (for "contaminated": x(ℒ') and 0)
   std::string detail;              ///< the pairs that fail it, or why it is vacuous
@@ -57,8 +57,8 @@ struct GateResult {
   bool pass = false;
   std::vector<GateCondition> conditions;  ///< the four, in Eq. 6's order
   bool pi_vacuous = true;
-  std::map<CellTask, PairCounts> pairs;   ///< D, with its counts
-  std::vector<std::string> unpaired;      ///< episodes of the parent in D the candidate lacks (the gate fails)
+  std::map<CellTask, PairCounts> pairs;  ///< D, with its counts
+  std::vector<std::string> unpaired;     ///< episodes of the parent in D the candidate lacks (the gate fails)
 };
 
 /// A campaign's episode as the gate reads it, from its row and its evidence.
@@ -79,5 +79,22 @@ std::vector<GateRow> gate_rows(const std::vector<EpisodeRecord>& rows, const Att
 /// the same seeds; `targeted` is D. Episodes outside D are ignored.
 GateResult paired_gate(const std::vector<GateEpisode>& parent, const std::vector<GateEpisode>& candidate,
                        const std::vector<GateEpisode>& bare, const std::set<CellTask>& targeted);
+
+/// The broader regression after the gate: a round over every cell on a separate block of seeds, paired on
+/// (cell, task, seed), whose successes must not fall.
+struct RegressionResult {
+  bool pass = false;
+  long parent = 0, candidate = 0;  ///< successes over the paired episodes
+  unsigned paired = 0, contaminated = 0;
+  std::vector<std::string> lost, gained;   ///< "cell/task seed s" whose success the candidate lost or gained
+  std::vector<std::string> unpaired;       ///< parent episodes the candidate lacks
+  std::vector<std::string> missing_cells;  ///< of `cells`, those the round did not run
+};
+
+/// `cells`: every cell the round must cover (`dh tasks`). It passes when nothing is unpaired or missing,
+/// no candidate episode is contaminated, and the candidate's successes are at least the parent's.
+RegressionResult broader_regression(const std::vector<GateEpisode>& parent,
+                                    const std::vector<GateEpisode>& candidate,
+                                    const std::set<std::string>& cells);
 
 }  // namespace dh::evo

@@ -7,10 +7,9 @@
 // bit for bit.
 #pragma once
 
-#include <nlohmann/json.hpp>
-
 #include <cstdint>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 
@@ -35,8 +34,8 @@ struct ProbeReport {
   std::uint32_t end_step = 0;   ///< the step its end was reported at
   std::uint32_t budget_steps = 0;
   std::string state, failure, stage, reason;  ///< how it ended (CommandState, FailureCode as text)
-  std::string effect;           ///< the effect's predicates, or "completion" when its arguments name none
-  bool effect_held = false;     ///< the effect's predicates hold at the command's end (or it completed)
+  std::string effect;        ///< the effect's predicates, or "completion" when its arguments name none
+  bool effect_held = false;  ///< the effect's predicates hold at the command's end (or it completed)
   // Against the recording:
   std::optional<inproc::RecordedEnd> recorded;  ///< none: the governor moved on before the command ended
   bool same_end = false;                        ///< state, failure, stage and step as recorded

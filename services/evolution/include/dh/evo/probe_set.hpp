@@ -45,7 +45,8 @@ std::vector<ProbeOutcome> probe_set(const std::vector<EpisodeRecord>& rows, cons
 
 /// Probes every state under `library_dir`, or else `theta` for the commands' capability, or else each
 /// recording's own θ, on `jobs` threads; results in the states' order.
-std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states, const std::filesystem::path& config_dir,
+std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
+                                       const std::filesystem::path& config_dir,
                                        const std::filesystem::path& library_dir, unsigned jobs,
                                        const std::optional<cap::Theta>& theta = std::nullopt);
 

@@ -28,7 +28,7 @@ struct Revision {
   cap::Theta parent, best;
   std::map<std::string, std::pair<double, double>> kappa;  ///< parameter -> (parent, revised), changed ones
   unsigned states = 0, failing = 0;
-  unsigned parent_held = 0;          ///< effects held under the parent (its successes)
+  unsigned parent_held = 0;  ///< effects held under the parent (its successes)
   unsigned best_held = 0, fixed = 0, kept = 0;
   unsigned evals = 0;
   double wall_s = 0;

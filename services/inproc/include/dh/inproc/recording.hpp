@@ -4,11 +4,10 @@
 // state at a command's start is re-made: the keyframes the earlier commands left.
 #pragma once
 
-#include <nlohmann/json.hpp>
-
 #include <cstdint>
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
 #include <string>
@@ -52,12 +51,12 @@ struct RecordedCommand {
 struct Recording {
   std::filesystem::path evidence;
   std::string suite, arm, episode_id, build, instruction;
-  std::set<std::string> predicates;         ///< the goal's text as the seam stated it
+  std::set<std::string> predicates;  ///< the goal's text as the seam stated it
   unsigned task = 0;
   std::uint64_t seed = 0;
   std::uint32_t budget_steps = 0, decision_period = 10;
-  std::vector<RecordedCommand> commands;    ///< in dispatch order
-  std::map<std::uint32_t, bool> verdicts;   ///< step -> value of each predicate change
+  std::vector<RecordedCommand> commands;   ///< in dispatch order
+  std::map<std::uint32_t, bool> verdicts;  ///< step -> value of each predicate change
 };
 
 /// Reads the governor's evidence; throws std::runtime_error naming the file when it is missing, corrupt,

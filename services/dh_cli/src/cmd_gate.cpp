@@ -1,0 +1,213 @@
+// `dh gate` (the paired gate of Eq. 6 and the broader round, optionally registered) and `dh registry`.
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <fstream>
+#include <iostream>
+#include <optional>
+#include <set>
+
+#include "commands.hpp"
+#include "dh/campaign/db.hpp"
+#include "dh/cap/library_theta.hpp"
+#include "dh/common/paths.hpp"
+#include "dh/common/suite.hpp"
+#include "dh/evo/attribution.hpp"
+#include "dh/evo/gate.hpp"
+#include "dh/evo/registry.hpp"
+
+namespace dh::cli {
+
+int cmd_gate(const GateArgs& a) {
+  const std::filesystem::path config_file =
+      a.config.empty() ? paths::config_dir() / "attribution.yaml" : std::filesystem::path(a.config);
+  const evo::AttributionConfig config = evo::load_attribution(config_file);
+  const auto arm_rows = [](const std::string& db, const std::string& arm) {
+    std::vector<EpisodeRecord> rows;
+    for (auto& r : campaign::CampaignDb::read_rows(db))
+      if (r.arm == arm) rows.push_back(std::move(r));
+    if (rows.empty()) throw std::invalid_argument(db + " has no episode of arm " + arm);
+    return rows;
+  };
+  const std::string version = cap::load_library_theta(a.library).version;
+  const auto parent = evo::gate_rows(arm_rows(a.parent, a.arm), config, "");
+  const auto candidate = evo::gate_rows(arm_rows(a.candidate, a.arm), config, version);
+  std::vector<evo::GateRow> bare;
+  if (!a.bare.empty()) bare = evo::gate_rows(arm_rows(a.bare, a.bare_arm), config, "");
+  std::set<evo::CellTask> targeted;
+  for (const auto& r : parent)
+    if (r.signature && r.signature->capability == a.capability)
+      targeted.insert({r.episode.cell, r.episode.task});
+  const auto episodes = [](const std::vector<evo::GateRow>& rows) {
+    std::vector<evo::GateEpisode> v;
+    for (const auto& r : rows) v.push_back(r.episode);
+    return v;
+  };
+  const evo::GateResult g = evo::paired_gate(episodes(parent), episodes(candidate), episodes(bare), targeted);
+  // The broader round, when given: every cell `dh tasks` lists, on its own block of seeds.
+  std::optional<evo::RegressionResult> regression;
+  if (!a.regression_parent.empty() || !a.regression_candidate.empty()) {
+    if (a.regression_parent.empty() || a.regression_candidate.empty())
+      throw std::invalid_argument(
+          "the broader round needs both --regression-parent and --regression-candidate");
+    std::set<std::string> cells;
+    for (const auto& [name, suite] : load_suites(paths::config_dir())) cells.insert(name);
+    regression = evo::broader_regression(
+        episodes(evo::gate_rows(arm_rows(a.regression_parent, a.arm), config, "")),
+        episodes(evo::gate_rows(arm_rows(a.regression_candidate, a.arm), config, version)), cells);
+  }
+  const bool admit = g.pass && regression && regression->pass;
+  nlohmann::json regression_json = nullptr;
+  if (regression)
+    regression_json = {{"pass", regression->pass},
+                       {"parent", regression->parent},
+                       {"candidate", regression->candidate},
+                       {"paired", regression->paired},
+                       {"contaminated", regression->contaminated},
+                       {"lost", regression->lost},
+                       {"gained", regression->gained},
+                       {"unpaired", regression->unpaired},
+                       {"missing_cells", regression->missing_cells}};
+  nlohmann::json contaminated = nlohmann::json::array();
+  for (const auto& r : candidate)
+    if (!r.contamination.empty())
+      contaminated.push_back({{"cell", r.episode.cell},
+                              {"task", r.episode.task},
+                              {"seed", r.episode.seed},
+                              {"why", r.contamination}});
+  nlohmann::json conditions = nlohmann::json::array(), pairs = nlohmann::json::array();
+  for (const auto& c : g.conditions)
+    conditions.push_back({{"name", c.name},
+                          {"pass", c.pass},
+                          {"candidate", c.candidate},
+                          {"parent", c.parent},
+                          {"detail", c.detail}});
+  for (const auto& [d, n] : g.pairs)
+    pairs.push_back({{"cell", d.first},
+                     {"task", d.second},
+                     {"episodes", n.n},
+                     {"parent_s", n.parent_s},
+                     {"candidate_s", n.candidate_s},
+                     {"parent_u", n.parent_u},
+                     {"candidate_u", n.candidate_u},
+                     {"bare_wins", n.in_pi}});
+  nlohmann::json registered = nullptr;
+  if (a.register_decision) {
+    std::string reason;
+    for (const auto& c : g.conditions)
+      if (!c.pass)
+        reason += (reason.empty() ? "" : "; ") + c.name + " " + std::to_string(c.candidate) + " vs " +
+                  std::to_string(c.parent);
+    if (!g.unpaired.empty())
+      reason += (reason.empty() ? "" : "; ") + std::to_string(g.unpaired.size()) + " unpaired";
+    if (!regression)
+      reason += (reason.empty() ? "" : "; ") + std::string("no broader round");
+    else if (!regression->pass) {
+      reason += (reason.empty() ? "" : "; ") + fmt::format("broader round {} vs {} successes, {} lost",
+                                                           regression->candidate, regression->parent,
+                                                           regression->lost.size());
+      if (!regression->missing_cells.empty())
+        reason += fmt::format(", cells not run: {}", fmt::join(regression->missing_cells, " "));
+      if (regression->contaminated) reason += fmt::format(", {} contaminated", regression->contaminated);
+      if (!regression->unpaired.empty()) reason += fmt::format(", {} unpaired", regression->unpaired.size());
+    }
+    nlohmann::json entry{{"capability", a.capability},
+                         {"candidate_version", version},
+                         {"candidate_library", a.library},
+                         {"parent_db", a.parent},
+                         {"candidate_db", a.candidate},
+                         {"gate", {{"pass", g.pass}, {"conditions", conditions}, {"pairs", pairs}}},
+                         {"regression", regression_json},
+                         {"reason", admit ? "passed the gate and the broader round" : reason}};
+    const auto revision_file = std::filesystem::path(a.library) / "revision.json";
+    if (std::filesystem::exists(revision_file)) {
+      const nlohmann::json revision = nlohmann::json::parse(std::ifstream(revision_file));
+      for (const char* k : {"parent_version", "kappa", "probe", "search"})
+        if (revision.contains(k)) entry[k] = revision[k];
+    }
+    const std::filesystem::path dir =
+        a.registry.empty() ? paths::runs_dir() / "registry" : std::filesystem::path(a.registry);
+    registered = evo::Registry(dir).append(entry, a.library, admit);
+  }
+  if (a.json) {
+    std::cout << nlohmann::json{{"pass", g.pass},
+                                {"capability", a.capability},
+                                {"candidate_library", version},
+                                {"conditions", conditions},
+                                {"pi_vacuous", g.pi_vacuous},
+                                {"pairs", pairs},
+                                {"unpaired", g.unpaired},
+                                {"contaminated", contaminated},
+                                {"regression", regression_json},
+                                {"admit", admit},
+                                {"registered", registered}}
+                     .dump()
+              << "\n";
+    return g.pass && (!regression || regression->pass) ? 0 : 3;
+  }
+  std::cout << fmt::format("D: {} (cell, task) pair(s) where {}'s failures were attributed\n", g.pairs.size(),
+                           a.capability);
+  for (const auto& [d, n] : g.pairs)
+    std::cout << fmt::format("  {}/{}  {} episodes  successes {} -> {}  harness failures {} -> {}{}\n",
+                             d.first, d.second, n.n, n.parent_s, n.candidate_s, n.parent_u, n.candidate_u,
+                             n.in_pi ? "  (the bare arm wins it)" : "");
+  for (const auto& c : g.conditions)
+    std::cout << fmt::format("{:<18} {}  candidate {} / parent {}{}\n", c.name, c.pass ? "pass" : "FAIL",
+                             c.candidate, c.parent, c.detail.empty() ? "" : "  (" + c.detail + ")");
+  for (const auto& u : g.unpaired) std::cout << "unpaired: the candidate lacks " << u << "\n";
+  for (const auto& c : contaminated)
+    std::cout << "contaminated: " << c["cell"].get<std::string>() << "/" << c["task"] << " seed " << c["seed"]
+              << ": " << c["why"].get<std::string>() << "\n";
+  std::cout << (g.pass ? "the candidate passes the paired gate\n"
+                       : "the candidate fails the paired gate: not admitted\n");
+  if (regression) {
+    std::cout << fmt::format(
+        "broader round: {}  candidate {} / parent {} successes over {} paired episodes ({} lost, "
+        "{} gained)\n",
+        regression->pass ? "pass" : "FAIL", regression->candidate, regression->parent, regression->paired,
+        regression->lost.size(), regression->gained.size());
+    for (const auto& l : regression->lost) std::cout << "  lost: " << l << "\n";
+    for (const auto& c : regression->missing_cells) std::cout << "  cell not run: " << c << "\n";
+    for (const auto& u : regression->unpaired) std::cout << "  unpaired: " << u << "\n";
+  } else {
+    std::cout
+        << "broader round: not given (admission needs --regression-parent and --regression-candidate)\n";
+  }
+  if (!registered.is_null())
+    std::cout << "registered " << registered["id"].get<std::string>() << ": "
+              << registered["decision"].get<std::string>()
+              << (registered.contains("snapshot")
+                      ? " (snapshot " + registered["snapshot"].get<std::string>() + ")"
+                      : "")
+              << "\n";
+  return g.pass && (!regression || regression->pass) ? 0 : 3;
+}
+
+int cmd_registry(const std::string& dir, const std::string& id, bool json) {
+  const evo::Registry reg(dir.empty() ? paths::runs_dir() / "registry" : std::filesystem::path(dir));
+  if (!id.empty()) {
+    const auto e = reg.find(id);
+    if (!e) throw std::invalid_argument(reg.file().string() + " has no entry " + id + " (dh registry list)");
+    std::cout << e->dump(2) << "\n";
+    return 0;
+  }
+  const auto entries = reg.entries();
+  if (json) {
+    std::cout << nlohmann::json(entries).dump() << "\n";
+    return 0;
+  }
+  if (entries.empty()) std::cout << reg.file().string() << ": no candidate yet\n";
+  for (const auto& e : entries) {
+    std::string kappa;
+    const nlohmann::json k = e.value("kappa", nlohmann::json::object());
+    for (const auto& [name, v] : k.items())
+      kappa += fmt::format(" {} {:g}->{:g}", name, v.value("parent", 0.0), v.value("revised", 0.0));
+    std::cout << fmt::format("{:<4} {}  {:<8} {:<12} {}{}  ({})\n", e.value("id", ""), e.value("time", ""),
+                             e.value("decision", ""), e.value("capability", ""),
+                             e.value("candidate_version", ""), kappa, e.value("reason", ""));
+  }
+  if (const auto cur = reg.current()) std::cout << "current library: " << cur->string() << "\n";
+  return 0;
+}
+
+}  // namespace dh::cli

@@ -1,0 +1,112 @@
+// `dh revise` (the revision search on a probe set) and `dh library perturb` (an untuned library).
+#include <fmt/format.h>
+
+#include <ctime>
+#include <fstream>
+#include <iostream>
+#include <thread>
+
+#include "commands.hpp"
+#include "dh/campaign/db.hpp"
+#include "dh/cap/library_theta.hpp"
+#include "dh/common/paths.hpp"
+#include "dh/evo/perturb.hpp"
+#include "dh/evo/probe_set.hpp"
+#include "dh/evo/revise.hpp"
+
+namespace dh::cli {
+
+int cmd_revise(const ReviseArgs& a) {
+  std::vector<EpisodeRecord> rows;
+  for (auto& r : campaign::CampaignDb::read_rows(a.db))
+    if (r.arm == a.arm) rows.push_back(std::move(r));
+  const unsigned jobs = a.jobs ? a.jobs : std::max(1u, std::thread::hardware_concurrency());
+  const auto set = evo::probe_set(rows, {a.capability, a.successes, a.draw_seed}, paths::config_dir(), jobs);
+  const std::filesystem::path parent =
+      a.library.empty() ? paths::config_dir() / "library" : std::filesystem::path(a.library);
+  const evo::Revision rev = evo::revise(set, {a.capability, paths::config_dir(), parent, a.max_evals, jobs});
+  std::string out, version;
+  if (rev.improved()) {
+    std::string note = "candidate of `dh revise --capability " + a.capability + "` over " + a.db + ":";
+    for (const auto& [name, v] : rev.kappa) note += fmt::format(" {} {:g} -> {:g};", name, v.first, v.second);
+    const std::filesystem::path dir =
+        a.out.empty()
+            ? paths::runs_dir() / "candidates" / (a.capability + "-" + std::to_string(std::time(nullptr)))
+            : std::filesystem::path(a.out);
+    version = evo::write_library(parent, {{a.capability, rev.best}}, dir, note);
+    out = dir.string();
+    // What `dh gate --register` records of the revision: κ, the probe results before and after.
+    nlohmann::json kappa = nlohmann::json::object();
+    for (const auto& [name, v] : rev.kappa) kappa[name] = {{"parent", v.first}, {"revised", v.second}};
+    std::ofstream(dir / "revision.json")
+        << nlohmann::json{{"capability", a.capability},
+                          {"db", a.db},
+                          {"parent_library", parent.string()},
+                          {"parent_version", cap::load_library_theta(parent).version},
+                          {"candidate_version", version},
+                          {"kappa", kappa},
+                          {"probe",
+                           {{"states", rev.states},
+                            {"failing", rev.failing},
+                            {"held_before", rev.parent_held},
+                            {"held_after", rev.best_held},
+                            {"fixed", rev.fixed},
+                            {"kept", rev.kept}}},
+                          {"search",
+                           {{"evals", rev.evals}, {"max_evals", a.max_evals}, {"wall_s", rev.wall_s}}}}
+               .dump(2)
+        << "\n";
+  }
+  if (a.json) {
+    nlohmann::json kappa = nlohmann::json::object();
+    for (const auto& [name, v] : rev.kappa) kappa[name] = {{"parent", v.first}, {"revised", v.second}};
+    std::cout << nlohmann::json{{"capability", a.capability},
+                                {"states", rev.states},
+                                {"failing", rev.failing},
+                                {"parent_held", rev.parent_held},
+                                {"best_held", rev.best_held},
+                                {"fixed", rev.fixed},
+                                {"kept", rev.kept},
+                                {"evals", rev.evals},
+                                {"max_evals", a.max_evals},
+                                {"wall_s", rev.wall_s},
+                                {"kappa", kappa},
+                                {"out", out},
+                                {"version", version}}
+                     .dump()
+              << "\n";
+    return rev.improved() ? 0 : 3;
+  }
+  std::cout << fmt::format(
+      "{}: probe set of {} states ({} failing); the parent holds {} effects; {} of at most {} "
+      "candidate θ probed in {:.1f} s\n",
+      a.capability, rev.states, rev.failing, rev.parent_held, rev.evals, a.max_evals, rev.wall_s);
+  if (!rev.improved()) {
+    std::cout << "no θ within the ranges held more effects than the parent's: no candidate\n";
+    return 3;
+  }
+  std::cout << fmt::format("best: {} effects held ({} failing states fixed, {} of {} successes kept); κ:\n",
+                           rev.best_held, rev.fixed, rev.kept, rev.states - rev.failing);
+  for (const auto& [name, v] : rev.kappa)
+    std::cout << fmt::format("  {} {:g} -> {:g}\n", name, v.first, v.second);
+  std::cout << "candidate library " << version << " written to " << out
+            << " (admission is the gate's: run its campaign on the same seeds)\n";
+  return 0;
+}
+
+int cmd_library_perturb(const std::string& from, std::uint64_t seed, const std::string& out, bool json) {
+  const evo::PerturbedLibrary p = evo::perturb_library(from, seed, out);
+  if (json) {
+    std::cout
+        << nlohmann::json{{"version", p.version}, {"out", out}, {"seed", seed}, {"theta", p.theta}}.dump()
+        << "\n";
+    return 0;
+  }
+  std::size_t n = 0;
+  for (const auto& [capability, theta] : p.theta) n += theta.size();
+  std::cout << "library " << p.version << " written to " << out << ": " << n << " parameters of "
+            << p.theta.size() << " capabilities drawn within their ranges (seed " << seed << ")\n";
+  return 0;
+}
+
+}  // namespace dh::cli
