@@ -29,6 +29,10 @@ int cmd_gate(const GateArgs& a) {
     if (rows.empty()) throw std::invalid_argument(db + " has no episode of arm " + arm);
     return rows;
   };
+  if (a.register_decision && (a.regression_parent.empty() || a.regression_candidate.empty()))
+    throw std::invalid_argument(
+        "--register records a decision, and admission needs the broader round: give "
+        "--regression-parent and --regression-candidate too");
   const std::string version = cap::load_library_theta(a.library).version;
   const auto parent = evo::gate_rows(arm_rows(a.parent, a.arm), config, "");
   const auto candidate = evo::gate_rows(arm_rows(a.candidate, a.arm), config, version);
@@ -43,6 +47,10 @@ int cmd_gate(const GateArgs& a) {
     for (const auto& r : rows) v.push_back(r.episode);
     return v;
   };
+  if (targeted.empty())
+    throw std::invalid_argument(a.parent + ": no failure of arm " + a.arm + " is attributed to '" +
+                                a.capability + "' (dh attribute --db " + a.parent +
+                                " lists the signatures): D is empty");
   const evo::GateResult g = evo::paired_gate(episodes(parent), episodes(candidate), episodes(bare), targeted);
   // The broader round, when given: every cell `dh tasks` lists, on its own block of seeds.
   std::optional<evo::RegressionResult> regression;
@@ -100,9 +108,7 @@ int cmd_gate(const GateArgs& a) {
                   std::to_string(c.parent);
     if (!g.unpaired.empty())
       reason += (reason.empty() ? "" : "; ") + std::to_string(g.unpaired.size()) + " unpaired";
-    if (!regression)
-      reason += (reason.empty() ? "" : "; ") + std::string("no broader round");
-    else if (!regression->pass) {
+    if (!regression->pass) {  // --register needs the broader round (checked above)
       reason += (reason.empty() ? "" : "; ") + fmt::format("broader round {} vs {} successes, {} lost",
                                                            regression->candidate, regression->parent,
                                                            regression->lost.size());
@@ -121,7 +127,13 @@ int cmd_gate(const GateArgs& a) {
                          {"reason", admit ? "passed the gate and the broader round" : reason}};
     const auto revision_file = std::filesystem::path(a.library) / "revision.json";
     if (std::filesystem::exists(revision_file)) {
-      const nlohmann::json revision = nlohmann::json::parse(std::ifstream(revision_file));
+      nlohmann::json revision;
+      try {
+        revision = nlohmann::json::parse(std::ifstream(revision_file));
+      } catch (const nlohmann::json::exception& e) {
+        throw std::invalid_argument(revision_file.string() +
+                                    " is not the JSON `dh revise` writes: " + e.what());
+      }
       for (const char* k : {"parent_version", "kappa", "probe", "search"})
         if (revision.contains(k)) entry[k] = revision[k];
     }

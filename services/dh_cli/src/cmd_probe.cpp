@@ -22,8 +22,11 @@ int probe_set(const ProbeArgs& a) {
     if (r.arm == a.arm) rows.push_back(std::move(r));
   const unsigned jobs = a.jobs ? a.jobs : std::max(1u, std::thread::hardware_concurrency());
   const auto t0 = std::chrono::steady_clock::now();
-  const auto parent =
+  const evo::ProbeSet set =
       evo::probe_set(rows, {a.capability, a.successes, a.draw_seed}, paths::config_dir(), jobs);
+  for (const auto& s : set.skipped)
+    std::cerr << "skipped " << s.state.label << " (" << s.state.evidence.string() << "): " << s.error << "\n";
+  const auto& parent = set.states;
   if (parent.empty())
     throw std::invalid_argument(a.db + ": arm " + a.arm + " ran no command of '" + a.capability +
                                 "' with evidence");

@@ -21,10 +21,19 @@ int cmd_revise(const ReviseArgs& a) {
   for (auto& r : campaign::CampaignDb::read_rows(a.db))
     if (r.arm == a.arm) rows.push_back(std::move(r));
   const unsigned jobs = a.jobs ? a.jobs : std::max(1u, std::thread::hardware_concurrency());
-  const auto set = evo::probe_set(rows, {a.capability, a.successes, a.draw_seed}, paths::config_dir(), jobs);
   const std::filesystem::path parent =
       a.library.empty() ? paths::config_dir() / "library" : std::filesystem::path(a.library);
-  const evo::Revision rev = evo::revise(set, {a.capability, paths::config_dir(), parent, a.max_evals, jobs});
+  // Refused before minutes of probing: an --out with files, a capability the library lacks.
+  if (!a.out.empty() && std::filesystem::exists(a.out) && !std::filesystem::is_empty(a.out))
+    throw std::invalid_argument(a.out + " holds files: give `--out` a new or empty folder");
+  if (!cap::load_library_theta(parent).theta.count(a.capability))
+    throw std::invalid_argument("library " + parent.string() + " has no " + a.capability + ".yaml");
+  const evo::ProbeSet set =
+      evo::probe_set(rows, {a.capability, a.successes, a.draw_seed}, paths::config_dir(), jobs);
+  for (const auto& s : set.skipped)
+    std::cerr << "skipped " << s.state.label << " (" << s.state.evidence.string() << "): " << s.error << "\n";
+  const evo::Revision rev =
+      evo::revise(set.states, {a.capability, paths::config_dir(), parent, a.max_evals, jobs});
   std::string out, version;
   if (rev.improved()) {
     std::string note = "candidate of `dh revise --capability " + a.capability + "` over " + a.db + ":";

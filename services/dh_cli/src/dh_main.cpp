@@ -42,6 +42,7 @@
 #include "dh/campaign/db.hpp"
 #include "dh/campaign/plan.hpp"
 #include "dh/common/config.hpp"
+#include "dh/inproc/recording.hpp"
 
 int main(int argc, char** argv) {
   using namespace dh::cli;
@@ -284,6 +285,9 @@ int main(int argc, char** argv) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;
   } catch (const std::invalid_argument& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return 2;
+  } catch (const dh::inproc::EvidenceError& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;
   } catch (const std::exception& e) {

@@ -49,24 +49,37 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
 
   const auto states_file = std::filesystem::path(evidence).replace_extension(".states");
   const auto steps_file = std::filesystem::path(evidence).replace_extension(".steps");
-  const sim::StateLog states = sim::read_state_log(states_file);
-  const sim::StepLog log = sim::read_step_log(steps_file);
+  sim::StateLog states;
+  sim::StepLog log;
+  try {
+    states = sim::read_state_log(states_file);
+    log = sim::read_step_log(steps_file);
+  } catch (const std::runtime_error& e) {
+    throw inproc::EvidenceError(e.what());
+  }
+  if (states.header.model_hash != log.header.model_hash)
+    throw inproc::EvidenceError("state log " + states_file.string() +
+                                " is of another model than the step log beside it");
+  for (std::size_t i = 0; i < log.records.size(); ++i)
+    if (log.records[i].step != i)
+      throw inproc::EvidenceError("step log " + steps_file.string() + ": record " + std::to_string(i) +
+                                  " is for step " + std::to_string(log.records[i].step));
   if (static_cast<std::uint32_t>(mj_version()) != log.header.mujoco_version)
-    throw std::runtime_error("step log " + steps_file.string() + " was recorded with MuJoCo " +
-                             std::to_string(log.header.mujoco_version) + "; this build runs " +
-                             std::to_string(mj_version()) + ", which does not step the same");
+    throw inproc::EvidenceError("step log " + steps_file.string() + " was recorded with MuJoCo " +
+                                std::to_string(log.header.mujoco_version) + "; this build runs " +
+                                std::to_string(mj_version()) + ", which does not step the same");
   const sim::StateRecord* from = states.for_command(k.id);
   if (!from)
-    throw std::runtime_error("state log " + states_file.string() +
-                             ": no state recorded at the start of command " + k.id +
-                             " (its lease never reached the seam, so it never ran)");
+    throw inproc::EvidenceError("state log " + states_file.string() +
+                                ": no state recorded at the start of command " + k.id +
+                                " (its lease never reached the seam, so it never ran)");
 
   const auto suites = load_suites(o.config_dir);
   const TaskDef& task = find_task(suites, rec.suite, rec.task);
   sim::Workcell cell(sim::load_task_scene(task));
   if (cell.model_hash() != states.header.model_hash)
-    throw std::runtime_error("state log " + states_file.string() + " is of another model than " +
-                             task.scene_file.string() + " compiles to (scene, assets or robot changed)");
+    throw inproc::EvidenceError("state log " + states_file.string() + " is of another model than " +
+                                task.scene_file.string() + " compiles to (scene, assets or robot changed)");
   cell.reset(rec.seed, task.goal);
 
   ProbeReport r;
@@ -89,11 +102,26 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
   } else if (o.theta) {
     r.library = "theta " + cap::library_version({{k.capability, *o.theta}});
   }
+  const std::vector<PredicateSpec> effect = command_effect(inproc::bindings(k.args), task.goal);
+  r.effect = effect.empty() ? "completion" : goal_text(effect);
   if (candidate) {
     theta = *candidate;
-    // The budget the governor would give the candidate: its cost model, within what the episode had left.
-    const int cost = def->make(theta)->cost_steps();
-    r.budget_steps = gov::command_budget(static_cast<std::uint32_t>(cost), rec.budget_steps - from->step);
+    // The budget the governor would give the candidate: its cost model, within what the episode had left;
+    // a cost beyond that is refused at grounding, as the governor refuses it, and never runs.
+    const auto cost = static_cast<std::uint32_t>(def->make(theta)->cost_steps());
+    const std::uint32_t remaining = rec.budget_steps > from->step ? rec.budget_steps - from->step : 0;
+    if (cost > remaining) {
+      r.theta = json(theta);
+      r.end_step = from->step;
+      r.state = to_string(CommandState::Refused);
+      r.failure = to_string(FailureCode::None);
+      r.reason = "budget: " + std::to_string(remaining) + " steps remain, '" + k.capability +
+                 "' under this θ costs " + std::to_string(cost);
+      cell.restore(from->state);
+      r.effect_held = !effect.empty() && cell.holds(effect);
+      return r;
+    }
+    r.budget_steps = gov::command_budget(cost, remaining);
   }
   r.theta = json(theta);
 
@@ -120,14 +148,14 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
   r.failure = to_string(out.failure);
   r.stage = out.stage;
   r.reason = out.reason;
-  const std::vector<PredicateSpec> effect = command_effect(inproc::bindings(k.args), task.goal);
-  r.effect = effect.empty() ? "completion" : goal_text(effect);
   // The effect is the world's state at the command's end, however the command ended; a command whose
   // arguments name none is judged by its completion.
   r.effect_held = effect.empty() ? out.state == CommandState::Completed : cell.holds(effect);
   r.same_end = k.end && k.end->state == r.state && k.end->failure == r.failure && k.end->stage == r.stage &&
                k.end->step == r.end_step;
-  r.reproduces = !r.first_divergence && (!k.end || r.same_end);
+  // Reproduced: every recorded step of the command the same, and its recorded end (if any) the same; a
+  // command with neither recorded steps nor a recorded end has nothing to reproduce.
+  r.reproduces = !r.first_divergence && (k.end ? r.same_end : r.steps_compared > 0);
   return r;
 }
 

@@ -5,17 +5,23 @@
 #include <random>
 #include <thread>
 
+#include "dh/cap/library.hpp"
 #include "dh/common/arms.hpp"
 #include "dh/inproc/recording.hpp"
 
 namespace dh::evo {
 
-std::vector<ProbeOutcome> probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions& o,
-                                    const std::filesystem::path& config_dir, unsigned jobs) {
+ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions& o,
+                   const std::filesystem::path& config_dir, unsigned jobs) {
+  const auto defs = cap::all_capabilities();
+  if (std::none_of(defs.begin(), defs.end(), [&](const auto& d) { return d.name == o.capability; }))
+    throw std::invalid_argument("'" + o.capability +
+                                "' is not an analytic or recovery skill of this build: a probe "
+                                "cannot re-run it");
   const auto arms = load_arms(config_dir / "governor.yaml");
   std::vector<ProbeState> all;
   for (const EpisodeRecord& r : rows) {
-    if (r.evidence_path.empty() || !std::filesystem::exists(r.evidence_path)) continue;
+    if (r.infrastructure || r.evidence_path.empty() || !std::filesystem::exists(r.evidence_path)) continue;
     if (find_arm(arms, r.arm).grounding == "perception") continue;  // a probe re-makes no estimates
     const inproc::Recording rec = inproc::read_recording(r.evidence_path);
     for (std::size_t k = 0; k < rec.commands.size(); ++k)
@@ -25,10 +31,13 @@ std::vector<ProbeOutcome> probe_set(const std::vector<EpisodeRecord>& rows, cons
                            " command " + std::to_string(k)});
   }
   std::vector<ProbeOutcome> parent = probe_states(all, config_dir, {}, jobs);
+  ProbeSet set;
   std::vector<ProbeOutcome> failing, held;
   for (auto& p : parent) {
-    if (!p.report)
-      throw std::runtime_error(p.state.label + " (" + p.state.evidence.string() + "): " + p.error);
+    if (!p.report) {
+      set.skipped.push_back(std::move(p));
+      continue;
+    }
     p.state.failing = !p.report->effect_held;
     (p.state.failing ? failing : held).push_back(std::move(p));
   }
@@ -39,7 +48,8 @@ std::vector<ProbeOutcome> probe_set(const std::vector<EpisodeRecord>& rows, cons
   order.resize(std::min(order.size(), std::max(o.min_successes, failing.size())));
   std::sort(order.begin(), order.end());
   for (std::size_t i : order) failing.push_back(std::move(held[i]));
-  return failing;
+  set.states = std::move(failing);
+  return set;
 }
 
 std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,

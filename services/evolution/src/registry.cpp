@@ -1,5 +1,9 @@
 #include "dh/evo/registry.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <ctime>
 #include <fstream>
@@ -31,7 +35,11 @@ Registry::Registry(std::filesystem::path dir) : dir_(std::move(dir)) {}
 std::vector<json> Registry::entries() const {
   std::vector<json> out;
   std::ifstream in(file());
-  if (!in) return out;  // no registry yet
+  if (!in) {
+    if (std::filesystem::exists(head()))
+      throw std::runtime_error(file().string() + " is missing but " + head().string() + " says it had lines");
+    return out;  // no registry yet
+  }
   std::string line, previous = kGenesis;
   for (std::size_t n = 1; std::getline(in, line); ++n) {
     json e;
@@ -48,6 +56,15 @@ std::vector<json> Registry::entries() const {
     previous = sha256_hex(line);
     out.push_back(std::move(e));
   }
+  // The last line has no successor to carry its hash: the head file does.
+  std::ifstream head_in(head());
+  std::string head_hash;
+  std::getline(head_in, head_hash);
+  if (head_hash != previous)
+    throw std::runtime_error(
+        file().string() + ": its last line does not match " + head().string() +
+        " (the last line was edited or removed, or an append was cut short); the registry is "
+        "append-only");
   return out;
 }
 
@@ -58,14 +75,21 @@ std::optional<json> Registry::find(const std::string& id) const {
 }
 
 json Registry::append(json entry, const std::filesystem::path& library, bool admitted) {
-  const std::vector<json> before = entries();  // also checks the chain before extending it
-  std::string previous = kGenesis;
-  {
-    std::ifstream in(file());
-    std::string line, last;
-    while (std::getline(in, line)) last = line;
-    if (!last.empty()) previous = sha256_hex(last);
-  }
+  std::filesystem::create_directories(dir_);
+  // One writer at a time: the lock is held from reading the chain to writing the new head.
+  const int lock = ::open((dir_ / "registry.lock").c_str(), O_CREAT | O_RDWR, 0644);
+  if (lock < 0 || ::flock(lock, LOCK_EX) != 0)
+    throw std::runtime_error("cannot lock " + (dir_ / "registry.lock").string());
+  struct Unlock {
+    int fd;
+    ~Unlock() { ::close(fd); }  // closing releases the lock
+  } unlock{lock};
+
+  const std::vector<json> before = entries();  // checks the chain before extending it
+  std::ifstream head_in(head());
+  std::string previous;
+  std::getline(head_in, previous);
+  if (previous.empty()) previous = kGenesis;
   entry["id"] = "r" + std::to_string(before.size() + 1);
   entry["time"] = utc_now();
   entry["decision"] = admitted ? "admitted" : "rejected";
@@ -73,23 +97,32 @@ json Registry::append(json entry, const std::filesystem::path& library, bool adm
   if (admitted) {
     const std::string version = entry.at("candidate_version").get<std::string>();
     const auto snap = snapshot(version);
-    if (!std::filesystem::exists(snap)) {  // content-addressed: the same θ is the same snapshot
-      std::filesystem::create_directories(snap);
+    if (!std::filesystem::exists(snap)) {  // the same θ is the same snapshot
+      // Copied whole, then renamed into place: a snapshot is never seen half written.
+      const auto partial = dir_ / "snapshots" / (version + ".partial");
+      std::filesystem::remove_all(partial);
+      std::filesystem::create_directories(partial);
       for (const auto& f : std::filesystem::directory_iterator(library)) {
         if (!f.is_regular_file()) continue;
-        std::filesystem::copy_file(f.path(), snap / f.path().filename());
-        std::filesystem::permissions(snap / f.path().filename(), std::filesystem::perms::owner_read |
-                                                                     std::filesystem::perms::group_read |
-                                                                     std::filesystem::perms::others_read);
+        std::filesystem::copy_file(f.path(), partial / f.path().filename());
+        std::filesystem::permissions(partial / f.path().filename(), std::filesystem::perms::owner_read |
+                                                                        std::filesystem::perms::group_read |
+                                                                        std::filesystem::perms::others_read);
       }
+      std::filesystem::rename(partial, snap);
     }
     entry["snapshot"] = snap.string();
   }
-  std::filesystem::create_directories(dir_);
-  std::ofstream out(file(), std::ios::app);
-  out << entry.dump() << "\n";
-  out.flush();
-  if (!out) throw std::runtime_error("cannot append to " + file().string());
+  const std::string line = entry.dump();
+  {
+    std::ofstream out(file(), std::ios::app);
+    out << line << "\n";
+    out.flush();
+    if (!out) throw std::runtime_error("cannot append to " + file().string());
+  }
+  std::ofstream head_out(head(), std::ios::trunc);
+  head_out << sha256_hex(line) << "\n";
+  if (!head_out.flush()) throw std::runtime_error("cannot write " + head().string());
   return entry;
 }
 

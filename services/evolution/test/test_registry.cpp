@@ -1,4 +1,5 @@
-// The registry: append-only with a chain of hashes (an edited or removed line is found), a rejected
+// The registry: append-only with a chain of hashes (an edited or removed line is found, the last one
+// too), a rejected
 // candidate leaves the current library, an admitted one becomes a read-only, content-addressed snapshot.
 #include <gtest/gtest.h>
 #include <unistd.h>
@@ -84,6 +85,13 @@ TEST_F(RegistryTest, AnEditedOrRemovedLineBreaksTheChain) {
   EXPECT_THROW(reg.entries(), std::runtime_error);
   EXPECT_THROW(reg.append({{"candidate_version", "lib-dddd"}}, library, false), std::runtime_error)
       << "nothing is appended to a broken registry";
+  auto last_edited = original;
+  last_edited[2].replace(last_edited[2].find("rejected"), 8,
+                         "admitted");  // the last line, which no line follows
+  write(last_edited);
+  EXPECT_THROW(reg.entries(), std::runtime_error);
+  write({original[0], original[1]});  // the last line removed
+  EXPECT_THROW(reg.entries(), std::runtime_error);
   write(original);
   EXPECT_EQ(reg.entries().size(), 3u);
 }

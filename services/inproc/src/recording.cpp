@@ -11,7 +11,7 @@ namespace {
 using nlohmann::json;
 
 [[noreturn]] void bad(const std::filesystem::path& evidence, const std::string& what) {
-  throw std::runtime_error("evidence " + evidence.string() + ": " + what);
+  throw EvidenceError("evidence " + evidence.string() + ": " + what);
 }
 
 std::string joint_name(const mjModel* m, int j) {
@@ -48,7 +48,12 @@ json to_json(const std::optional<Divergence>& d) {
 
 Recording read_recording(const std::filesystem::path& evidence) {
   if (!std::filesystem::exists(evidence)) bad(evidence, "no such file");
-  const std::vector<json> records = read_evidence(evidence);
+  std::vector<json> records;
+  try {
+    records = read_evidence(evidence);
+  } catch (const std::runtime_error& e) {
+    throw EvidenceError(e.what());
+  }
   Recording r;
   r.evidence = evidence;
   bool request = false, start = false;

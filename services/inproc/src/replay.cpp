@@ -26,7 +26,7 @@ namespace {
 using nlohmann::json;
 
 [[noreturn]] void bad(const std::filesystem::path& evidence, const std::string& what) {
-  throw std::runtime_error("evidence " + evidence.string() + ": " + what);
+  throw EvidenceError("evidence " + evidence.string() + ": " + what);
 }
 
 const cap::CapabilityDef* find_def(const std::vector<cap::CapabilityDef>& defs, const std::string& name) {

@@ -1,10 +1,11 @@
 // The paired gate of Eq. 6 (issue 16). A candidate library ℒ' = ℒ ⊕ κ is compared with its parent ℒ on the
 // same episodes (cell, task, seed) of the development seeds, over D, the (cell, task) pairs where the
-// targeted failure signature occurred. It passes when all four conditions hold:
+// parent's failures were attributed to the revised capability (the signature's capability). It passes when
+// all four conditions hold:
 //   1. Σ_d s_d(ℒ') ≥ Σ_d s_d(ℒ)             successes over D do not fall;
 //   2. Σ_d u_d(ℒ') ≤ Σ_d u_d(ℒ)             harness-attributed failures over D do not rise;
 //   3. s_d(ℒ') ≥ s_d(ℒ) for every d ∈ D_π   no pair the bare policy wins loses a success;
-//   4. x(ℒ') = 0                            no contaminated episode of the candidate.
+//   4. x(ℒ') = 0                            no contaminated episode of the candidate in D.
 // D_π holds the pairs of D on which the bare arm, on the same seeds, succeeds on more than half; without
 // a bare campaign, or when no pair qualifies, condition 3 is vacuous and the result says so. Every
 // condition is reported with its numbers. Admission also needs the broader regression (below).

@@ -36,12 +36,18 @@ struct ProbeOutcome {
   std::string error;
 };
 
-/// The probe set over `rows` (a campaign's episodes, one arm), probed on `jobs` threads: failing states
-/// first, in the rows' order, then the drawn successes, each with its probe under the recorded θ.
-/// Episodes without evidence, or grounded in perception, give none. Throws std::runtime_error naming an
-/// evidence file that does not read or a command whose probe could not run.
-std::vector<ProbeOutcome> probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions& options,
-                                    const std::filesystem::path& config_dir, unsigned jobs);
+struct ProbeSet {
+  std::vector<ProbeOutcome> states;  ///< failing states first, in the rows' order, then the drawn successes
+  std::vector<ProbeOutcome>
+      skipped;  ///< commands whose probe could not run (never started, files missing), with why
+};
+
+/// The probe set over `rows` (a campaign's episodes, one arm), probed on `jobs` threads under each
+/// command's recorded θ. Episodes without evidence, lost to infrastructure or grounded in perception give
+/// none. Throws std::invalid_argument when `options.capability` is not an analytic or recovery skill of
+/// this build, inproc::EvidenceError naming an evidence file that does not read.
+ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions& options,
+                   const std::filesystem::path& config_dir, unsigned jobs);
 
 /// Probes every state under `library_dir`, or else `theta` for the commands' capability, or else each
 /// recording's own θ, on `jobs` threads; results in the states' order.

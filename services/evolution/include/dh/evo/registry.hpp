@@ -1,8 +1,10 @@
 // The registry (issue 16): an append-only, dated record of every candidate library and the decision on it,
-// one JSON object per line in <dir>/registry.jsonl. Each line carries the SHA-256 of the line before it,
-// so a line edited or removed afterwards is found on the next read. An admitted candidate's library is
-// frozen as a snapshot, <dir>/snapshots/<version>/ (its content hash, files read-only), runnable with
-// `dh campaign --library`; a rejected one changes nothing: the current library stays the last admitted.
+// one JSON object per line in <dir>/registry.jsonl. Each line carries the SHA-256 of the line before it
+// and <dir>/registry.head the last line's, so a line edited or removed afterwards is found on the next
+// read; appends hold a lock. An admitted candidate's library is frozen as a snapshot,
+// <dir>/snapshots/<version>/ (named by its library version, the hash of its θ; files read-only), runnable
+// with `dh campaign --library`; a rejected one changes nothing: the current library stays the last
+// admitted.
 #pragma once
 
 #include <filesystem>
@@ -30,6 +32,7 @@ class Registry {
   std::optional<std::filesystem::path> current() const;
 
   std::filesystem::path file() const { return dir_ / "registry.jsonl"; }
+  std::filesystem::path head() const { return dir_ / "registry.head"; }
   std::filesystem::path snapshot(const std::string& version) const { return dir_ / "snapshots" / version; }
 
  private:

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -19,6 +20,11 @@
 #include "dh/sim/workcell.hpp"
 
 namespace dh::inproc {
+
+/// A recording that is missing, corrupt, or lacks what a re-run needs; what() names the file (bad input).
+struct EvidenceError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
 
 /// Where a re-run first departs from its recording.
 struct Divergence {
@@ -59,8 +65,8 @@ struct Recording {
   std::map<std::uint32_t, bool> verdicts;  ///< step -> value of each predicate change
 };
 
-/// Reads the governor's evidence; throws std::runtime_error naming the file when it is missing, corrupt,
-/// or lacks what a re-run needs.
+/// Reads the governor's evidence; throws EvidenceError naming the file when it is missing, corrupt, or
+/// lacks what a re-run needs.
 Recording read_recording(const std::filesystem::path& evidence);
 
 cap::Bindings bindings(const nlohmann::json& args);
