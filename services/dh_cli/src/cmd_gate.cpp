@@ -34,7 +34,28 @@ int cmd_gate(const GateArgs& a) {
         "--register records a decision, and admission needs the broader round: give "
         "--regression-parent and --regression-candidate too");
   const std::string version = cap::load_library_theta(a.library).version;
-  const auto parent = evo::gate_rows(arm_rows(a.parent, a.arm), config, "");
+  // What `dh revise` wrote beside the candidate: κ, the probes, and the parent's version, against which
+  // the parent campaign is checked (two databases swapped or of another library are refused).
+  nlohmann::json revision;
+  const auto revision_file = std::filesystem::path(a.library) / "revision.json";
+  if (std::filesystem::exists(revision_file)) {
+    try {
+      revision = nlohmann::json::parse(std::ifstream(revision_file));
+    } catch (const nlohmann::json::exception& e) {
+      throw std::invalid_argument(revision_file.string() +
+                                  " is not the JSON `dh revise` writes: " + e.what());
+    }
+  }
+  auto parent = evo::gate_rows(arm_rows(a.parent, a.arm), config,
+                               revision.is_object() ? revision.value("parent_version", "") : std::string());
+  for (auto& r : parent) {
+    if (r.contamination.rfind("ran library", 0) == 0)
+      throw std::invalid_argument(a.parent + ": " + r.episode.cell + "/" + std::to_string(r.episode.task) +
+                                  " seed " + std::to_string(r.episode.seed) + " " + r.contamination +
+                                  " (the parent of " + revision_file.string() +
+                                  "): not this candidate's parent campaign");
+    r.episode.contaminated = false;  // Eq. 6 counts x on the candidate; a parent's lost episode is a failure
+  }
   const auto candidate = evo::gate_rows(arm_rows(a.candidate, a.arm), config, version);
   std::vector<evo::GateRow> bare;
   if (!a.bare.empty()) bare = evo::gate_rows(arm_rows(a.bare, a.bare_arm), config, "");
@@ -125,18 +146,8 @@ int cmd_gate(const GateArgs& a) {
                          {"gate", {{"pass", g.pass}, {"conditions", conditions}, {"pairs", pairs}}},
                          {"regression", regression_json},
                          {"reason", admit ? "passed the gate and the broader round" : reason}};
-    const auto revision_file = std::filesystem::path(a.library) / "revision.json";
-    if (std::filesystem::exists(revision_file)) {
-      nlohmann::json revision;
-      try {
-        revision = nlohmann::json::parse(std::ifstream(revision_file));
-      } catch (const nlohmann::json::exception& e) {
-        throw std::invalid_argument(revision_file.string() +
-                                    " is not the JSON `dh revise` writes: " + e.what());
-      }
-      for (const char* k : {"parent_version", "kappa", "probe", "search"})
-        if (revision.contains(k)) entry[k] = revision[k];
-    }
+    for (const char* k : {"parent_version", "kappa", "probe", "search"})
+      if (revision.contains(k)) entry[k] = revision[k];
     const std::filesystem::path dir =
         a.registry.empty() ? paths::runs_dir() / "registry" : std::filesystem::path(a.registry);
     registered = evo::Registry(dir).append(entry, a.library, admit);

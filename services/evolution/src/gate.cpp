@@ -22,7 +22,7 @@ std::string contamination(const EpisodeRecord& r, const std::string& library_ver
   if (!evidence_library || !evidence_success)
     return "its evidence '" + r.evidence_path + "' is missing or does not read";
   if (*evidence_library != library_version)
-    return "ran library " + *evidence_library + ", not the candidate's " + library_version;
+    return "ran library " + *evidence_library + ", not " + library_version;
   if (*evidence_success != r.success)
     return std::string("its evidence says ") + (*evidence_success ? "success" : "failure") +
            " where the campaign recorded " + (r.success ? "success" : "failure");
