@@ -209,6 +209,14 @@ void mechanisms(const json& s, Document& doc) {
   for (const json& m : s["mechanisms"])
     p.rows.push_back({m["arm"], count(m["steps"]), percent(m["policy_step_share"])});
   doc.push_back(std::move(p));
+  doc.push_back(Paragraph{
+      "Safety holds: the seam's 50 Hz envelope holding the arm because a joint would exceed its speed "
+      "limit (the seam's `safety_hold` events in the evidence); the controller under it should plan within it."});
+  Table h{{"Arm", "Episodes", "Safety holds", "Episodes with a hold", "Holds per episode"}, {}};
+  for (const json& m : s["mechanisms"])
+    h.rows.push_back({m["arm"], count(m["episodes"]), count(m["safety_holds"]), count(m["episodes_with_hold"]),
+                      fixed(m["holds_per_episode"], 2)});
+  doc.push_back(std::move(h));
 }
 
 void policy(const json& s, Document& doc) {

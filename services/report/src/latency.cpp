@@ -1,6 +1,7 @@
 #include "latency.hpp"
 
 #include "dh/common/evidence.hpp"
+#include "dh/common/seam_event.hpp"
 
 #include <cstdint>
 #include <filesystem>
@@ -36,6 +37,8 @@ void Mechanisms::merge(const Mechanisms& other) {
     commands[c].second += n.second;
   }
   for (const auto& [c, n] : other.steps) steps[c] += n;
+  safety_holds += other.safety_holds;
+  episodes_held += other.episodes_held;
 }
 
 EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechanisms& mech) {
@@ -52,6 +55,7 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
   std::map<std::string, std::string> capability_of;   // command_id → capability
   std::optional<std::pair<std::string, long>> under;  // the capability in control and since which step
   ++mech.episodes;
+  unsigned long holds = 0;
   auto text = [](const nlohmann::json& r, const char* key) {
     const auto it = r.find(key);
     return it != r.end() && it->is_string() ? it->get<std::string>() : std::string();
@@ -80,6 +84,7 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
       if (c != capability_of.end() && state == "completed") ++mech.commands[c->second].second;
       if (state == "refused") ++mech.refusals;
     }
+    if (kind == to_string(SeamEventKind::SafetyHold)) ++holds;
     if (kind == "decision" && has_number(r, "latency_ns")) {
       into.decision_ms.push_back(r["latency_ns"].get<double>() / kNsPerMs);
     } else if ((kind == "plan_request" || kind == "advice") && r.contains("request_id") &&
@@ -95,6 +100,8 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
     }
   }
   into.unanswered += open_requests.size();
+  mech.safety_holds += holds;
+  mech.episodes_held += holds > 0;
   return EvidenceStatus::Read;
 }
 

@@ -23,6 +23,9 @@ struct Mechanisms {
   std::map<std::string, std::pair<unsigned, unsigned>> commands;  ///< capability -> (dispatched, completed)
   /// capability -> control steps under its commands: from a dispatch to the next dispatch or the end.
   std::map<std::string, unsigned long> steps;
+  /// The seam's 50 Hz envelope holding the arm (a joint over its speed limit): events, and episodes with any.
+  unsigned long safety_holds = 0;
+  unsigned episodes_held = 0;
   void merge(const Mechanisms& other);
 };
 

@@ -272,7 +272,10 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
     const double share = all_steps ? static_cast<double>(policy == m.steps.end() ? 0ul : policy->second) / all_steps : NAN;
     mechanisms.push_back({{"arm", arm}, {"episodes", m.episodes}, {"decisions", m.decisions},
                           {"refusals", m.refusals}, {"commands", commands}, {"steps", all_steps},
-                          {"policy_step_share", number_or_null(share)}});
+                          {"policy_step_share", number_or_null(share)}, {"safety_holds", m.safety_holds},
+                          {"episodes_with_hold", m.episodes_held},
+                          {"holds_per_episode",
+                           number_or_null(m.episodes ? static_cast<double>(m.safety_holds) / m.episodes : NAN)}});
   }
 
   return {{"title", options.title},

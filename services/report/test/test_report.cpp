@@ -82,6 +82,8 @@ void write_evidence(const fs::path& path) {
                         json{{"kind", "refusal"}, {"refusal", "budget"}},
                         json{{"kind", "grounding"}, {"result", "grounded"}, {"command_id", "e/c2"}, {"capability", "vla_act"}},
                         json{{"kind", "dispatch"}, {"command_id", "e/c2"}, {"step", 150}},
+                        json{{"kind", "safety_hold"}, {"step", 151}, {"command_id", "e/c2"}},
+                        json{{"kind", "safety_hold"}, {"step", 152}, {"command_id", "e/c2"}},
                         json{{"kind", "episode_end"}, {"step", 200}}})
     out << r.dump() << "\n";
   out << R"({"kind":"decision","latency_ns":9)";  // torn: the writer died mid-record
@@ -282,7 +284,11 @@ TEST(Summarize, MechanismsFromEvidence) {
                                            {"capability":"vla_act","completed":0,"dispatched":1,"steps":50}])"));
   EXPECT_EQ(m["steps"], 200);
   EXPECT_DOUBLE_EQ(m["policy_step_share"].get<double>(), 0.25);
+  EXPECT_EQ(m["safety_holds"], 2);
+  EXPECT_EQ(m["episodes_with_hold"], 1);
+  EXPECT_DOUBLE_EQ(m["holds_per_episode"].get<double>(), 2.0);
   EXPECT_EQ(s["mechanisms"][1]["episodes"], 0);
+  EXPECT_TRUE(s["mechanisms"][1]["holds_per_episode"].is_null());
   EXPECT_TRUE(s["mechanisms"][1]["policy_step_share"].is_null());
 }
 
