@@ -4,12 +4,16 @@
 #include <ctime>
 #include <fstream>
 #include <iostream>
+#include <set>
 #include <thread>
 
 #include "commands.hpp"
 #include "dh/campaign/db.hpp"
+#include "dh/cap/library.hpp"
 #include "dh/cap/library_theta.hpp"
 #include "dh/common/paths.hpp"
+#include "dh/evo/attribution.hpp"
+#include "dh/evo/gate.hpp"
 #include "dh/evo/perturb.hpp"
 #include "dh/evo/probe_set.hpp"
 #include "dh/evo/revise.hpp"
@@ -26,29 +30,44 @@ int cmd_revise(const ReviseArgs& a) {
   // Refused before minutes of probing: an --out with files, a capability the library lacks.
   if (!a.out.empty() && std::filesystem::exists(a.out) && !std::filesystem::is_empty(a.out))
     throw std::invalid_argument(a.out + " holds files: give `--out` a new or empty folder");
-  if (!cap::load_library_theta(parent).theta.count(a.capability))
-    throw std::invalid_argument("library " + parent.string() + " has no " + a.capability + ".yaml");
+  const cap::LibraryTheta lib = cap::load_library_theta(parent);
+  std::string capability = a.capability;
+  if (capability.empty()) {
+    // The capability the dominant attributed signature implicates, among those with θ this build runs.
+    std::set<std::string> revisable;
+    for (const auto& d : cap::all_capabilities())
+      if (lib.theta.count(d.name)) revisable.insert(d.name);
+    const auto config = evo::load_attribution(paths::config_dir() / "attribution.yaml");
+    capability = evo::dominant_capability(evo::gate_rows(rows, config, ""), revisable);
+    if (capability.empty())
+      throw std::invalid_argument(a.db + ": no harness-attributed failure of arm " + a.arm +
+                                  " names a capability with θ: nothing to revise");
+    if (!a.json)
+      std::cout << "targeting " << capability << ", named by the most harness-attributed failures\n";
+  }
+  if (!lib.theta.count(capability))
+    throw std::invalid_argument("library " + parent.string() + " has no " + capability + ".yaml");
   const evo::ProbeSet set =
-      evo::probe_set(rows, {a.capability, a.successes, a.draw_seed}, paths::config_dir(), jobs);
+      evo::probe_set(rows, {capability, a.successes, a.draw_seed}, paths::config_dir(), jobs);
   for (const auto& s : set.skipped)
     std::cerr << "skipped " << s.state.label << " (" << s.state.evidence.string() << "): " << s.error << "\n";
   const evo::Revision rev =
-      evo::revise(set.states, {a.capability, paths::config_dir(), parent, a.max_evals, jobs});
+      evo::revise(set.states, {capability, paths::config_dir(), parent, a.max_evals, jobs});
   std::string out, version;
   if (rev.improved()) {
-    std::string note = "candidate of `dh revise --capability " + a.capability + "` over " + a.db + ":";
+    std::string note = "candidate of `dh revise --capability " + capability + "` over " + a.db + ":";
     for (const auto& [name, v] : rev.kappa) note += fmt::format(" {} {:g} -> {:g};", name, v.first, v.second);
     const std::filesystem::path dir =
         a.out.empty()
-            ? paths::runs_dir() / "candidates" / (a.capability + "-" + std::to_string(std::time(nullptr)))
+            ? paths::runs_dir() / "candidates" / (capability + "-" + std::to_string(std::time(nullptr)))
             : std::filesystem::path(a.out);
-    version = evo::write_library(parent, {{a.capability, rev.best}}, dir, note);
+    version = evo::write_library(parent, {{capability, rev.best}}, dir, note);
     out = dir.string();
     // What `dh gate --register` records of the revision: κ, the probe results before and after.
     nlohmann::json kappa = nlohmann::json::object();
     for (const auto& [name, v] : rev.kappa) kappa[name] = {{"parent", v.first}, {"revised", v.second}};
     std::ofstream(dir / "revision.json")
-        << nlohmann::json{{"capability", a.capability},
+        << nlohmann::json{{"capability", capability},
                           {"db", a.db},
                           {"parent_library", parent.string()},
                           {"parent_version", cap::load_library_theta(parent).version},
@@ -69,7 +88,7 @@ int cmd_revise(const ReviseArgs& a) {
   if (a.json) {
     nlohmann::json kappa = nlohmann::json::object();
     for (const auto& [name, v] : rev.kappa) kappa[name] = {{"parent", v.first}, {"revised", v.second}};
-    std::cout << nlohmann::json{{"capability", a.capability},
+    std::cout << nlohmann::json{{"capability", capability},
                                 {"states", rev.states},
                                 {"failing", rev.failing},
                                 {"parent_held", rev.parent_held},
@@ -89,7 +108,7 @@ int cmd_revise(const ReviseArgs& a) {
   std::cout << fmt::format(
       "{}: probe set of {} states ({} failing); the parent holds {} effects; {} of at most {} "
       "candidate θ probed in {:.1f} s\n",
-      a.capability, rev.states, rev.failing, rev.parent_held, rev.evals, a.max_evals, rev.wall_s);
+      capability, rev.states, rev.failing, rev.parent_held, rev.evals, a.max_evals, rev.wall_s);
   if (!rev.improved()) {
     std::cout << "no θ within the ranges held more effects than the parent's: no candidate\n";
     return 3;

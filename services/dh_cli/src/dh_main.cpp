@@ -18,7 +18,7 @@
 //   dh probe --db FILE --capability C [--library DIR] [--jobs N] [--json]
 //                                            the capability's probe set (its failed commands and as many
 //                                            successes), probed in parallel
-//   dh revise --db FILE --capability C [--library DIR] [--max-evals N] [--out DIR]
+//   dh revise --db FILE [--capability C] [--library DIR] [--max-evals N] [--out DIR]
 //                                            searches C's θ within its ranges on its probe set; writes the
 //                                            candidate library (exit 3: nothing better than the parent)
 //   dh gate --parent DB --candidate DB --library DIR --capability C [--bare DB]
@@ -196,7 +196,8 @@ int main(int argc, char** argv) {
   ReviseArgs revise_args;
   auto* revise = app.add_subcommand("revise", "search a capability's θ within its ranges on its probe set");
   revise->add_option("--db", revise_args.db, "campaign database of the parent library")->required();
-  revise->add_option("--capability", revise_args.capability, "whose θ")->required();
+  revise->add_option("--capability", revise_args.capability,
+                     "whose θ (default: the capability the most harness-attributed failures name)");
   revise->add_option("--arm", revise_args.arm, "the arm whose episodes (default full)");
   revise->add_option("--library", revise_args.library, "the parent library the campaign ran (default configs/library)");
   revise->add_option("--max-evals", revise_args.max_evals, "candidate θ probed at most, the parent's included (default 40)")

@@ -64,6 +64,21 @@ std::vector<GateRow> gate_rows(const std::vector<EpisodeRecord>& rows, const Att
   return out;
 }
 
+std::string dominant_capability(const std::vector<GateRow>& rows, const std::set<std::string>& revisable) {
+  std::map<std::string, unsigned> count;
+  for (const auto& r : rows)
+    if (r.episode.harness_failure && r.signature && revisable.count(r.signature->capability))
+      ++count[r.signature->capability];
+  std::string best;
+  unsigned most = 0;
+  for (const auto& [capability, n] : count)  // in name order: a tie keeps the first
+    if (n > most) {
+      best = capability;
+      most = n;
+    }
+  return best;
+}
+
 GateResult paired_gate(const std::vector<GateEpisode>& parent, const std::vector<GateEpisode>& candidate,
                        const std::vector<GateEpisode>& bare, const std::set<CellTask>& targeted) {
   GateResult g;

@@ -134,3 +134,23 @@ TEST(BroaderRegression, PairedSuccessesMustNotFallOverEveryCell) {
   EXPECT_EQ(short_round.missing_cells, std::vector<std::string>{"long"});
   EXPECT_FALSE(broader_regression(kParent, both("SXSF", "SSSH"), cells).pass) << "a contaminated episode";
 }
+
+TEST(DominantCapability, TheMostHarnessFailuresAmongRevisableCapabilities) {
+  const auto row = [](std::string capability, bool harness) {
+    GateRow r;
+    r.episode.harness_failure = harness;
+    r.signature = Signature{std::move(capability), "grasp_missed", "close", 40};
+    return r;
+  };
+  const std::set<std::string> revisable{"pick_place", "push", "slide_drawer"};
+  EXPECT_EQ(dominant_capability(
+                {row("push", true), row("pick_place", true), row("pick_place", true), row("vla_act", true),
+                 row("vla_act", true), row("vla_act", true), row("slide_drawer", false),
+                 row("slide_drawer", false), row("slide_drawer", false)},
+                revisable),
+            "pick_place")
+      << "vla_act has no θ to revise; failures no harness layer owns do not count";
+  EXPECT_EQ(dominant_capability({row("push", true), row("pick_place", true)}, revisable), "pick_place")
+      << "a tie";
+  EXPECT_EQ(dominant_capability({}, revisable), "");
+}

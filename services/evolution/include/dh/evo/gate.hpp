@@ -76,6 +76,10 @@ struct GateRow {
 std::vector<GateRow> gate_rows(const std::vector<EpisodeRecord>& rows, const AttributionConfig& config,
                                const std::string& library_version);
 
+/// The capability a revision targets: the one the most harness-attributed failures of `rows` name in
+/// their signature, among `revisable` (capabilities with θ); ties go to the first name. Empty when none.
+std::string dominant_capability(const std::vector<GateRow>& rows, const std::set<std::string>& revisable);
+
 /// `parent` and `candidate` are the two libraries' episodes, `bare` the bare arm's (may be empty), all on
 /// the same seeds; `targeted` is D. Episodes outside D are ignored.
 GateResult paired_gate(const std::vector<GateEpisode>& parent, const std::vector<GateEpisode>& candidate,
