@@ -52,7 +52,7 @@ int cmd_revise(const ReviseArgs& a) {
   for (const auto& s : set.skipped)
     std::cerr << "skipped " << s.state.label << " (" << s.state.evidence.string() << "): " << s.error << "\n";
   const evo::Revision rev =
-      evo::revise(set.states, {capability, paths::config_dir(), parent, a.max_evals, jobs});
+      evo::revise(set.states, {capability, paths::config_dir(), parent, a.max_evals, jobs, a.max_probes});
   std::string out, version;
   if (rev.improved()) {
     std::string note = "candidate of `dh revise --capability " + capability + "` over " + a.db + ":";
@@ -81,7 +81,7 @@ int cmd_revise(const ReviseArgs& a) {
                             {"fixed", rev.fixed},
                             {"kept", rev.kept}}},
                           {"search",
-                           {{"evals", rev.evals}, {"max_evals", a.max_evals}, {"wall_s", rev.wall_s}}}}
+                           {{"evals", rev.evals}, {"max_evals", rev.max_evals}, {"wall_s", rev.wall_s}}}}
                .dump(2)
         << "\n";
   }
@@ -96,7 +96,7 @@ int cmd_revise(const ReviseArgs& a) {
                                 {"fixed", rev.fixed},
                                 {"kept", rev.kept},
                                 {"evals", rev.evals},
-                                {"max_evals", a.max_evals},
+                                {"max_evals", rev.max_evals},
                                 {"wall_s", rev.wall_s},
                                 {"kappa", kappa},
                                 {"out", out},
@@ -108,7 +108,7 @@ int cmd_revise(const ReviseArgs& a) {
   std::cout << fmt::format(
       "{}: probe set of {} states ({} failing); the parent holds {} effects; {} of at most {} "
       "candidate θ probed in {:.1f} s\n",
-      capability, rev.states, rev.failing, rev.parent_held, rev.evals, a.max_evals, rev.wall_s);
+      capability, rev.states, rev.failing, rev.parent_held, rev.evals, rev.max_evals, rev.wall_s);
   if (!rev.improved()) {
     std::cout << "no θ within the ranges held more effects than the parent's: no candidate\n";
     return 3;

@@ -37,7 +37,7 @@ int cmd_probe(const ProbeArgs& a);
 
 struct ReviseArgs {
   std::string db, capability, arm = "full", library, out;
-  unsigned max_evals = 40, jobs = 0;
+  unsigned max_evals = 40, max_probes = 0, jobs = 0;
   std::size_t successes = 20;
   std::uint64_t draw_seed = 0;
   bool json = false;

@@ -202,6 +202,8 @@ int main(int argc, char** argv) {
   revise->add_option("--library", revise_args.library, "the parent library the campaign ran (default configs/library)");
   revise->add_option("--max-evals", revise_args.max_evals, "candidate θ probed at most, the parent's included (default 40)")
       ->check(CLI::Range(1u, 100000u));
+  revise->add_option("--max-probes", revise_args.max_probes,
+                     "probes at most over the search (each candidate probes the whole set; default no bound)");
   revise->add_option("--jobs", revise_args.jobs, "probes at once (default: every core)");
   revise->add_option("--successes", revise_args.successes, "successes in the probe set, at least (default 20)");
   revise->add_option("--draw-seed", revise_args.draw_seed, "seed of the draw of successes (default 0)");

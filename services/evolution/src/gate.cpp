@@ -20,7 +20,7 @@ std::string contamination(const EpisodeRecord& r, const std::string& library_ver
                           const std::optional<bool>& evidence_success) {
   if (r.infrastructure) return "lost to infrastructure: " + r.reason;
   if (!evidence_library || !evidence_success)
-    return "its evidence '" + r.evidence_path + "' is missing or does not read";
+    return "its evidence '" + r.evidence_path + "' is missing or does not validate";
   if (*evidence_library != library_version)
     return "ran library " + *evidence_library + ", not " + library_version;
   if (*evidence_success != r.success)
@@ -37,6 +37,7 @@ std::vector<GateRow> gate_rows(const std::vector<EpisodeRecord>& rows, const Att
     g.episode = {r.cell, r.task, r.seed, r.success && !r.infrastructure, false, false};
     std::optional<std::string> evidence_library;
     std::optional<bool> evidence_success;
+    std::string invalid;  // why the evidence does not validate
     try {
       if (r.evidence_path.empty() || !std::filesystem::exists(r.evidence_path))
         throw std::runtime_error("no evidence");
@@ -51,12 +52,14 @@ std::vector<GateRow> gate_rows(const std::vector<EpisodeRecord>& rows, const Att
           g.signature = a->signature;
         }
       }
-    } catch (const std::exception&) {
-      evidence_library.reset();  // unreadable: contaminated when checked
+    } catch (const std::exception& e) {
+      evidence_library.reset();  // does not validate: contaminated when checked
       evidence_success.reset();
+      invalid = e.what();
     }
     if (!library_version.empty()) {
       g.contamination = contamination(r, library_version, evidence_library, evidence_success);
+      if (!invalid.empty() && !r.infrastructure) g.contamination += " (" + invalid + ")";
       g.episode.contaminated = !g.contamination.empty();
     }
     out.push_back(std::move(g));

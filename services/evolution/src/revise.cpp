@@ -84,7 +84,10 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
   opt.set_lower_bounds(0.0);
   opt.set_upper_bounds(1.0);
   opt.set_initial_step(0.25);
-  opt.set_maxeval(static_cast<int>(o.max_evals));
+  // A round's bound: candidates, and probes (each candidate probes the whole set).
+  rev.max_evals = o.max_evals;
+  if (o.max_probes) rev.max_evals = std::min(rev.max_evals, std::max(1u, o.max_probes / rev.states));
+  opt.set_maxeval(static_cast<int>(rev.max_evals));
   opt.set_max_objective([](const std::vector<double>& at, std::vector<double>&,
                            void* data) { return static_cast<Context*>(data)->f(at); },
                         &context);

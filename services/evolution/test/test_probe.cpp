@@ -198,7 +198,7 @@ TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParents
   const auto set = evo::probe_set({row("missed")}, {"pick_place", 1, 0}, paths::config_dir(), 2).states;
   ASSERT_EQ(set.size(), 2u);
   const auto parent = paths::config_dir() / "library";
-  const evo::Revision rev = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2});
+  const evo::Revision rev = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 0});
   EXPECT_LE(rev.evals, 4u);
   EXPECT_GE(rev.evals, 1u);
   EXPECT_EQ(rev.states, 2u);
@@ -214,8 +214,12 @@ TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParents
   }
   // A set recorded under other θ than the parent library's is refused.
   const auto other = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
-  EXPECT_THROW(evo::revise(set, {"pick_place", paths::config_dir(), other, 4, 2}), std::invalid_argument);
-  EXPECT_THROW(evo::revise({}, {"pick_place", paths::config_dir(), parent, 4, 2}), std::invalid_argument);
+  EXPECT_THROW(evo::revise(set, {"pick_place", paths::config_dir(), other, 4, 2, 0}), std::invalid_argument);
+  EXPECT_THROW(evo::revise({}, {"pick_place", paths::config_dir(), parent, 4, 2, 0}), std::invalid_argument);
+  // --max-probes bounds the round: two states per candidate, two probes at most, so one candidate.
+  const evo::Revision bounded = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 2});
+  EXPECT_EQ(bounded.max_evals, 1u);
+  EXPECT_EQ(bounded.evals, 1u);
 }
 
 TEST_F(Probe, TheRevisionSearchFindsAThetaThatMakesAFailedEffectHold) {
@@ -239,7 +243,7 @@ TEST_F(Probe, TheRevisionSearchFindsAThetaThatMakesAFailedEffectHold) {
   const auto set = evo::probe_set(rows, {"pick_place", 1, 0}, paths::config_dir(), 2);
   EXPECT_TRUE(set.skipped.empty());
   const evo::Revision rev =
-      evo::revise(set.states, {"pick_place", paths::config_dir(), paths::config_dir() / "library", 6, 2});
+      evo::revise(set.states, {"pick_place", paths::config_dir(), paths::config_dir() / "library", 6, 2, 0});
   ASSERT_GT(rev.failing, 0u);
   EXPECT_TRUE(rev.improved()) << rev.best_held << " held, the parent " << rev.parent_held;
   EXPECT_GT(rev.fixed, 0u);

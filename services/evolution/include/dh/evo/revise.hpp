@@ -22,6 +22,7 @@ struct ReviseOptions {
   std::filesystem::path library_dir;  ///< the parent library: its θ must be the one the probe set recorded
   unsigned max_evals = 40;            ///< candidate θ probed at most (the parent's included)
   unsigned jobs = 1;                  ///< probes at once
+  unsigned max_probes = 0;            ///< probes at most over the search (0: max_evals × the set's size)
 };
 
 struct Revision {
@@ -30,7 +31,7 @@ struct Revision {
   unsigned states = 0, failing = 0;
   unsigned parent_held = 0;  ///< effects held under the parent (its successes)
   unsigned best_held = 0, fixed = 0, kept = 0;
-  unsigned evals = 0;
+  unsigned evals = 0, max_evals = 0;  ///< candidates probed, and the bound the search ran under
   double wall_s = 0;
   bool improved() const { return best_held > parent_held; }
 };
