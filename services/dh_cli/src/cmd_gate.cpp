@@ -8,13 +8,13 @@
 #include <set>
 
 #include "commands.hpp"
-#include "dh/campaign/db.hpp"
 #include "dh/cap/library_theta.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/evo/attribution.hpp"
 #include "dh/evo/gate.hpp"
 #include "dh/evo/registry.hpp"
+#include "evolution_inputs.hpp"
 
 namespace dh::cli {
 
@@ -22,13 +22,6 @@ int cmd_gate(const GateArgs& a) {
   const std::filesystem::path config_file =
       a.config.empty() ? paths::config_dir() / "attribution.yaml" : std::filesystem::path(a.config);
   const evo::AttributionConfig config = evo::load_attribution(config_file);
-  const auto arm_rows = [](const std::string& db, const std::string& arm) {
-    std::vector<EpisodeRecord> rows;
-    for (auto& r : campaign::CampaignDb::read_rows(db))
-      if (r.arm == arm) rows.push_back(std::move(r));
-    if (rows.empty()) throw std::invalid_argument(db + " has no episode of arm " + arm);
-    return rows;
-  };
   if (a.register_decision && (a.regression_parent.empty() || a.regression_candidate.empty()))
     throw std::invalid_argument(
         "--register records a decision, and admission needs the broader round: give "

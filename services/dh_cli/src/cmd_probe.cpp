@@ -3,13 +3,12 @@
 
 #include <chrono>
 #include <iostream>
-#include <thread>
 
 #include "commands.hpp"
-#include "dh/campaign/db.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/evo/probe.hpp"
 #include "dh/evo/probe_set.hpp"
+#include "evolution_inputs.hpp"
 
 namespace dh::cli {
 
@@ -17,15 +16,11 @@ namespace {
 
 int probe_set(const ProbeArgs& a) {
   if (a.capability.empty()) throw std::invalid_argument("--db needs --capability (whose commands to probe)");
-  std::vector<EpisodeRecord> rows;
-  for (auto& r : campaign::CampaignDb::read_rows(a.db))
-    if (r.arm == a.arm) rows.push_back(std::move(r));
-  const unsigned jobs = a.jobs ? a.jobs : std::max(1u, std::thread::hardware_concurrency());
+  const unsigned jobs = probe_jobs(a.jobs);
   const auto t0 = std::chrono::steady_clock::now();
-  const evo::ProbeSet set =
-      evo::probe_set(rows, {a.capability, a.successes, a.draw_seed}, paths::config_dir(), jobs);
-  for (const auto& s : set.skipped)
-    std::cerr << "skipped " << s.state.label << " (" << s.state.evidence.string() << "): " << s.error << "\n";
+  const evo::ProbeSet set = evo::probe_set(arm_rows(a.db, a.arm), {a.capability, a.successes, a.draw_seed},
+                                           paths::config_dir(), jobs);
+  report_skipped(set);
   const auto& parent = set.states;
   if (parent.empty())
     throw std::invalid_argument(a.db + ": arm " + a.arm + " ran no command of '" + a.capability +

@@ -5,10 +5,8 @@
 #include <fstream>
 #include <iostream>
 #include <set>
-#include <thread>
 
 #include "commands.hpp"
-#include "dh/campaign/db.hpp"
 #include "dh/cap/library.hpp"
 #include "dh/cap/library_theta.hpp"
 #include "dh/common/paths.hpp"
@@ -17,14 +15,13 @@
 #include "dh/evo/perturb.hpp"
 #include "dh/evo/probe_set.hpp"
 #include "dh/evo/revise.hpp"
+#include "evolution_inputs.hpp"
 
 namespace dh::cli {
 
 int cmd_revise(const ReviseArgs& a) {
-  std::vector<EpisodeRecord> rows;
-  for (auto& r : campaign::CampaignDb::read_rows(a.db))
-    if (r.arm == a.arm) rows.push_back(std::move(r));
-  const unsigned jobs = a.jobs ? a.jobs : std::max(1u, std::thread::hardware_concurrency());
+  const std::vector<EpisodeRecord> rows = arm_rows(a.db, a.arm);
+  const unsigned jobs = probe_jobs(a.jobs);
   const std::filesystem::path parent =
       a.library.empty() ? paths::config_dir() / "library" : std::filesystem::path(a.library);
   // Refused before minutes of probing: an --out with files, a capability the library lacks.
@@ -49,8 +46,7 @@ int cmd_revise(const ReviseArgs& a) {
     throw std::invalid_argument("library " + parent.string() + " has no " + capability + ".yaml");
   const evo::ProbeSet set =
       evo::probe_set(rows, {capability, a.successes, a.draw_seed}, paths::config_dir(), jobs);
-  for (const auto& s : set.skipped)
-    std::cerr << "skipped " << s.state.label << " (" << s.state.evidence.string() << "): " << s.error << "\n";
+  report_skipped(set);
   const evo::Revision rev =
       evo::revise(set.states, {capability, paths::config_dir(), parent, a.max_evals, jobs, a.max_probes});
   std::string out, version;

@@ -22,12 +22,6 @@ namespace {
 using nlohmann::json;
 constexpr const char* kHost = "probe";
 
-const cap::CapabilityDef* find_def(const std::vector<cap::CapabilityDef>& defs, const std::string& name) {
-  for (const auto& d : defs)
-    if (d.name == name) return &d;
-  return nullptr;
-}
-
 }  // namespace
 
 ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) {
@@ -41,7 +35,7 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
     throw std::invalid_argument("command " + k.id +
                                 " was grounded in perception estimates, which a probe does not re-make");
   const std::vector<cap::CapabilityDef> defs = cap::all_capabilities();
-  const cap::CapabilityDef* def = find_def(defs, k.capability);
+  const cap::CapabilityDef* def = cap::find_capability(defs, k.capability);
   if (!def)
     throw std::invalid_argument(
         "command " + k.id + " ran " + k.capability + " " + k.version +

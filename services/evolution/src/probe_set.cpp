@@ -13,8 +13,7 @@ namespace dh::evo {
 
 ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions& o,
                    const std::filesystem::path& config_dir, unsigned jobs) {
-  const auto defs = cap::all_capabilities();
-  if (std::none_of(defs.begin(), defs.end(), [&](const auto& d) { return d.name == o.capability; }))
+  if (!cap::find_capability(cap::all_capabilities(), o.capability))
     throw std::invalid_argument("'" + o.capability +
                                 "' is not an analytic or recovery skill of this build: a probe "
                                 "cannot re-run it");

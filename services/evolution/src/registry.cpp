@@ -32,15 +32,15 @@ const std::string kGenesis = sha256_hex(std::string_view("dh registry"));
 
 Registry::Registry(std::filesystem::path dir) : dir_(std::move(dir)) {}
 
-std::vector<json> Registry::entries() const {
-  std::vector<json> out;
+Registry::Chain Registry::read_chain() const {
+  Chain chain{{}, kGenesis};
   std::ifstream in(file());
   if (!in) {
     if (std::filesystem::exists(head()))
       throw std::runtime_error(file().string() + " is missing but " + head().string() + " says it had lines");
-    return out;  // no registry yet
+    return chain;  // no registry yet
   }
-  std::string line, previous = kGenesis;
+  std::string line;
   for (std::size_t n = 1; std::getline(in, line); ++n) {
     json e;
     try {
@@ -49,24 +49,26 @@ std::vector<json> Registry::entries() const {
       throw std::runtime_error(file().string() + " line " + std::to_string(n) + " is not JSON (" + ex.what() +
                                ")");
     }
-    if (e.value("previous", "") != previous)
+    if (e.value("previous", "") != chain.last)
       throw std::runtime_error(file().string() + " line " + std::to_string(n) +
                                ": the chain of hashes is broken (a line before it was edited, inserted or "
                                "removed); the registry is append-only");
-    previous = sha256_hex(line);
-    out.push_back(std::move(e));
+    chain.last = sha256_hex(line);
+    chain.entries.push_back(std::move(e));
   }
   // The last line has no successor to carry its hash: the head file does.
   std::ifstream head_in(head());
   std::string head_hash;
   std::getline(head_in, head_hash);
-  if (head_hash != previous)
+  if (head_hash != chain.last)
     throw std::runtime_error(
         file().string() + ": its last line does not match " + head().string() +
         " (the last line was edited or removed, or an append was cut short); the registry is "
         "append-only");
-  return out;
+  return chain;
 }
+
+std::vector<json> Registry::entries() const { return read_chain().entries; }
 
 std::optional<json> Registry::find(const std::string& id) const {
   for (auto& e : entries())
@@ -78,22 +80,19 @@ json Registry::append(json entry, const std::filesystem::path& library, bool adm
   std::filesystem::create_directories(dir_);
   // One writer at a time: the lock is held from reading the chain to writing the new head.
   const int lock = ::open((dir_ / "registry.lock").c_str(), O_CREAT | O_RDWR, 0644);
-  if (lock < 0 || ::flock(lock, LOCK_EX) != 0)
-    throw std::runtime_error("cannot lock " + (dir_ / "registry.lock").string());
+  if (lock < 0) throw std::runtime_error("cannot open " + (dir_ / "registry.lock").string());
   struct Unlock {
     int fd;
     ~Unlock() { ::close(fd); }  // closing releases the lock
   } unlock{lock};
+  if (::flock(lock, LOCK_EX) != 0)
+    throw std::runtime_error("cannot lock " + (dir_ / "registry.lock").string());
 
-  const std::vector<json> before = entries();  // checks the chain before extending it
-  std::ifstream head_in(head());
-  std::string previous;
-  std::getline(head_in, previous);
-  if (previous.empty()) previous = kGenesis;
-  entry["id"] = "r" + std::to_string(before.size() + 1);
+  const Chain chain = read_chain();  // checks the chain before extending it
+  entry["id"] = "r" + std::to_string(chain.entries.size() + 1);
   entry["time"] = utc_now();
   entry["decision"] = admitted ? "admitted" : "rejected";
-  entry["previous"] = previous;
+  entry["previous"] = chain.last;
   if (admitted) {
     const std::string version = entry.at("candidate_version").get<std::string>();
     const auto snap = snapshot(version);

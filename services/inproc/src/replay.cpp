@@ -29,12 +29,6 @@ using nlohmann::json;
   throw EvidenceError("evidence " + evidence.string() + ": " + what);
 }
 
-const cap::CapabilityDef* find_def(const std::vector<cap::CapabilityDef>& defs, const std::string& name) {
-  for (const auto& d : defs)
-    if (d.name == name) return &d;
-  return nullptr;
-}
-
 /// θ of each grounded capability against the library's descriptor; each difference named.
 std::vector<std::string> theta_drift(const Recording& rec, const std::vector<cap::CapabilityDef>& defs,
                                      const std::filesystem::path& library) {
@@ -43,7 +37,7 @@ std::vector<std::string> theta_drift(const Recording& rec, const std::vector<cap
   for (const auto& c : rec.commands) {
     if (checked[c.capability]) continue;
     checked[c.capability] = true;
-    const cap::CapabilityDef* def = find_def(defs, c.capability);
+    const cap::CapabilityDef* def = cap::find_capability(defs, c.capability);
     if (!def) continue;  // reported as recorded-only
     const auto file = library / (c.capability + ".yaml");
     const cap::Theta now = cap::load_descriptor(file, *def).parameters;
@@ -129,12 +123,12 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
     by_id[c.id] = &c;
     if (perception)
       report.recorded_only.push_back(c.capability + " (grounded in perception estimates, which the replay does not re-make)");
-    else if (!find_def(defs, c.capability))
+    else if (!cap::find_capability(defs, c.capability))
       report.recorded_only.push_back(c.capability + " " + c.version + " (not an analytic or recovery skill of this build)");
   }
   for (const auto& d : defs) served.push_back({d, d.name + "@replay"});
   cap::HostCore host(served);
-  const auto rerun = [&](const RecordedCommand& c) { return !perception && find_def(defs, c.capability); };
+  const auto rerun = [&](const RecordedCommand& c) { return !perception && cap::find_capability(defs, c.capability); };
 
   // With --from-command K: the seam resumes from the state recorded at K's start, and the last step to
   // replay is the last one K's actions led to.

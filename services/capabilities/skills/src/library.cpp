@@ -34,4 +34,10 @@ std::vector<CapabilityDef> all_capabilities() {
   return all;
 }
 
+const CapabilityDef* find_capability(const std::vector<CapabilityDef>& defs, const std::string& name) {
+  for (const auto& d : defs)
+    if (d.name == name) return &d;
+  return nullptr;
+}
+
 }  // namespace dh::cap

@@ -36,6 +36,13 @@ class Registry {
   std::filesystem::path snapshot(const std::string& version) const { return dir_ / "snapshots" / version; }
 
  private:
+  struct Chain {
+    std::vector<nlohmann::json> entries;
+    std::string last;  ///< the last line's hash (the chain's start when there is none)
+  };
+  /// Every entry with the chain checked, head included; throws as entries() does.
+  Chain read_chain() const;
+
   std::filesystem::path dir_;
 };
 
