@@ -20,6 +20,10 @@ std::vector<EntityState> from_msg(const std::vector<msg::EntityPose>& entities) 
     std::copy_n(e.pose().q().begin(), 4, s.q.begin());
     std::copy_n(e.half_extents().begin(), 3, s.half_extents.begin());
     s.joint = e.joint();
+    s.category = e.category();
+    s.colour = e.colour();
+    s.owner = e.owner();
+    s.relation = e.relation();
     out.push_back(std::move(s));
   }
   return out;
@@ -35,6 +39,10 @@ std::vector<msg::EntityPose> to_msg(const std::vector<EntityState>& entities) {
     std::copy_n(e.q.begin(), 4, p.pose().q().begin());
     std::copy_n(e.half_extents.begin(), 3, p.half_extents().begin());
     p.joint(e.joint);
+    p.category(e.category);
+    p.colour(e.colour);
+    p.owner(e.owner);
+    p.relation(e.relation);
     out.push_back(std::move(p));
   }
   return out;
@@ -148,3 +156,4 @@ static_assert(static_cast<int>(dh::msg::OUTCOME_REJECTED) == static_cast<int>(dh
 static_assert(static_cast<int>(dh::msg::FAILURE_PERCEPTION_LOST) == static_cast<int>(dh::FailureCode::PerceptionLost));
 static_assert(static_cast<int>(dh::msg::SEAM_REJECTED_CHANNEL) == static_cast<int>(dh::SeamEventKind::RejectedChannel));
 static_assert(static_cast<int>(dh::msg::SEAM_SAFETY_HOLD) == static_cast<int>(dh::SeamEventKind::SafetyHold));
+static_assert(static_cast<int>(dh::msg::SEAM_SPEED_LIMITED) == static_cast<int>(dh::SeamEventKind::SpeedLimited));

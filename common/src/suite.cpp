@@ -109,7 +109,40 @@ std::vector<SuiteDef> load_suite(const std::filesystem::path& file) {
   return cells;
 }
 
+// "<suite>-lan" cells: the base cell's tasks, each with its rewordings (every task must have some).
+void load_wordings(const std::filesystem::path& file, std::map<std::string, SuiteDef>& suites) {
+  const ConfigNode root = ConfigNode::load_file(file);
+  const ConfigNode by_suite = root.child("suites");
+  for (const std::string& base : by_suite.keys()) {
+    const auto it = suites.find(base);
+    if (it == suites.end()) by_suite.fail(base, "no suite '" + base + "' in configs/suites to reword");
+    SuiteDef cell = it->second;
+    cell.name = base + "-lan";
+    cell.perturbation = "lan";
+    cell.modelled_on = it->second.modelled_on + " with LIBERO-Pro language perturbation";
+    for (const ConfigNode& t : by_suite.items(base)) {
+      const unsigned id = t.get<unsigned>("task");
+      const auto task = cell.tasks.find(id);
+      if (task == cell.tasks.end()) t.fail("task", "suite '" + base + "' has no task " + std::to_string(id));
+      if (!task->second.wordings.empty()) t.fail("task", "task " + std::to_string(id) + " is reworded twice");
+      task->second.wordings = t.get<std::vector<std::string>>("wordings");
+      if (task->second.wordings.empty()) t.fail("wordings", "give at least one wording");
+    }
+    for (auto& [id, task] : cell.tasks) {
+      if (task.wordings.empty())
+        by_suite.fail(base, "task " + std::to_string(id) + " has no wordings: every task of a -lan cell needs some");
+      task.suite = cell.name;
+      task.perturbation = "lan";
+    }
+    suites.emplace(cell.name, std::move(cell));
+  }
+}
+
 }  // namespace
+
+const std::string& instruction_for(const TaskDef& task, std::uint64_t seed) {
+  return task.wordings.empty() ? task.instruction : task.wordings[seed % task.wordings.size()];
+}
 
 std::map<std::string, SuiteDef> load_suites(const std::filesystem::path& config_dir) {
   const auto dir = config_dir / "suites";
@@ -126,6 +159,8 @@ std::map<std::string, SuiteDef> load_suites(const std::filesystem::path& config_
       if (!suites.emplace(name, std::move(cell)).second)
         throw ConfigError(f.string() + ": cell '" + name + "' is also defined by another suite file");
     }
+  if (const auto wordings = dir / "lan" / "wordings.yaml"; std::filesystem::exists(wordings))
+    load_wordings(wordings, suites);
   return suites;
 }
 

@@ -52,6 +52,40 @@ TEST(Suites, ASuiteWithoutAGoalIsRejected) {
   EXPECT_NE(e.find("x.yaml: key 'tasks[0].goal'"), std::string::npos) << e;
 }
 
+TEST(Suites, LanCellsRewordEveryTaskAndTheSeedPicksTheWording) {
+  const auto suites = load_suites(paths::config_dir());
+  for (const std::string base : {"goal", "long"}) {
+    const SuiteDef& lan = suites.at(base + "-lan");
+    const SuiteDef& plain = suites.at(base);
+    ASSERT_EQ(lan.tasks.size(), plain.tasks.size());
+    for (const auto& [id, t] : lan.tasks) {
+      EXPECT_GE(t.wordings.size(), 6u) << base << " " << id;
+      EXPECT_EQ(goal_text(t.goal), goal_text(plain.tasks.at(id).goal)) << "a rewording keeps the goal";
+      EXPECT_EQ(t.suite, base + "-lan");
+      for (const auto& w : t.wordings) EXPECT_NE(w, t.instruction) << "a wording differs from the instruction";
+    }
+  }
+  const TaskDef& t = find_task(suites, "goal-lan", 8);
+  EXPECT_EQ(instruction_for(t, 21), t.wordings[21 % t.wordings.size()]);
+  EXPECT_EQ(instruction_for(find_task(suites, "goal", 8), 21), "put the bowl on the plate");
+}
+
+TEST(Suites, WordingsForAMissingTaskOrSuiteAreNamed) {
+  TempDir t;
+  t.write("scenes/s.yaml", "scene: s\n");
+  t.write("suites/x.yaml", "suite: x\nbudget_steps: 10\nscene: s.yaml\ntasks:\n  - {id: 0, instruction: hi, goal: "
+                           "[{predicate: Open, args: [d]}], task: {instruction: ho, goal: [{predicate: Open, args: [e]}]}, "
+                           "swap: {exchange: [[a, b]]}}\n");
+  t.write("suites/lan/wordings.yaml", "suites:\n  x:\n    - {task: 3, wordings: [hey]}\n");
+  auto e = error_of([&] { load_suites(t.dir); });
+  EXPECT_NE(e.find("wordings.yaml: key 'suites.x[0].task': suite 'x' has no task 3"), std::string::npos) << e;
+  t.write("suites/lan/wordings.yaml", "suites:\n  y:\n    - {task: 0, wordings: [hey]}\n");
+  e = error_of([&] { load_suites(t.dir); });
+  EXPECT_NE(e.find("no suite 'y' in configs/suites to reword"), std::string::npos) << e;
+  t.write("suites/lan/wordings.yaml", "suites:\n  x:\n    - {task: 0, wordings: [hey, there]}\n");
+  EXPECT_EQ(instruction_for(find_task(load_suites(t.dir), "x-lan", 0), 3), "there");
+}
+
 TEST(Evidence, AppendsFlushedRecordsAndSkipsATornLine) {
   TempDir t;
   const auto f = t.dir / "e.jsonl";

@@ -193,7 +193,7 @@ int cmd_campaign(const CampaignArgs& a) {
         r.seed(d.key.seed);
         r.cell(d.key.cell);
         r.arm(d.key.arm);
-        r.instruction(t.instruction);
+        r.instruction(instruction_for(t, d.key.seed));
         r.budget_steps(t.budget_steps);
         set_library(r, library);
         set_settings(r, settings.at(d.key.arm));

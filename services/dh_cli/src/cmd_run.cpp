@@ -37,13 +37,13 @@ int cmd_run(const RunArgs& a) {
   r.seed(a.seed);
   r.cell(a.suite);
   r.arm(a.arm);
-  r.instruction(t.instruction);
+  r.instruction(a.instruction.empty() ? instruction_for(t, a.seed) : a.instruction);
   r.budget_steps(t.budget_steps);
   set_library(r, library);
   set_settings(r, arm_settings(paths::config_dir(), {a.arm}).at(a.arm));
   const auto t0 = std::chrono::steady_clock::now();
   client.request(r);
-  if (!a.json) std::cerr << "episode " << r.episode_id() << " on channel " << *ch << ": " << t.instruction << "\n";
+  if (!a.json) std::cerr << "episode " << r.episode_id() << " on channel " << *ch << ": " << r.instruction() << "\n";
   const auto res = client.wait_result(r.episode_id(), std::chrono::seconds(a.timeout_s));
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (!res) {

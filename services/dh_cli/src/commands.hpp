@@ -62,6 +62,7 @@ int cmd_library_perturb(const std::string& from, std::uint64_t seed, const std::
 
 struct RunArgs {
   std::string suite, launch_file, library;
+  std::string instruction;  ///< replaces the task's (a -lan cell's: the seed's wording) when not empty
   unsigned task = 0, seed = 0, timeout_s = 180, ready_ms = 2500;
   std::string arm = "full";
   std::optional<std::uint32_t> channel;

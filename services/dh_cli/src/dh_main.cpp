@@ -1,7 +1,8 @@
 // dh: the user's command line.
 //   dh tasks [--json]                        every cell's tasks with instruction, goal, budget
-//   dh run --suite CELL --task N --seed K    one episode on a live deployment (starts deploy/local.yaml
-//                                            when none answers)
+//   dh run --suite CELL --task N --seed K [--instruction TEXT]
+//                                            one episode on a live deployment (starts deploy/local.yaml
+//                                            when none answers); TEXT: the task's goal in your own words
 //   dh campaign --arms A,B --cells C,D --seeds 21-40 --db FILE [--json]
 //                                            arms x cells x tasks x seeds over every live channel; resumable
 //   dh report --db FILE [--db FILE2] [--out DIR] [--json]
@@ -60,6 +61,9 @@ int main(int argc, char** argv) {
   run->add_option("--arm", run_args.arm, "executor configuration (configs/governor.yaml arms)");
   run->add_option("--channel", run_args.channel, "simulator channel to use (default: any idle one)");
   run->add_option("--timeout", run_args.timeout_s, "seconds to wait for the episode's result");
+  run->add_option("--instruction", run_args.instruction,
+                  "the instruction the planner is given instead of the task's (your own words for its goal; the "
+                  "goal the episode is judged on stays the task's)");
   run->add_option("--ready-timeout-ms", run_args.ready_ms, "how long to look for a live deployment before starting one");
   run->add_option("--launch", run_args.launch_file, "launch file to start when no deployment answers");
   run->add_option("--library", run_args.library,

@@ -211,11 +211,15 @@ void mechanisms(const json& s, Document& doc) {
   doc.push_back(std::move(p));
   doc.push_back(Paragraph{
       "Safety holds: the seam's 50 Hz envelope holding the arm because a joint would exceed its speed "
-      "limit (the seam's `safety_hold` events in the evidence); the controller under it should plan within it."});
-  Table h{{"Arm", "Episodes", "Safety holds", "Episodes with a hold", "Holds per episode"}, {}};
+      "limit (the seam's `safety_hold` events in the evidence). Beneath it the arm controller's speed limiter "
+      "brakes a joint above 0.9 of that limit, so a hold is a fault signal; the limiter's steps are counted "
+      "(`speed_limited`, share of the control steps under commands; docs/controller.md)."});
+  Table h{{"Arm", "Episodes", "Safety holds", "Episodes with a hold", "Holds per episode", "Speed-limited steps",
+           "Share of steps"},
+          {}};
   for (const json& m : s["mechanisms"])
     h.rows.push_back({m["arm"], count(m["episodes"]), count(m["safety_holds"]), count(m["episodes_with_hold"]),
-                      fixed(m["holds_per_episode"], 2)});
+                      fixed(m["holds_per_episode"], 2), count(m["speed_limited"]), percent(m["speed_limited_share"])});
   doc.push_back(std::move(h));
 }
 

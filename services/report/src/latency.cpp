@@ -38,6 +38,7 @@ void Mechanisms::merge(const Mechanisms& other) {
   }
   for (const auto& [c, n] : other.steps) steps[c] += n;
   safety_holds += other.safety_holds;
+  speed_limited += other.speed_limited;
   episodes_held += other.episodes_held;
 }
 
@@ -85,6 +86,7 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
       if (state == "refused") ++mech.refusals;
     }
     if (kind == to_string(SeamEventKind::SafetyHold)) ++holds;
+    if (kind == to_string(SeamEventKind::SpeedLimited)) ++mech.speed_limited;
     if (kind == "decision" && has_number(r, "latency_ns")) {
       into.decision_ms.push_back(r["latency_ns"].get<double>() / kNsPerMs);
     } else if ((kind == "plan_request" || kind == "advice") && r.contains("request_id") &&

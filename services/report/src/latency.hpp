@@ -26,6 +26,8 @@ struct Mechanisms {
   /// The seam's 50 Hz envelope holding the arm (a joint over its speed limit): events, and episodes with any.
   unsigned long safety_holds = 0;
   unsigned episodes_held = 0;
+  /// Control steps in which the arm controller's speed limiter braked a joint (docs/controller.md).
+  unsigned long speed_limited = 0;
   void merge(const Mechanisms& other);
 };
 

@@ -273,7 +273,9 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
     mechanisms.push_back({{"arm", arm}, {"episodes", m.episodes}, {"decisions", m.decisions},
                           {"refusals", m.refusals}, {"commands", commands}, {"steps", all_steps},
                           {"policy_step_share", number_or_null(share)}, {"safety_holds", m.safety_holds},
-                          {"episodes_with_hold", m.episodes_held},
+                          {"episodes_with_hold", m.episodes_held}, {"speed_limited", m.speed_limited},
+                          {"speed_limited_share",
+                           number_or_null(all_steps ? static_cast<double>(m.speed_limited) / all_steps : NAN)},
                           {"holds_per_episode",
                            number_or_null(m.episodes ? static_cast<double>(m.safety_holds) / m.episodes : NAN)}});
   }

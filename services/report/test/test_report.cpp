@@ -84,6 +84,7 @@ void write_evidence(const fs::path& path) {
                         json{{"kind", "dispatch"}, {"command_id", "e/c2"}, {"step", 150}},
                         json{{"kind", "safety_hold"}, {"step", 151}, {"command_id", "e/c2"}},
                         json{{"kind", "safety_hold"}, {"step", 152}, {"command_id", "e/c2"}},
+                        json{{"kind", "speed_limited"}, {"step", 160}, {"command_id", "e/c2"}},
                         json{{"kind", "episode_end"}, {"step", 200}}})
     out << r.dump() << "\n";
   out << R"({"kind":"decision","latency_ns":9)";  // torn: the writer died mid-record
@@ -287,6 +288,8 @@ TEST(Summarize, MechanismsFromEvidence) {
   EXPECT_EQ(m["safety_holds"], 2);
   EXPECT_EQ(m["episodes_with_hold"], 1);
   EXPECT_DOUBLE_EQ(m["holds_per_episode"].get<double>(), 2.0);
+  EXPECT_EQ(m["speed_limited"], 1);
+  EXPECT_DOUBLE_EQ(m["speed_limited_share"].get<double>(), 1.0 / 200);
   EXPECT_EQ(s["mechanisms"][1]["episodes"], 0);
   EXPECT_TRUE(s["mechanisms"][1]["holds_per_episode"].is_null());
   EXPECT_TRUE(s["mechanisms"][1]["policy_step_share"].is_null());

@@ -240,7 +240,7 @@ class Channel {
       seam_event(e.episode_id.empty() ? core_.episode_id() : e.episode_id, e.step, e.command_id,
                  static_cast<msg::SeamEventKind>(e.kind), e.reason);
       if (e.kind != SeamEventKind::SafetyHold && e.kind != SeamEventKind::WorkspaceClamp &&
-          e.kind != SeamEventKind::ActionClamped)
+          e.kind != SeamEventKind::ActionClamped && e.kind != SeamEventKind::SpeedLimited)
         log_->info("channel={} step={} action refused: {}", id_, e.step, e.reason);
     }
     if (fx.verdict) {

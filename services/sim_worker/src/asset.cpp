@@ -37,7 +37,9 @@ GeomSpec load_geom(const ConfigNode& n) {
 }
 
 SiteSpec load_site(const ConfigNode& n) {
-  return {n.get<std::string>("name"), get_array<3>(n, "half"), get_array<3>(n, "pos")};
+  const auto relation = n.get<std::string>("relation");
+  if (relation != "in" && relation != "on") n.fail("relation", "expected 'in' (an inside) or 'on' (a surface)");
+  return {n.get<std::string>("name"), relation, get_array<3>(n, "half"), get_array<3>(n, "pos")};
 }
 
 JointSpec load_joint(const ConfigNode& n) {
@@ -123,6 +125,8 @@ AssetSpec load_asset(const std::filesystem::path& file) {
   a.file = file;
   a.name = root.get<std::string>("asset");
   a.kind = root.get<std::string>("kind");
+  a.category = root.get_or<std::string>("category", a.kind);
+  a.colour = root.get_or<std::string>("colour", "");
   a.fixture = root.get_or<bool>("fixture", false);
   a.mass = root.get_or<double>("mass", 0.0);
   if (!a.fixture && a.mass <= 0) root.fail("mass", "a free object needs a positive mass (kg)");
@@ -139,7 +143,7 @@ AssetSpec load_asset(const std::filesystem::path& file) {
       part.name = p.get<std::string>("name");
       part.kind = p.get<std::string>("kind");
       const ConfigNode grip = p.child("grip");
-      part.grip = {"grip", get_array<3>(grip, "half"), get_array<3>(grip, "pos")};
+      part.grip = {"grip", "", get_array<3>(grip, "half"), get_array<3>(grip, "pos")};
       part.pos = get_array<3>(p, "pos");
       part.joint = load_joint(p.child("joint"));
       part.mass = p.get_or<double>("mass", 0.3);

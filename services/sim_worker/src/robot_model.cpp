@@ -22,7 +22,9 @@ std::string pose_attrs(const urdf::Pose& p) {
   return "pos=\"" + vec3(p.position) + "\" quat=\"" + quat(p.rotation) + "\"";
 }
 
-std::string geom_xml(const urdf::Geometry& g, const urdf::Pose& origin, bool collides,
+enum class Collides { No, Arm, Gripper };
+
+std::string geom_xml(const urdf::Geometry& g, const urdf::Pose& origin, Collides collides, bool capsule,
                      double friction, const std::string& name) {
   std::string type, size;
   switch (g.type) {
@@ -34,7 +36,7 @@ std::string geom_xml(const urdf::Geometry& g, const urdf::Pose& origin, bool col
     }
     case urdf::Geometry::CYLINDER: {
       const auto& c = static_cast<const urdf::Cylinder&>(g);
-      type = "cylinder";
+      type = capsule ? "capsule" : "cylinder";
       size = num(c.radius) + " " + num(c.length / 2);
       break;
     }
@@ -48,7 +50,12 @@ std::string geom_xml(const urdf::Geometry& g, const urdf::Pose& origin, bool col
   }
   std::string xml = "<geom type=\"" + type + "\" size=\"" + size + "\" " + pose_attrs(origin);
   if (!name.empty()) xml += " name=\"" + name + "\"";
-  if (collides)
+  // Contact bits: the scene's geoms are contype 1, conaffinity 3 (scene_mjcf's default). Arm links
+  // (contype 2, conaffinity 0) touch the scene but not each other nor the gripper: self-collision is
+  // left out. The hand and fingers (1, 1) touch the scene and grip with their pads' friction.
+  if (collides == Collides::Arm)
+    xml += " contype=\"2\" conaffinity=\"0\" group=\"3\" rgba=\"0.9 0.5 0.2 0.4\"";
+  else if (collides == Collides::Gripper)
     xml += " contype=\"1\" conaffinity=\"1\" condim=\"4\" friction=\"" + num(friction) +
            " 0.02 0.001\" rgba=\"0.9 0.9 0.9 1\"";
   else
@@ -56,7 +63,8 @@ std::string geom_xml(const urdf::Geometry& g, const urdf::Pose& origin, bool col
   return xml + "/>\n";
 }
 
-void emit_link(const urdf::ModelInterface& model, const urdf::Link& link, double finger_friction,
+/// `arm`: the link is the base or hangs from a revolute joint of the arm chain (not the hand's side).
+void emit_link(const urdf::ModelInterface& model, const urdf::Link& link, bool arm, double finger_friction,
                std::string& out) {
   if (link.inertial) {
     const auto& in = *link.inertial;
@@ -66,10 +74,10 @@ void emit_link(const urdf::ModelInterface& model, const urdf::Link& link, double
   int i = 0;
   for (const auto& c : link.collision_array)
     if (c->geometry)
-      out += geom_xml(*c->geometry, c->origin, true, finger_friction,
-                      link.name + "_col" + std::to_string(i++));
+      out += geom_xml(*c->geometry, c->origin, arm ? Collides::Arm : Collides::Gripper, c->name == "capsule",
+                      finger_friction, link.name + "_col" + std::to_string(i++));
   for (const auto& v : link.visual_array)
-    if (v->geometry) out += geom_xml(*v->geometry, v->origin, false, 0, "");
+    if (v->geometry) out += geom_xml(*v->geometry, v->origin, Collides::No, false, 0, "");
   // The hand (the TCP's parent) carries the wrist camera, like LIBERO's robot0_eye_in_hand: beside the
   // hand (+x, across the jaw), looking along the tool axis (+z) with the jaw horizontal and the fingertips
   // at the bottom of the image. A camera has no mass and no contacts.
@@ -87,7 +95,7 @@ void emit_link(const urdf::ModelInterface& model, const urdf::Link& link, double
              num(j.dynamics ? j.dynamics->damping : 0.0) + "\"/>\n";
     }
     if (child->name == "tcp") out += "<site name=\"tcp\" size=\"0.005\"/>\n";
-    emit_link(model, *child, finger_friction, out);
+    emit_link(model, *child, arm && j.type == urdf::Joint::REVOLUTE, finger_friction, out);
     out += "</body>\n";
   }
 }
@@ -135,7 +143,7 @@ MjcfFragments robot_mjcf(const RobotSpec& spec, const double base_pos[3], double
   MjcfFragments f;
   f.body = "<body name=\"" + model->getRoot()->name + "\" pos=\"" + num(base_pos[0]) + " " +
            num(base_pos[1]) + " " + num(base_pos[2]) + "\">\n";
-  emit_link(*model, *model->getRoot(), finger_friction, f.body);
+  emit_link(*model, *model->getRoot(), true, finger_friction, f.body);
   f.body += "</body>\n";
   for (const auto& j : spec.arm)
     f.actuators += "<motor name=\"" + j.name + "_motor\" joint=\"" + j.name +

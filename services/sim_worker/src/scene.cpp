@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <set>
 #include <stdexcept>
 
 #include "dh/common/config.hpp"
@@ -27,6 +28,8 @@ EntitySpec load_entity(const ConfigNode& n, const std::filesystem::path& assets_
   if (!std::filesystem::exists(file)) n.fail("asset", "no asset '" + asset + "' (" + file.string() + " does not exist)");
   e.asset = load_asset(file);
   e.rgba = n.has("rgba") ? get_array<4>(n, "rgba") : e.asset.rgba;
+  if (n.has("rgba") && !n.has("colour")) n.fail("colour", "a repainted entity says its colour in words too");
+  e.colour = n.get_or<std::string>("colour", e.asset.colour);
   e.nominal_xy = get_array<2>(n, "xy");
   e.yaw = n.get_or<double>("yaw", 0.0);
   e.jitter = n.get_or<double>("jitter", 0.0);
@@ -171,6 +174,9 @@ SceneSpec load_scene(const std::filesystem::path& file) {
   s.robot_base = get_array<3>(robot, "base");
   s.ready_q = get_array<7>(robot, "ready_q");
   s.finger_friction = robot.get_or<double>("finger_friction", 1.5);
+  s.controller = robot.get_or<std::string>("controller", "joint_ik");
+  if (s.controller != "joint_ik" && s.controller != "osc_pose")
+    robot.fail("controller", "expected joint_ik or osc_pose, not '" + s.controller + "'");
   const ConfigNode ws = root.child("workspace");
   s.workspace_min = get_array<3>(ws, "min");
   s.workspace_max = get_array<3>(ws, "max");
@@ -181,8 +187,14 @@ SceneSpec load_scene(const std::filesystem::path& file) {
     s.entities.push_back(std::move(e));
   }
   if (root.has("regions"))
-    for (const ConfigNode& n : root.items("regions"))
-      s.regions.push_back({n.get<std::string>("name"), get_array<2>(n, "xy"), get_array<2>(n, "half")});
+    for (const ConfigNode& n : root.items("regions")) {
+      TableRegion r{n.get<std::string>("name"), n.get<std::string>("relation"), n.get<std::string>("of"),
+                    get_array<2>(n, "xy"), get_array<2>(n, "half")};
+      static const std::set<std::string> kRelations{"front_of", "back_of", "left_of", "right_of"};
+      if (!kRelations.count(r.relation)) n.fail("relation", "expected front_of, back_of, left_of or right_of");
+      if (!s.entity(r.of)) n.fail("of", "no entity '" + r.of + "' in this scene");
+      s.regions.push_back(std::move(r));
+    }
   return s;
 }
 
@@ -246,7 +258,9 @@ std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& pla
   x += "<compiler angle=\"radian\"/>\n";
   // Elliptic cones with a high impratio keep a pinched object from creeping out of the jaw.
   x += "<option timestep=\"0.002\" integrator=\"Euler\" cone=\"elliptic\" impratio=\"10\" jacobian=\"sparse\"/>\n";
-  x += "<size njmax=\"1000\" nconmax=\"250\"/>\n";
+  x += "<size njmax=\"1000\" nconmax=\"250\" nuserdata=\"" + std::to_string(kUserdataSize) + "\"/>\n";
+  // Scene geoms also answer the arm links' contact bit (robot_model.cpp).
+  x += "<default><geom conaffinity=\"3\"/></default>\n";
   // Rendering only (camera.hpp): the offscreen buffer bounds the image size; on llvmpipe a 1024² shadow
   // map without multisampling renders a 224² image 3-4x faster than MuJoCo's 4096² and 4 samples.
   // No multisampling also keeps the depth buffer one exact sample per pixel (RGB-D cameras, rgbd.hpp).

@@ -17,13 +17,11 @@
 namespace dh::sim {
 
 namespace {
-// Joint-space PD gains of the tracking controller (per arm joint, base to tip).
-constexpr std::array<double, 7> kKp{900, 900, 700, 700, 300, 200, 100};
-constexpr std::array<double, 7> kKd{80, 80, 60, 60, 20, 15, 8};
-constexpr double kIkDamping = 0.05;
-constexpr double kNullGain = 0.1;
-// The controller's own speed limit sits below the seam's envelope, so the check only trips on faults.
-constexpr double kRefSpeedFraction = 0.9;
+// Joint-space PD gains that hold the arm where a safety hold stopped it (per arm joint, base to tip).
+constexpr std::array<double, 7> kHoldKp{900, 900, 700, 700, 300, 200, 100};
+constexpr std::array<double, 7> kHoldKd{80, 80, 60, 60, 20, 15, 8};
+// The controller's speed limiter sits below the seam's envelope, so the envelope only trips on faults.
+constexpr double kLimiterFraction = 0.9;
 }  // namespace
 
 struct Workcell::Ids {
@@ -37,14 +35,17 @@ struct Workcell::Ids {
   std::vector<int> fixture_body;
   std::vector<std::size_t> fixture_entity;
   struct Part {
-    std::string name, kind;
+    std::string name, kind, owner;
     int body = -1, grip_site = -1, qpos = -1;
     std::array<double, 3> grip_half{};
   };
   std::vector<Part> parts;                    ///< fixtures' articulated parts, in scene order
-  std::vector<int> region_site;               ///< every other site: table regions and asset regions
-  std::vector<double> q_lower, q_upper;
-  std::vector<double> effort;
+  struct Region {
+    int site = -1;
+    std::string owner, relation;
+  };
+  std::vector<Region> regions;                ///< every other site: table regions and asset regions
+  std::array<double, 7> effort{};
 };
 
 Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
@@ -57,7 +58,6 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
   for (const auto& e : scene_.entities) nominal.push_back({e.name, e.nominal_xy[0], e.nominal_xy[1], e.yaw});
   m_ = compile_model(scene_mjcf(scene_, nominal), scene_.file.string()).release();
   d_ = mj_makeData(m_);
-  ik_ = mj_makeData(m_);
   // The hash is of the model without the RGB-D cameras a simulator worker adds (configs/cameras.yaml):
   // they render, they do not move anything, and an in-process run has none.
   ModelPtr bare;
@@ -70,8 +70,6 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
   std::vector<unsigned char> bytes(static_cast<std::size_t>(mj_sizeModel(hashed)));
   mj_saveModel(hashed, nullptr, bytes.data(), static_cast<int>(bytes.size()));
   model_hash_ = fnv1a64(bytes.data(), bytes.size());
-  jacp_.resize(3 * m_->nv);
-  jacr_.resize(3 * m_->nv);
 
   ids_ = std::make_unique<Ids>();
   auto need = [&](mjtObj type, const std::string& name) {
@@ -85,9 +83,7 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
     ids_->arm_qpos[i] = m_->jnt_qposadr[jid];
     ids_->arm_dof[i] = m_->jnt_dofadr[jid];
     ids_->arm_act[i] = need(mjOBJ_ACTUATOR, j.name + "_motor");
-    ids_->q_lower.push_back(j.lower);
-    ids_->q_upper.push_back(j.upper);
-    ids_->effort.push_back(j.effort);
+    ids_->effort[i] = j.effort;
   }
   for (const auto& f : scene_.robot.fingers)
     ids_->finger_qpos.push_back(m_->jnt_qposadr[need(mjOBJ_JOINT, f.name)]);
@@ -101,7 +97,7 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
       ids_->fixture_body.push_back(need(mjOBJ_BODY, e.name));
       ids_->fixture_entity.push_back(k);
       for (const auto& part : e.asset.parts)
-        ids_->parts.push_back({part_body(e.name, part.name), part.kind, need(mjOBJ_BODY, part_body(e.name, part.name)),
+        ids_->parts.push_back({part_body(e.name, part.name), part.kind, e.name, need(mjOBJ_BODY, part_body(e.name, part.name)),
                                need(mjOBJ_SITE, part_grip_site(e.name, part.name)),
                                m_->jnt_qposadr[need(mjOBJ_JOINT, part_joint(e.name, part.name))], part.grip.half});
       continue;
@@ -110,14 +106,29 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
     ids_->object_qpos.push_back(m_->jnt_qposadr[need(mjOBJ_JOINT, e.name + "_free")]);
     ids_->object_entity.push_back(k);
   }
-  for (int s = 0; s < m_->nsite; ++s)
-    if (s != ids_->tcp_site && std::none_of(ids_->parts.begin(), ids_->parts.end(),
-                                            [&](const Ids::Part& p) { return p.grip_site == s; }))
-      ids_->region_site.push_back(s);
+  OscGains gains;
+  gains.speed_limit = kLimiterFraction * limits_.joint_speed;
+  std::array<double, 7> ready{};
+  std::copy(scene_.ready_q.begin(), scene_.ready_q.end(), ready.begin());
+  if (scene_.controller == "osc_pose") {
+    osc_ = std::make_unique<OscPose>(m_, ids_->arm_dof, ids_->arm_qpos, ids_->tcp_site, ready, ids_->effort, gains);
+  } else {
+    std::array<double, 7> lower{}, upper{};
+    for (int i = 0; i < 7; ++i) lower[i] = scene_.robot.arm[i].lower, upper[i] = scene_.robot.arm[i].upper;
+    ik_ = std::make_unique<JointIk>(m_, ids_->arm_dof, ids_->arm_qpos, ids_->tcp_site, ready, lower, upper, ids_->effort,
+                                    gains.speed_limit);
+  }
+  for (const auto& r : scene_.regions) ids_->regions.push_back({need(mjOBJ_SITE, r.name), r.of, r.relation});
+  for (const auto& e : scene_.entities) {
+    for (const auto& s : e.asset.sites) ids_->regions.push_back({need(mjOBJ_SITE, e.name + "_" + s.name), e.name, s.relation});
+    for (const auto& part : e.asset.parts)
+      for (const auto& s : part.sites)
+        ids_->regions.push_back({need(mjOBJ_SITE, e.name + "_" + s.name), part_body(e.name, part.name), s.relation});
+  }
+  std::sort(ids_->regions.begin(), ids_->regions.end(), [](const Ids::Region& a, const Ids::Region& b) { return a.site < b.site; });
 }
 
 Workcell::~Workcell() {
-  if (ik_) mj_deleteData(ik_);
   if (d_) mj_deleteData(d_);
   if (m_) mj_deleteModel(m_);
 }
@@ -144,6 +155,11 @@ void Workcell::reset(std::uint64_t seed, const std::vector<PredicateSpec>& goal)
     for (const auto& [part, q] : e.init_joints)
       d_->qpos[m_->jnt_qposadr[mj_name2id(m_, mjOBJ_JOINT, part_joint(e.name, part).c_str())]] = q;
   mj_forward(m_, d_);
+  // The controller starts with the orientation it finds, as robosuite's does when it is made at reset.
+  if (osc_) {
+    osc_->set_orientation_goal(geo::quat(tcp_quat(d_)));
+    store_controller();
+  }
   // Settle: hold the ready pose with the gripper open for 0.4 s.
   for (int s = 0; s < 8; ++s) step({0, 0, 0, 0, 0, 0, -1});
 }
@@ -154,37 +170,12 @@ std::array<double, 4> Workcell::tcp_quat(const mjData_* d) const {
   return q;
 }
 
-void Workcell::solve_ik(const std::array<double, 3>& p_goal, const std::array<double, 4>& q_goal, double joints[7]) {
-  std::memcpy(ik_->qpos, d_->qpos, sizeof(mjtNum) * m_->nq);
-  const Eigen::Quaterniond goal_rot = geo::quat(q_goal);
-  Eigen::Matrix<double, 7, 1> q_ready;
-  for (int i = 0; i < 7; ++i) q_ready[i] = scene_.ready_q[i];
-  Eigen::Matrix<double, 6, 7> J;
-  for (int iter = 0; iter < 4; ++iter) {
-    mj_kinematics(m_, ik_);
-    mj_comPos(m_, ik_);
-    Eigen::Matrix<double, 6, 1> err;
-    err.head<3>() = geo::vec(p_goal) - Eigen::Map<const Eigen::Vector3d>(ik_->site_xpos + 3 * ids_->tcp_site);
-    err.tail<3>() = geo::rotvec_between(geo::quat(tcp_quat(ik_)), goal_rot);
-    // mj_jacSite writes row-major 3 x nv.
-    mj_jacSite(m_, ik_, jacp_.data(), jacr_.data(), ids_->tcp_site);
-    for (int i = 0; i < 7; ++i)
-      for (int k = 0; k < 3; ++k) {
-        J(k, i) = jacp_[k * m_->nv + ids_->arm_dof[i]];
-        J(3 + k, i) = jacr_[k * m_->nv + ids_->arm_dof[i]];
-      }
-    const Eigen::Matrix<double, 6, 6> JJt =
-        J * J.transpose() + kIkDamping * kIkDamping * Eigen::Matrix<double, 6, 6>::Identity();
-    const Eigen::Matrix<double, 7, 6> Jpinv = J.transpose() * JJt.inverse();
-    Eigen::Matrix<double, 7, 1> q;
-    for (int i = 0; i < 7; ++i) q[i] = ik_->qpos[ids_->arm_qpos[i]];
-    const Eigen::Matrix<double, 7, 7> N = Eigen::Matrix<double, 7, 7>::Identity() - Jpinv * J;
-    const Eigen::Matrix<double, 7, 1> step = Jpinv * err + N * (kNullGain * (q_ready - q));
-    for (int i = 0; i < 7; ++i)
-      ik_->qpos[ids_->arm_qpos[i]] =
-          std::clamp(q[i] + step[i], ids_->q_lower[i] + 0.01, ids_->q_upper[i] - 0.01);
-  }
-  for (int i = 0; i < 7; ++i) joints[i] = ik_->qpos[ids_->arm_qpos[i]];
+void Workcell::store_controller() {
+  const auto q = osc_->orientation_goal();
+  d_->userdata[0] = q.w();
+  d_->userdata[1] = q.x();
+  d_->userdata[2] = q.y();
+  d_->userdata[3] = q.z();
 }
 
 std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
@@ -205,39 +196,35 @@ std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
                                p[2] + robot::kMaxDeltaPosM * a[2]};
   if (clamp_to_workspace(p_goal, limits_))
     events.push_back({StepEvent::WorkspaceClamp, "position target clamped into the workspace box"});
-  // Rotation target: world-frame delta (axis-angle) applied to the current orientation.
-  const Eigen::Vector3d rv(robot::kMaxDeltaRotRad * a[3], robot::kMaxDeltaRotRad * a[4], robot::kMaxDeltaRotRad * a[5]);
-  Eigen::Quaterniond delta = Eigen::Quaterniond::Identity();
-  if (rv.norm() > 1e-12) delta = Eigen::AngleAxisd(rv.norm(), rv.normalized());
-  const auto q_goal_rot = geo::wxyz(delta * geo::quat(tcp_quat(d_)));
-
-  double q_goal[7];
-  solve_ik(p_goal, q_goal_rot, q_goal);
-  std::array<double, 7> q0{}, v_ref{};
+  const Eigen::Vector3d dr(robot::kMaxDeltaRotRad * a[3], robot::kMaxDeltaRotRad * a[4], robot::kMaxDeltaRotRad * a[5]);
   constexpr double period = kSubsteps * 0.002;
-  for (int i = 0; i < 7; ++i) {
-    q0[i] = d_->qpos[ids_->arm_qpos[i]];
-    const double vmax = kRefSpeedFraction * limits_.joint_speed;
-    v_ref[i] = std::clamp((q_goal[i] - q0[i]) / period, -vmax, vmax);
+  if (osc_) {
+    osc_->set_goal(d_, geo::vec(p_goal) - Eigen::Map<const Eigen::Vector3d>(p), dr);
+    store_controller();
+  } else {
+    Eigen::Quaterniond delta = Eigen::Quaterniond::Identity();
+    if (dr.norm() > 1e-12) delta = Eigen::AngleAxisd(dr.norm(), dr.normalized());
+    ik_->set_goal(d_, geo::vec(p_goal), delta * geo::quat(tcp_quat(d_)), period);
   }
   d_->ctrl[ids_->gripper_act] = robot::finger_target(a[6]);
 
   bool hold = false;
-  std::array<double, 7> q_hold{};
+  int limited = 0;
+  std::array<double, 7> q_hold{}, tau{};
   for (int s = 1; s <= kSubsteps; ++s) {
     mj_step1(m_, d_);
-    const double t = s * 0.002;
-    for (int i = 0; i < 7; ++i) {
-      double q_ref = q0[i] + v_ref[i] * t, dq_ref = v_ref[i];
-      if ((v_ref[i] > 0 && q_ref > q_goal[i]) || (v_ref[i] < 0 && q_ref < q_goal[i])) {
-        q_ref = q_goal[i];
-        dq_ref = 0;
+    if (hold) {
+      for (int i = 0; i < 7; ++i) {
+        const double q = d_->qpos[ids_->arm_qpos[i]], dq = d_->qvel[ids_->arm_dof[i]];
+        tau[i] = std::clamp(kHoldKp[i] * (q_hold[i] - q) - kHoldKd[i] * dq + d_->qfrc_bias[ids_->arm_dof[i]],
+                            -ids_->effort[i], ids_->effort[i]);
       }
-      if (hold) q_ref = q_hold[i], dq_ref = 0;
-      const double q = d_->qpos[ids_->arm_qpos[i]], dq = d_->qvel[ids_->arm_dof[i]];
-      const double tau = kKp[i] * (q_ref - q) + kKd[i] * (dq_ref - dq) + d_->qfrc_bias[ids_->arm_dof[i]];
-      d_->ctrl[ids_->arm_act[i]] = std::clamp(tau, -ids_->effort[i], ids_->effort[i]);
+    } else if (osc_) {
+      limited += osc_->torques(d_, tau);
+    } else {
+      ik_->torques(d_, s * 0.002, tau);
     }
+    for (int i = 0; i < 7; ++i) d_->ctrl[ids_->arm_act[i]] = tau[i];
     mj_step2(m_, d_);
     if (s % kSafetyEvery == 0 && !hold) {
       std::array<double, 7> dq{};
@@ -250,6 +237,11 @@ std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
       }
     }
   }
+  if (limited > 0)
+    events.push_back({StepEvent::SpeedLimited, "the controller braked an arm joint above " +
+                                                   std::to_string(kLimiterFraction * limits_.joint_speed) +
+                                                   " rad/s in " + std::to_string(limited) + " of " +
+                                                   std::to_string(kSubsteps) + " substeps"});
   capture(ended_);
   mj_forward(m_, d_);
   // MuJoCo drops contacts and constraints silently when its buffers are full; that physics is wrong.
@@ -313,6 +305,8 @@ Observation Workcell::observe() const {
     std::copy(d_->xpos + 3 * body, d_->xpos + 3 * body + 3, e.p.begin());
     std::copy(d_->xquat + 4 * body, d_->xquat + 4 * body + 4, e.q.begin());
     e.half_extents = spec.asset.half_extents();
+    e.category = spec.asset.category;
+    e.colour = spec.colour;
     return e;
   };
   for (std::size_t k = 0; k < ids_->object_body.size(); ++k) {
@@ -331,10 +325,14 @@ Observation Workcell::observe() const {
     std::copy(d_->xquat + 4 * part.body, d_->xquat + 4 * part.body + 4, e.q.begin());
     e.half_extents = part.grip_half;
     e.joint = d_->qpos[part.qpos];
+    e.category = part.kind;
+    e.owner = part.owner;
     o.entities.push_back(std::move(e));
   }
-  for (int s : ids_->region_site) {
+  for (const auto& [s, owner, relation] : ids_->regions) {
     EntityState e;
+    e.owner = owner;
+    e.relation = relation;
     e.name = mj_id2name(m_, mjOBJ_SITE, s);
     e.kind = "region";
     std::copy(d_->site_xpos + 3 * s, d_->site_xpos + 3 * s + 3, e.p.begin());
@@ -370,7 +368,7 @@ StateDigest Workcell::digest() const {
 
 StateShape Workcell::shape() const {
   const auto u = [](int n) { return static_cast<std::uint32_t>(n); };
-  return {u(m_->nq), u(m_->nv), u(m_->na), u(m_->nu), u(m_->nmocap), u(m_->nbody)};
+  return {u(m_->nq), u(m_->nv), u(m_->na), u(m_->nu), u(m_->nmocap), u(m_->nbody), u(m_->nuserdata)};
 }
 
 void Workcell::capture(PhysicsState& s) const {
@@ -386,6 +384,7 @@ void Workcell::capture(PhysicsState& s) const {
   copy(s.mocap_quat, d_->mocap_quat, 4 * m_->nmocap);
   copy(s.qfrc_applied, d_->qfrc_applied, m_->nv);
   copy(s.xfrc_applied, d_->xfrc_applied, 6 * m_->nbody);
+  copy(s.userdata, d_->userdata, m_->nuserdata);
 }
 
 void Workcell::restore(const PhysicsState& s) {
@@ -404,6 +403,8 @@ void Workcell::restore(const PhysicsState& s) {
   put(s.mocap_quat, d_->mocap_quat);
   put(s.qfrc_applied, d_->qfrc_applied);
   put(s.xfrc_applied, d_->xfrc_applied);
+  put(s.userdata, d_->userdata);
+  if (osc_) osc_->set_orientation_goal(Eigen::Quaterniond(s.userdata[0], s.userdata[1], s.userdata[2], s.userdata[3]));
   mj_forward(m_, d_);
   ended_ = s;
 }

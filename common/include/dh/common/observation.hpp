@@ -19,6 +19,12 @@ struct EntityState {
   std::array<double, 4> q{1, 0, 0, 0};     ///< w, x, y, z
   std::array<double, 3> half_extents{};    ///< m
   double joint = 0;  ///< an articulated part's joint position (m or rad); 0 for other entities
+  // What a person calls it and how it relates to the rest: the slow brain reads an instruction against
+  // these, not against the entity's name.
+  std::string category;  ///< "bowl", "cream cheese", "drawer", "knob"; empty for a region
+  std::string colour;    ///< "black", "yellow and white"; empty when the scene does not say
+  std::string owner;     ///< a part's fixture; a region's entity or part ("cabinet_top_drawer")
+  std::string relation;  ///< a region's relation to its owner: in, on, front_of, back_of, left_of, right_of
 };
 
 struct Observation {

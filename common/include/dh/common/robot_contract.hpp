@@ -1,6 +1,8 @@
 // The robot contract: what an action and an observation mean, in one place for the seam (simulator or
-// hardware adapter) and every skill. An action is 7-d, robosuite OSC_POSE-like: Δposition and Δrotation
-// (axis-angle, world frame) from the current tool pose, scaled below at |a| = 1, and the gripper command.
+// hardware adapter) and every skill. An action is 7-d, robosuite's OSC_POSE as LIBERO configures it: the
+// controller's goal is the measured tool pose moved by Δposition and Δrotation (axis-angle, world frame),
+// scaled below at |a| = 1, tracked by a critically damped spring; then the gripper command.
+// docs/controller.md gives the sources.
 #pragma once
 
 #include <algorithm>
@@ -13,6 +15,12 @@ inline constexpr std::uint32_t kDecisionPeriodSteps = 10;  ///< default steps be
                                                           ///< episode's arm may set another, its commands carry it
 inline constexpr double kMaxDeltaPosM = 0.05;   ///< tool translation per step at |a| = 1 (OSC_POSE output_max)
 inline constexpr double kMaxDeltaRotRad = 0.5;  ///< tool rotation per step at |a| = 1
+
+/// The controller's operational-space stiffness (1/s², per unit of task-space mass) and damping, critically
+/// damped: kd = 2 ζ √kp with ζ = 1.
+inline constexpr double kOscKp = 150;
+inline constexpr double kOscKd = 24.494897427831781;
+static_assert(kOscKd * kOscKd > 4 * kOscKp - 1e-9 && kOscKd * kOscKd < 4 * kOscKp + 1e-9);
 
 /// The gripper command a[6]: -1 opens the jaw fully, +1 closes it; in between, a finger gap.
 inline constexpr double kJawMaxGapM = 0.08;  ///< finger gap at a[6] = -1 (each finger travels half of it)

@@ -17,11 +17,13 @@ enum class SeamEventKind {
   WorkspaceClamp,
   ActionClamped,
   RejectedChannel,  ///< an action or lease for a channel no simulator worker serves
+  SpeedLimited,     ///< the arm controller braked a joint above its limit (docs/controller.md)
 };
 
 inline const char* to_string(SeamEventKind k) {
   static const char* names[] = {"rejected_lease", "rejected_budget", "rejected_command", "rejected_step",
-                                "safety_hold",    "workspace_clamp", "action_clamped",   "rejected_channel"};
+                                "safety_hold",    "workspace_clamp", "action_clamped",   "rejected_channel",
+                                "speed_limited"};
   const auto i = static_cast<std::size_t>(k);
   return i < std::size(names) ? names[i] : "unknown_kind";
 }

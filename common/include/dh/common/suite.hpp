@@ -1,11 +1,13 @@
 // Benchmark suites, cells and tasks, from configs/suites/*.yaml. Each suite file gives three cells: the
 // unperturbed suite ("goal") and its LIBERO-Pro-style perturbations "<suite>-task" (the instruction and
 // goal redirected to another object or target in the same scene) and "<suite>-swap" (task-relevant
-// entities trade placements or move; instruction and goal unchanged).
+// entities trade placements or move; instruction and goal unchanged). configs/suites/lan/wordings.yaml
+// adds "<suite>-lan": each task's instruction reworded, the goal unchanged, one wording per seed.
 #pragma once
 
-#include <filesystem>
 #include <array>
+#include <cstdint>
+#include <filesystem>
 #include <map>
 #include <string>
 #include <vector>
@@ -31,9 +33,10 @@ struct SwapSpec {
 struct TaskDef {
   std::string suite;          ///< the cell: "goal", "goal-task", "goal-swap", ...
   std::string base_suite;     ///< "goal" or "long"
-  std::string perturbation;   ///< "", "task" or "swap"
+  std::string perturbation;   ///< "", "task", "swap" or "lan"
   unsigned id = 0;
   std::string instruction;
+  std::vector<std::string> wordings;  ///< "lan" cells: the instruction's rewordings (instruction_for)
   unsigned budget_steps = 0;
   std::filesystem::path scene_file;  ///< absolute, resolved relative to the suite file
   std::vector<PredicateSpec> goal;   ///< conjunction
@@ -49,11 +52,15 @@ struct SuiteDef {
   std::map<unsigned, TaskDef> tasks;
 };
 
+/// The instruction an episode of `task` with `seed` is given: in a "lan" cell the wording the seed picks
+/// (seed mod the number of wordings), elsewhere the task's instruction.
+const std::string& instruction_for(const TaskDef& task, std::uint64_t seed);
+
 /// A goal as one line: its terms joined by " AND ".
 std::string goal_text(const std::vector<PredicateSpec>& goal);
 
-/// Loads every configs/suites/*.yaml under `config_dir` (three cells per file, keyed by cell name);
-/// throws ConfigError naming file and key.
+/// Loads every configs/suites/*.yaml under `config_dir` (three cells per file, keyed by cell name) and the
+/// "lan" cells of configs/suites/lan/wordings.yaml; throws ConfigError naming file and key.
 std::map<std::string, SuiteDef> load_suites(const std::filesystem::path& config_dir);
 
 /// The task, or ConfigError saying which suites/tasks exist.

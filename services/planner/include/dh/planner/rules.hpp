@@ -1,10 +1,9 @@
-// The `rules` slow-brain backend: deterministic parsing of the instruction against the scene snapshot.
-// It splits the instruction into clauses (open/close a drawer or door, turn a knob on or off, push an
-// object somewhere, put or place objects somewhere, pick up ... and place it ...), resolves noun phrases
-// to scene entities, articulated parts and regions, and advises the first step whose arguments have not
-// completed yet, with the rest of the plan behind it. It names the capability the instruction asks for
-// (a push for "push") and leaves feasibility to the fast brain. It never gives poses; what it cannot
-// form is a refusal with its reason.
+// The `rules` slow-brain backend: deterministic parsing of an English instruction against the scene
+// snapshot (src/lexicon.cpp: the words; src/clauses.cpp: clauses, coordination and coreference;
+// src/reference.cpp: noun phrases -> entities by category, colour, position, state, owner and relation).
+// It advises the first step whose arguments have not completed yet, with the rest of the plan behind it. It
+// names the capability the instruction asks for (a push for "push") and leaves feasibility to the fast
+// brain. It never gives poses; what it cannot form is a refusal naming the words it could not place.
 #pragma once
 
 #include <string>
@@ -44,10 +43,10 @@ PlannerAdvice plan_rules(const PlanContext& ctx);
 /// clause cannot be formed.
 std::vector<PlanStep> plan_steps(const std::string& instruction, const std::vector<EntityState>& scene);
 
-/// Finds the scene entities a noun phrase names ("the black bowl" -> bowl, "the top drawer" ->
-/// cabinet_top_drawer, "the back compartment of the caddy" -> caddy_back_contain_region, "both moka
-/// pots" -> both); "left"/"right"/"front"/"back" pick among otherwise equal candidates by position.
-/// Empty when none matches or the match is ambiguous.
+/// Finds the scene entities a noun phrase names, by their attributes ("the black bowl" -> bowl, "the top
+/// drawer" -> cabinet_top_drawer, "the top of the cabinet" -> cabinet_top_side, "the back compartment of
+/// the caddy" -> caddy_back_contain_region, "both moka pots" -> both); sides and ordinals pick among
+/// otherwise equal candidates by position. Empty when none matches or the match is ambiguous.
 std::vector<std::string> resolve(const std::string& phrase, const std::vector<EntityState>& scene);
 
 }  // namespace dh::planner

@@ -31,6 +31,7 @@ struct GeomSpec {
 
 struct SiteSpec {
   std::string name;
+  std::string relation;          ///< to the body it is on: "in" (a container's inside) or "on" (a surface)
   std::array<double, 3> half{};  ///< half extents of the region box (m)
   std::array<double, 3> pos{};   ///< centre in the body frame; a support region's top face is its surface
 };
@@ -63,6 +64,8 @@ struct AssetSpec {
   std::filesystem::path file;
   std::string name;
   std::string kind;     ///< what perception and capabilities call it: bowl, plate, mug, box, cabinet, ...
+  std::string category; ///< what a person calls it: "cream cheese", "wine bottle" (default: the kind)
+  std::string colour;   ///< in words, "black"; a scene may repaint an entity and say so
   bool fixture = false; ///< static (welded into the world by construction, never by a constraint)
   double mass = 0.1;    ///< free objects (kg), spread over the geoms by volume
   double friction = 1.0;

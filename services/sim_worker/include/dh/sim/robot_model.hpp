@@ -34,9 +34,10 @@ struct MjcfFragments {
   std::string equalities;  ///< finger mimic couplings
 };
 
-/// MJCF elements for the robot placed at `base_pos`. Arm links are visual only (contype 0); the hand
-/// and fingers collide. `finger_friction` is the sliding friction of the finger pads. The hand carries
-/// the camera "wrist" (camera.hpp).
+/// MJCF elements for the robot placed at `base_pos`. Every link's collision geometry collides with the
+/// scene; arm links do not collide with each other or with the gripper (robot_model.cpp says how).
+/// `finger_friction` is the sliding friction of the finger pads. The hand carries the camera "wrist"
+/// (camera.hpp).
 MjcfFragments robot_mjcf(const RobotSpec& spec, const double base_pos[3], double finger_friction);
 
 }  // namespace dh::sim

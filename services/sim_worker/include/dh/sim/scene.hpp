@@ -20,6 +20,7 @@ struct EntitySpec {
   std::string name;  ///< body name in the model and in observations, e.g. "bowl", "cabinet"
   AssetSpec asset;
   std::array<double, 4> rgba{};        ///< the asset's colour unless the scene paints it
+  std::string colour;                  ///< the same in words
   std::array<double, 2> nominal_xy{};  ///< m, world frame
   double yaw = 0;                      ///< nominal rotation about z (rad)
   double jitter = 0;                   ///< uniform ± on x and y per seed (m); fixtures: 0
@@ -31,6 +32,8 @@ struct EntitySpec {
 /// A named box on the table top (e.g. "stove_front_region"); its top face is the table surface.
 struct TableRegion {
   std::string name;
+  std::string relation;  ///< to `of`, as the robot sees it: front_of, back_of, left_of, right_of
+  std::string of;        ///< the entity it is named after
   std::array<double, 2> xy{};
   std::array<double, 2> half{};
 };
@@ -45,6 +48,10 @@ struct CameraSpec {
   int width = 640, height = 480;
 };
 
+/// Doubles of mjData's userdata: the arm controller's orientation goal (w x y z), the one piece of its state
+/// that outlives a control step (osc_pose.hpp), kept there so the physics state stays the whole state.
+inline constexpr int kUserdataSize = 4;
+
 struct SceneSpec {
   std::filesystem::path file;
   std::string name;
@@ -57,6 +64,9 @@ struct SceneSpec {
   std::array<double, 7> ready_q{};
   std::array<double, 3> workspace_min{}, workspace_max{};
   double finger_friction = 1.5;
+  /// The arm controller behind the seam: "joint_ik" (joint_ik.hpp, what the skills are tuned to) or
+  /// "osc_pose" (robosuite's, osc_pose.hpp; docs/controller.md).
+  std::string controller = "joint_ik";
   std::vector<EntitySpec> entities;
   std::vector<TableRegion> regions;
   /// Extra fixed cameras (not from the scene file: sim_worker adds configs/cameras.yaml's); none by default.

@@ -1,7 +1,7 @@
 // One MuJoCo workcell (one channel): physics at 2 ms, control at 20 Hz. An action means what the robot
-// contract says (dh/common/robot_contract.hpp). A damped-least-squares IK turns the pose target into joint
-// targets, tracked by joint PD plus bias (gravity, Coriolis) compensation; the 50 Hz safety check
-// runs inside the step.
+// contract says (dh/common/robot_contract.hpp), tracked by the scene's controller: the joint-space IK the
+// skills are tuned to (joint_ik.hpp) or robosuite's OSC_POSE with a joint-speed limiter under it
+// (osc_pose.hpp); the 50 Hz safety check runs inside the step.
 #pragma once
 
 #include <array>
@@ -13,6 +13,8 @@
 #include "dh/common/observation.hpp"
 #include "dh/common/seam_event.hpp"
 #include "dh/common/suite.hpp"
+#include "dh/sim/joint_ik.hpp"
+#include "dh/sim/osc_pose.hpp"
 #include "dh/sim/predicates.hpp"
 #include "dh/sim/safety.hpp"
 #include "dh/sim/state_log.hpp"
@@ -28,13 +30,14 @@ inline constexpr int kSubsteps = 25;          ///< 20 Hz control over 2 ms physi
 inline constexpr int kSafetyEvery = 10;       ///< substeps between safety checks: 50 Hz
 
 struct StepEvent {
-  enum Kind { SafetyHold, WorkspaceClamp, ActionClamped } kind;
+  enum Kind { SafetyHold, WorkspaceClamp, ActionClamped, SpeedLimited } kind;
   std::string reason;
 };
 
 inline SeamEventKind seam_event_kind(StepEvent::Kind k) {
   return k == StepEvent::SafetyHold       ? SeamEventKind::SafetyHold
          : k == StepEvent::WorkspaceClamp ? SeamEventKind::WorkspaceClamp
+         : k == StepEvent::SpeedLimited   ? SeamEventKind::SpeedLimited
                                           : SeamEventKind::ActionClamped;
 }
 
@@ -84,8 +87,8 @@ class Workcell {
 
  private:
   struct Ids;
-  /// Joint targets reaching the tool pose (position, quaternion w x y z) from the current state.
-  void solve_ik(const std::array<double, 3>& p_goal, const std::array<double, 4>& q_goal, double joints[7]);
+  /// Writes the controller's orientation goal into mjData's userdata (scene.hpp kUserdataSize).
+  void store_controller();
   std::array<double, 4> tcp_quat(const mjData_* d) const;
   void capture(PhysicsState& into) const;
   bool in_contact(int body_a, int body_b) const;
@@ -94,10 +97,10 @@ class Workcell {
   SafetyLimits limits_;
   mjModel_* m_ = nullptr;
   mjData_* d_ = nullptr;
-  mjData_* ik_ = nullptr;
   std::unique_ptr<Ids> ids_;
+  std::unique_ptr<OscPose> osc_;  ///< one of the two, as the scene says
+  std::unique_ptr<JointIk> ik_;
   std::unique_ptr<GoalEvaluator> goal_;      ///< resolved at reset
-  std::vector<double> jacp_, jacr_;          ///< 3 x nv Jacobian buffers of the IK
   std::uint64_t model_hash_ = 0;
   PhysicsState ended_;
 };

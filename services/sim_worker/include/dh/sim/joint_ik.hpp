@@ -1,0 +1,41 @@
+// The arm controller the benchmark was measured with before robosuite's OSC_POSE (osc_pose.hpp): each
+// control step a damped-least-squares IK turns the pose goal into joint goals, reached by speed-capped
+// joint references under a joint PD with bias compensation. An action's goal is met within the step
+// (the tool moves 0.05 m at |a| = 1), which is what the shipped skills are tuned to. A scene picks it
+// with `robot: controller: joint_ik` (the default until the skills are re-tuned to OSC's lag).
+#pragma once
+
+#include <Eigen/Dense>
+#include <array>
+#include <vector>
+
+struct mjModel_;
+struct mjData_;
+
+namespace dh::sim {
+
+class JointIk {
+ public:
+  JointIk(const mjModel_* m, std::array<int, 7> dofs, std::array<int, 7> qpos, int site, std::array<double, 7> q_ready,
+          std::array<double, 7> lower, std::array<double, 7> upper, std::array<double, 7> effort, double speed_limit);
+  ~JointIk();
+  JointIk(const JointIk&) = delete;
+  JointIk& operator=(const JointIk&) = delete;
+
+  /// Once per control step: the joint goals reaching position `p_goal` and orientation `q_goal`.
+  void set_goal(const mjData_* d, const Eigen::Vector3d& p_goal, const Eigen::Quaterniond& q_goal, double period);
+  /// At substep time `t` (s since the step began), after mj_step1: the clipped arm torques.
+  void torques(const mjData_* d, double t, std::array<double, 7>& tau) const;
+
+ private:
+  const mjModel_* m_;
+  mjData_* ik_;
+  std::array<int, 7> dof_, qpos_;
+  int site_;
+  std::array<double, 7> q_ready_, lower_, upper_, effort_;
+  double speed_limit_;
+  std::array<double, 7> q0_{}, q_goal_{}, v_ref_{};
+  std::vector<double> jacp_, jacr_;
+};
+
+}  // namespace dh::sim
