@@ -17,6 +17,15 @@ constexpr double kIkDamping = 0.05;
 constexpr double kNullGain = 0.1;
 }  // namespace
 
+void joint_pd(const mjData_* d, const std::array<int, 7>& dofs, const std::array<int, 7>& qpos,
+              const std::array<double, 7>& q_ref, const std::array<double, 7>& dq_ref,
+              const std::array<double, 7>& effort, std::array<double, 7>& tau) {
+  for (int i = 0; i < 7; ++i)
+    tau[i] = std::clamp(kKp[i] * (q_ref[i] - d->qpos[qpos[i]]) + kKd[i] * (dq_ref[i] - d->qvel[dofs[i]]) +
+                            d->qfrc_bias[dofs[i]],
+                        -effort[i], effort[i]);
+}
+
 JointIk::JointIk(const mjModel_* m, std::array<int, 7> dofs, std::array<int, 7> qpos, int site,
                  std::array<double, 7> q_ready, std::array<double, 7> lower, std::array<double, 7> upper,
                  std::array<double, 7> effort, double speed_limit)
@@ -65,15 +74,16 @@ void JointIk::set_goal(const mjData_* d, const Eigen::Vector3d& p_goal, const Ei
 }
 
 void JointIk::torques(const mjData_* d, double t, std::array<double, 7>& tau) const {
+  std::array<double, 7> q_ref{}, dq_ref{};
   for (int i = 0; i < 7; ++i) {
-    double q_ref = q0_[i] + v_ref_[i] * t, dq_ref = v_ref_[i];
-    if ((v_ref_[i] > 0 && q_ref > q_goal_[i]) || (v_ref_[i] < 0 && q_ref < q_goal_[i])) {
-      q_ref = q_goal_[i];
-      dq_ref = 0;
+    q_ref[i] = q0_[i] + v_ref_[i] * t;
+    dq_ref[i] = v_ref_[i];
+    if ((v_ref_[i] > 0 && q_ref[i] > q_goal_[i]) || (v_ref_[i] < 0 && q_ref[i] < q_goal_[i])) {
+      q_ref[i] = q_goal_[i];
+      dq_ref[i] = 0;
     }
-    const double q = d->qpos[qpos_[i]], dq = d->qvel[dof_[i]];
-    tau[i] = std::clamp(kKp[i] * (q_ref - q) + kKd[i] * (dq_ref - dq) + d->qfrc_bias[dof_[i]], -effort_[i], effort_[i]);
   }
+  joint_pd(d, dof_, qpos_, q_ref, dq_ref, effort_, tau);
 }
 
 }  // namespace dh::sim

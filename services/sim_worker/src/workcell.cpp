@@ -17,9 +17,6 @@
 namespace dh::sim {
 
 namespace {
-// Joint-space PD gains that hold the arm where a safety hold stopped it (per arm joint, base to tip).
-constexpr std::array<double, 7> kHoldKp{900, 900, 700, 700, 300, 200, 100};
-constexpr std::array<double, 7> kHoldKd{80, 80, 60, 60, 20, 15, 8};
 // The controller's speed limiter sits below the seam's envelope, so the envelope only trips on faults.
 constexpr double kLimiterFraction = 0.9;
 }  // namespace
@@ -214,11 +211,7 @@ std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
   for (int s = 1; s <= kSubsteps; ++s) {
     mj_step1(m_, d_);
     if (hold) {
-      for (int i = 0; i < 7; ++i) {
-        const double q = d_->qpos[ids_->arm_qpos[i]], dq = d_->qvel[ids_->arm_dof[i]];
-        tau[i] = std::clamp(kHoldKp[i] * (q_hold[i] - q) - kHoldKd[i] * dq + d_->qfrc_bias[ids_->arm_dof[i]],
-                            -ids_->effort[i], ids_->effort[i]);
-      }
+      joint_pd(d_, ids_->arm_dof, ids_->arm_qpos, q_hold, {}, ids_->effort, tau);
     } else if (osc_) {
       limited += osc_->torques(d_, tau);
     } else {

@@ -14,6 +14,12 @@ struct mjData_;
 
 namespace dh::sim {
 
+/// Joint PD with bias (gravity, Coriolis) compensation towards `q_ref` at speed `dq_ref`, clipped to
+/// `effort`: what JointIk tracks with, and what holds the arm still during a safety hold.
+void joint_pd(const mjData_* d, const std::array<int, 7>& dofs, const std::array<int, 7>& qpos,
+              const std::array<double, 7>& q_ref, const std::array<double, 7>& dq_ref,
+              const std::array<double, 7>& effort, std::array<double, 7>& tau);
+
 class JointIk {
  public:
   JointIk(const mjModel_* m, std::array<int, 7> dofs, std::array<int, 7> qpos, int site, std::array<double, 7> q_ready,
