@@ -84,6 +84,8 @@ int run(int episodes) {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(50));  // let the lease land first
     for (std::uint32_t t = 0; t < 299; ++t) {
+      // The lease has a 1 s deadline (QoS): renew it every 10 steps, outside the timed span, as a governor does.
+      if (t % 10 == 0) lease.write(ls);
       msg::Action a;
       a.channel(0);
       a.episode_id(episode);

@@ -125,6 +125,10 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
     for (const auto& a : hx.actions) action = a;
   };
 
+  // Over DDS every host has the first observation before the first command starts (the planner answers
+  // after it), so that command's start records the episode's first keyframe: the same order here.
+  from_host(host_.on_observation(obs, now));
+  std::uint32_t host_step = obs.step;  ///< the last step the host saw
   try {
     from_governor(governor_.on_request(request, now));
     // In process nothing else can be the cause: a refused request (an unknown arm, an arm that grounds
@@ -133,9 +137,12 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
     while (!end) {
       if (fresh) {
         fresh = false;
-        action.reset();
         from_governor(governor_.on_observation(obs, now));
-        from_host(host_.on_observation(obs, now));
+        if (obs.step != host_step) {
+          host_step = obs.step;
+          action.reset();
+          from_host(host_.on_observation(obs, now));
+        }
       }
       // Nothing moves this step: wait, as a stalled channel would, for the governor's next deadline (a
       // deadline acts by ending the episode or by changing what runs, so a few waits settle it).
