@@ -57,12 +57,19 @@ TEST(Campaign, KilledHalfWayResumesWithoutRerunningAndReports) {
   const auto rows = campaign::CampaignDb::read_rows(db);
   ASSERT_EQ(rows.size(), kEpisodes);
   std::set<std::string> workers, keys;
-  std::size_t with_physics = 0;
+  std::size_t with_physics = 0, with_verdict = 0;
   for (const auto& r : rows) {
     workers.insert(r.worker);
     keys.insert(campaign::to_string(campaign::key_of(r)));
     EXPECT_FALSE(r.infrastructure) << r.episode_id << ": " << r.reason;
     with_physics += r.physics_s > 0;
+    with_verdict += r.sim_success.has_value();
+    // With the latch on, the governor ends on the simulator's verdict: the two never disagree.
+    EXPECT_FALSE(r.verdict_disagrees()) << r.episode_id << ": governor " << r.success << ", simulator "
+                                        << r.sim_success.value_or(false) << " (goal first held at step "
+                                        << r.sim_goal_step << ")";
+    // The governor ends at the decision after the goal first held (decisions come every 10 steps).
+    if (r.success && r.sim_success) EXPECT_LE(r.sim_goal_step, static_cast<int>(r.steps)) << r.episode_id;
     if (r.cell == "goal" && r.task == 8) {
       EXPECT_TRUE(r.success) << r.episode_id << ": " << r.reason;
     }
@@ -70,6 +77,7 @@ TEST(Campaign, KilledHalfWayResumesWithoutRerunningAndReports) {
   EXPECT_EQ(keys.size(), kEpisodes) << "one row per (arm, cell, task, seed)";
   EXPECT_EQ(workers, (std::set<std::string>{"local_a", "local_b"})) << "episodes ran on both worker processes";
   EXPECT_GE(with_physics, kEpisodes * 9 / 10) << "the simulator's physics time reached the rows";
+  EXPECT_EQ(with_verdict, with_physics) << "the simulator's verdict comes with its physics report";
 
   // A third run has nothing left; another plan on the same database is refused.
   std::tie(out, status) = itest::run_command(dh + kPlan + " --db " + db.string() + " --json");

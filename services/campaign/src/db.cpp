@@ -35,10 +35,26 @@ CREATE TABLE IF NOT EXISTS attribution (
   PRIMARY KEY (arm, cell, task, seed, config));
 )sql";
 
-// Column order shared by the insert and read_row().
+// Version 4: the simulator's own verdict beside the governor's (NULL: no report came), and the flag
+// when they disagree, on every episode and every lost attempt.
+struct AddedColumn {
+  const char* name;
+  const char* type;
+};
+constexpr AddedColumn kVerdictColumns[] = {{"sim_success", "INTEGER"},
+                                           {"sim_goal_step", "INTEGER NOT NULL DEFAULT -1"},
+                                           {"sim_goal_at_end", "INTEGER NOT NULL DEFAULT 0"},
+                                           {"verdict_disagrees", "INTEGER NOT NULL DEFAULT 0"}};
+
+// Column order shared by the insert and read_row(); a file older than version 4 opened read-only reads
+// the verdict columns as unknown.
 constexpr const char* kColumns =
     "arm, cell, task, seed, success, steps, budget, wall_s, physics_s, outcome, reason, infrastructure, "
-    "tick_limit, evidence_path, episode_id, worker, channel, finished_at";
+    "tick_limit, evidence_path, episode_id, worker, channel, finished_at, sim_success, sim_goal_step, "
+    "sim_goal_at_end, verdict_disagrees";
+constexpr const char* kColumnsBeforeVerdict =
+    "arm, cell, task, seed, success, steps, budget, wall_s, physics_s, outcome, reason, infrastructure, "
+    "tick_limit, evidence_path, episode_id, worker, channel, finished_at, NULL, -1, 0, 0";
 
 // Clears a reused prepared statement whichever way the call leaves.
 struct Reset {
@@ -81,6 +97,9 @@ EpisodeRecord read_row(sqlite3_stmt* s) {
   r.worker = column_text(s, 15);
   r.channel = column_uint(s, 16);
   r.finished_at = column_text(s, 17);
+  if (sqlite3_column_type(s, 18) != SQLITE_NULL) r.sim_success = sqlite3_column_int(s, 18) != 0;
+  r.sim_goal_step = sqlite3_column_int(s, 19);
+  r.sim_goal_at_end = sqlite3_column_int(s, 20) != 0;
   return r;
 }
 }  // namespace
@@ -120,15 +139,15 @@ CampaignDb::CampaignDb(std::filesystem::path path, bool read_only) : path_(std::
   // Another process writing the same file holds the lock for one short transaction; wait for it.
   sqlite3_busy_timeout(db_.get(), kBusyTimeoutMs);
   check_or_create_schema(read_only);
-  insert_ = prepare(("INSERT INTO episodes (" + std::string(kColumns) +
-                     ") VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
-                     "ON CONFLICT (arm, cell, task, seed) DO NOTHING")
-                        .c_str());
-  if (!read_only)
-    insert_loss_ = prepare(("INSERT INTO infrastructure_losses (" + std::string(kColumns) +
-                            ") VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) "
+  constexpr const char* kValues = ") VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) ";
+  if (!read_only) {
+    insert_ = prepare(("INSERT INTO episodes (" + std::string(kColumns) + kValues +
+                       "ON CONFLICT (arm, cell, task, seed) DO NOTHING")
+                          .c_str());
+    insert_loss_ = prepare(("INSERT INTO infrastructure_losses (" + std::string(kColumns) + kValues +
                             "ON CONFLICT (episode_id) DO NOTHING")
                                .c_str());
+  }
   has_ = prepare("SELECT 1 FROM episodes WHERE arm = ? AND cell = ? AND task = ? AND seed = ?");
   get_meta_ = prepare("SELECT value FROM meta WHERE key = ?");
   set_meta_ = prepare(
@@ -171,6 +190,7 @@ void CampaignDb::check_or_create_schema(bool read_only) {
     exec(kSchema);
     exec(kLossesTable);
     exec(kAttributionTable);
+    add_verdict_columns();
     exec(("INSERT INTO meta (key, value) VALUES ('schema_version', '" + std::to_string(kSchemaVersion) + "')")
              .c_str());
   } else {
@@ -183,15 +203,18 @@ void CampaignDb::check_or_create_schema(bool read_only) {
       throw CampaignError(
           path_.string() +
           ": a SQLite database but not a campaign database (no meta.schema_version); give --db another file");
-    const bool known = version == "1" || version == "2" || version == std::to_string(kSchemaVersion);
+    const bool known = version == "1" || version == "2" || version == "3" || version == std::to_string(kSchemaVersion);
     if (!known)
       throw CampaignError(path_.string() + ": campaign database schema version " + version +
                           ", this build reads " + std::to_string(kSchemaVersion) +
                           "; give --db a new file or read it with the dh build that wrote it");
-    if (version != std::to_string(kSchemaVersion) && !read_only) {  // older versions lack only tables
+    if (version != std::to_string(kSchemaVersion) && !read_only) {  // older versions lack tables and columns
       if (version == "1") exec(kLossesTable);
       exec(kAttributionTable);
+      add_verdict_columns();
       exec(("UPDATE meta SET value = '" + std::to_string(kSchemaVersion) + "' WHERE key = 'schema_version'").c_str());
+    } else if (read_only) {
+      verdict_columns_ = version == std::to_string(kSchemaVersion);
     }
   }
   if (read_only) return;
@@ -205,6 +228,13 @@ void CampaignDb::check_or_create_schema(bool read_only) {
 
 namespace {
 void bind_record(sqlite3_stmt* s, const EpisodeRecord& r) {
+  if (r.sim_success)
+    bind_arg(s, 19, std::int64_t{*r.sim_success});
+  else
+    sqlite3_bind_null(s, 19);
+  bind_arg(s, 20, std::int64_t{r.sim_goal_step});
+  bind_arg(s, 21, std::int64_t{r.sim_goal_at_end});
+  bind_arg(s, 22, std::int64_t{r.verdict_disagrees()});
   const auto i64 = [](unsigned v) { return static_cast<std::int64_t>(v); };
   bind_arg(s, 1, r.arm);
   bind_arg(s, 2, r.cell);
@@ -269,7 +299,7 @@ std::set<Key> CampaignDb::finished() const {
 
 std::vector<EpisodeRecord> CampaignDb::rows() const {
   Stmt s =
-      prepare(("SELECT " + std::string(kColumns) + " FROM episodes ORDER BY arm, cell, task, seed").c_str());
+      prepare(("SELECT " + std::string(columns()) + " FROM episodes ORDER BY arm, cell, task, seed").c_str());
   std::vector<EpisodeRecord> out;
   int rc;
   while ((rc = sqlite3_step(s.get())) == SQLITE_ROW) out.push_back(read_row(s.get()));
@@ -285,13 +315,26 @@ std::vector<EpisodeRecord> CampaignDb::losses() const {
   }
   if (!exists) return {};  // a version-1 file opened read-only
   Stmt s = prepare(
-      ("SELECT " + std::string(kColumns) + " FROM infrastructure_losses ORDER BY finished_at, episode_id").c_str());
+      ("SELECT " + std::string(columns()) + " FROM infrastructure_losses ORDER BY finished_at, episode_id").c_str());
   std::vector<EpisodeRecord> out;
   int rc;
   while ((rc = sqlite3_step(s.get())) == SQLITE_ROW) out.push_back(read_row(s.get()));
   if (rc != SQLITE_DONE) fail("cannot read the infrastructure losses");
   return out;
 }
+
+void CampaignDb::add_verdict_columns() {
+  for (const char* table : {"episodes", "infrastructure_losses"})
+    for (const AddedColumn& c : kVerdictColumns) {
+      sqlite3_stmt* probe = nullptr;
+      const std::string select = "SELECT " + std::string(c.name) + " FROM " + table + " LIMIT 0";
+      const bool present = sqlite3_prepare_v2(db_.get(), select.c_str(), -1, &probe, nullptr) == SQLITE_OK;
+      sqlite3_finalize(probe);
+      if (!present) run_sql(("ALTER TABLE " + std::string(table) + " ADD COLUMN " + c.name + " " + c.type).c_str());
+    }
+}
+
+const char* CampaignDb::columns() const { return verdict_columns_ ? kColumns : kColumnsBeforeVerdict; }
 
 void CampaignDb::run_sql(const char* sql) {
   if (sqlite3_exec(db_.get(), sql, nullptr, nullptr, nullptr) != SQLITE_OK) fail(std::string("cannot run ") + sql);

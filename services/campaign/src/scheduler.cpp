@@ -10,7 +10,7 @@ Scheduler::Scheduler(std::vector<EpisodeKey> todo, std::function<unsigned(const 
 
 void Scheduler::channel_status(std::uint32_t channel, const std::string& worker, bool idle,
                                const std::string& last_episode, double last_physics_s, const std::string& last_error,
-                               Clock::time_point now) {
+                               Clock::time_point now, SimVerdict verdict) {
   auto& c = channels_[channel];
   if (!c.worker.empty() && c.worker != worker && conflict_.empty())
     conflict_ = "channel " + std::to_string(channel) + " is announced by two workers, '" + c.worker + "' and '" +
@@ -18,7 +18,8 @@ void Scheduler::channel_status(std::uint32_t channel, const std::string& worker,
   c.worker = worker;
   c.idle = idle;
   if (!last_episode.empty()) {
-    physics_[last_episode] = last_physics_s;
+    // A channel that could not run the episode has no verdict on it (its loss is recorded without one).
+    reports_[last_episode] = {last_physics_s, last_error.empty() ? std::optional(verdict) : std::nullopt};
     c.last_episode = last_episode;
     const auto it = running_.find(last_episode);
     if (idle && !last_error.empty() && it != running_.end()) lose(it, "simulator: " + last_error, now);
@@ -152,14 +153,20 @@ void Scheduler::expire(Clock::time_point now) {
 std::vector<EpisodeRecord> Scheduler::take_finished(Clock::time_point now) {
   std::vector<EpisodeRecord> out;
   for (auto it = finishing_.begin(); it != finishing_.end();) {
-    const auto p = physics_.find(it->first);
-    if (p == physics_.end() && now < it->second.wait_until) {
+    const auto p = reports_.find(it->first);
+    if (p == reports_.end() && now < it->second.wait_until) {
       ++it;
       continue;
     }
-    if (p != physics_.end()) {
-      it->second.record.physics_s = p->second;
-      physics_.erase(p);
+    if (p != reports_.end()) {
+      auto& rec = it->second.record;
+      rec.physics_s = p->second.physics_s;
+      if (const auto& v = p->second.verdict) {
+        rec.sim_success = v->goal_step >= 0;
+        rec.sim_goal_step = v->goal_step;
+        rec.sim_goal_at_end = v->goal_at_end;
+      }
+      reports_.erase(p);
     }
     out.push_back(std::move(it->second.record));
     it = finishing_.erase(it);

@@ -47,6 +47,8 @@ EpisodeRecord sample(const std::string& arm = "full", unsigned seed = 7) {
   r.worker = "sim_worker_0";
   r.channel = 3;
   r.finished_at = "2024-05-01T12:00:00Z";
+  r.sim_success = false;
+  r.sim_goal_step = -1;
   return r;
 }
 
@@ -69,6 +71,9 @@ void expect_same(const EpisodeRecord& a, const EpisodeRecord& b) {
   EXPECT_EQ(a.worker, b.worker);
   EXPECT_EQ(a.channel, b.channel);
   EXPECT_EQ(a.finished_at, b.finished_at);
+  EXPECT_EQ(a.sim_success, b.sim_success);
+  EXPECT_EQ(a.sim_goal_step, b.sim_goal_step);
+  EXPECT_EQ(a.sim_goal_at_end, b.sim_goal_at_end);
 }
 
 // The message of the exception `f` throws, or "" when it throws none of type E.
@@ -93,6 +98,21 @@ std::string first_value(const fs::path& path, const char* sql) {
   sqlite3_finalize(s);
   sqlite3_close(db);
   return out;
+}
+
+// A file as an older build wrote it: one sample() row, `version`, and `sql` run to take away what that
+// version lacked. False if SQLite refused `sql`.
+bool make_older(const fs::path& path, const std::string& version, const std::string& sql) {
+  {
+    auto db = CampaignDb::open(path);
+    db.record(sample());
+    db.set_meta("schema_version", version);
+  }
+  sqlite3* raw = nullptr;
+  const bool ok = sqlite3_open(path.c_str(), &raw) == SQLITE_OK &&
+                  sqlite3_exec(raw, sql.c_str(), nullptr, nullptr, nullptr) == SQLITE_OK;
+  sqlite3_close(raw);
+  return ok;
 }
 
 bool contains(const std::string& text, const std::string& part) {
@@ -222,16 +242,7 @@ TEST_F(CampaignDbTest, LostAttemptsAreKeptApartFromTheEpisodeRows) {
 
 TEST_F(CampaignDbTest, AVersionOneFileGainsTheLossesTableAndKeepsItsRows) {
   const fs::path path = dir / "v1.db";
-  {
-    auto db = CampaignDb::open(path);
-    EXPECT_TRUE(db.record(sample()));
-    db.set_meta("schema_version", "1");
-  }
-  sqlite3* raw = nullptr;
-  ASSERT_EQ(sqlite3_open(path.c_str(), &raw), SQLITE_OK);
-  ASSERT_EQ(sqlite3_exec(raw, "DROP TABLE infrastructure_losses; DROP TABLE attribution", nullptr, nullptr, nullptr),
-            SQLITE_OK);
-  sqlite3_close(raw);
+  ASSERT_TRUE(make_older(path, "1", "DROP TABLE infrastructure_losses; DROP TABLE attribution"));
   EXPECT_TRUE(CampaignDb::read_rows(path).size() == 1u) << "read-only: readable as it is";
   auto db = CampaignDb::open(path);
   EXPECT_EQ(db.meta("schema_version"), std::to_string(CampaignDb::kSchemaVersion));
@@ -244,17 +255,9 @@ TEST_F(CampaignDbTest, AVersionOneFileGainsTheLossesTableAndKeepsItsRows) {
 
 TEST_F(CampaignDbTest, AVersionTwoFileGainsTheAttributionTableWhichKeepsOneLabelPerEpisodeAndFile) {
   const fs::path path = dir / "v2.db";
-  {
-    auto db = CampaignDb::open(path);
-    EXPECT_TRUE(db.record(sample()));
-    db.set_meta("schema_version", "2");
-  }
-  sqlite3* raw = nullptr;
-  ASSERT_EQ(sqlite3_open(path.c_str(), &raw), SQLITE_OK);
-  ASSERT_EQ(sqlite3_exec(raw, "DROP TABLE attribution", nullptr, nullptr, nullptr), SQLITE_OK);
-  sqlite3_close(raw);
+  ASSERT_TRUE(make_older(path, "2", "DROP TABLE attribution"));
   auto db = CampaignDb::open(path);
-  EXPECT_EQ(db.meta("schema_version"), "3");
+  EXPECT_EQ(db.meta("schema_version"), std::to_string(CampaignDb::kSchemaVersion));
   const EpisodeRecord r = sample();
   AttributionRow a{r.arm, r.cell, r.task, r.seed, "attr-1", 7, "capability_execution", true, "pick_place",
                    "grasp_missed", "lift", 40};
@@ -281,6 +284,48 @@ TEST_F(CampaignDbTest, AVersionTwoFileGainsTheAttributionTableWhichKeepsOneLabel
   EXPECT_EQ(db.attributions("attr-1").size(), 1u) << "a refused replacement changes nothing";
   EXPECT_EQ(CampaignDb::read_attributions(path, "attr-2").size(), 1u) << "read-only";
   EXPECT_TRUE(db.attributions("attr-3").empty());
+}
+
+TEST_F(CampaignDbTest, TheSimulatorsVerdictIsKeptAndADisagreementIsFlagged) {
+  auto db = CampaignDb::open(dir / "v.db");
+  EpisodeRecord agree = sample("full", 1), disagree = sample("full", 2), unknown = sample("full", 3);
+  agree.sim_success = true;
+  agree.sim_goal_step = 180;
+  agree.sim_goal_at_end = true;
+  disagree.sim_success = false;  // the governor says success (sample()), the simulator never saw the goal hold
+  unknown.sim_success.reset();   // no report came
+  for (const auto& r : {agree, disagree, unknown}) EXPECT_TRUE(db.record(r));
+  const auto rows = db.rows();
+  ASSERT_EQ(rows.size(), 3u);
+  expect_same(rows[0], agree);
+  expect_same(rows[1], disagree);
+  expect_same(rows[2], unknown);
+  EXPECT_FALSE(rows[0].verdict_disagrees());
+  EXPECT_TRUE(rows[1].verdict_disagrees());
+  EXPECT_FALSE(rows[2].verdict_disagrees());
+  EXPECT_EQ(first_value(db.path(), "SELECT group_concat(seed) FROM episodes WHERE verdict_disagrees = 1"), "2");
+}
+
+TEST_F(CampaignDbTest, AVersionThreeFileReadsItsVerdictsAsUnknownAndGainsTheColumnsWhenWritten) {
+  const fs::path path = dir / "v3.db";
+  std::string drop;
+  for (const char* table : {"episodes", "infrastructure_losses"})
+    for (const char* column : {"sim_success", "sim_goal_step", "sim_goal_at_end", "verdict_disagrees"})
+      drop += std::string("ALTER TABLE ") + table + " DROP COLUMN " + column + ";";
+  ASSERT_TRUE(make_older(path, "3", drop));
+  const auto old_rows = CampaignDb::read_rows(path);  // read-only: the file stays as it is
+  ASSERT_EQ(old_rows.size(), 1u);
+  EXPECT_FALSE(old_rows[0].sim_success.has_value());
+  EXPECT_EQ(first_value(path, "SELECT value FROM meta WHERE key = 'schema_version'"), "3");
+  auto db = CampaignDb::open(path);
+  EXPECT_EQ(db.meta("schema_version"), std::to_string(CampaignDb::kSchemaVersion));
+  EpisodeRecord next = sample("full", 8);
+  next.sim_success = true;
+  EXPECT_TRUE(db.record(next));
+  const auto rows = db.rows();
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_FALSE(rows[0].sim_success.has_value()) << "an episode recorded before version 4 has no verdict";
+  expect_same(rows[1], next);
 }
 
 TEST_F(CampaignDbTest, ReadingAMissingFileNamesThePathAndCreatesNothing) {

@@ -43,7 +43,7 @@ TEST(Scheduler, IdleChannelsGetEpisodesInOrderAndResultsBecomeRecords) {
 
   s.result({d[0].episode_id, true, 170, Outcome::Success, "goal holds", "/e/1.jsonl"}, t0 + 3s);
   EXPECT_TRUE(s.take_finished(t0 + 3s).empty()) << "waits for the channel's physics report";
-  s.channel_status(2, "w0", true, d[0].episode_id, 0.42, "", t0);
+  s.channel_status(2, "w0", true, d[0].episode_id, 0.42, "", t0, {150, true});
   const auto recs = s.take_finished(t0 + 3s);
   ASSERT_EQ(recs.size(), 1u);
   const EpisodeRecord& r = recs[0];
@@ -58,6 +58,10 @@ TEST(Scheduler, IdleChannelsGetEpisodesInOrderAndResultsBecomeRecords) {
   EXPECT_EQ(r.channel, 2u);
   EXPECT_FALSE(r.infrastructure);
   EXPECT_EQ(r.evidence_path, "/e/1.jsonl");
+  EXPECT_EQ(r.sim_success, true) << "the simulator's own verdict, from the channel's report";
+  EXPECT_EQ(r.sim_goal_step, 150);
+  EXPECT_TRUE(r.sim_goal_at_end);
+  EXPECT_FALSE(r.verdict_disagrees());
 
   const auto d2 = s.assign(t0 + 3s);
   ASSERT_EQ(d2.size(), 1u);
@@ -130,6 +134,7 @@ TEST(Scheduler, AnEpisodeTheSimulatorCannotStartEndsAtOnceWithItsReason) {
   ASSERT_EQ(recs.size(), 1u);
   EXPECT_TRUE(recs[0].infrastructure);
   EXPECT_EQ(recs[0].reason, "simulator: cannot place 'bowl' without overlap for seed 1");
+  EXPECT_FALSE(recs[0].sim_success.has_value()) << "a channel that could not run it has no verdict on it";
   EXPECT_EQ(s.assign(t0 + 1s).size(), 1u) << "the channel serves the next episode";
 }
 

@@ -163,7 +163,7 @@ int cmd_campaign(const CampaignArgs& a) {
       auto news = client.take_news();
       for (const auto& s : news.channels)
         scheduler.channel_status(s.channel(), s.worker(), s.state() == msg::CHANNEL_IDLE, s.last_episode_id(),
-                                 s.last_physics_s(), s.last_error(), now);
+                                 s.last_physics_s(), s.last_error(), now, {s.last_goal_step(), s.last_goal_at_end()});
       for (const auto& r : news.results)
         scheduler.result({r.episode_id(), r.success(), r.steps(), convert::from_msg(r.outcome()), r.reason(), r.evidence_path()}, now);
       for (const auto& w : news.lost_workers) scheduler.worker_lost(w, now);

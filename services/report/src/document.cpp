@@ -82,6 +82,23 @@ void overview(const json& s, Document& doc) {
         Paragraph{"Warning: " + count(s["duplicates"]) +
                   " episode(s) repeat an (arm, cell, task, seed) key already seen; only the first row of "
                   "a key counts anywhere in this report."});
+  const json& v = s["verdict"];
+  doc.push_back(Paragraph{"The simulator's own verdict (LIBERO's rule: the goal held at some step), recorded apart "
+                          "from the governor's: reported for " +
+                          count(v["reported"]) + " of " + count(s["rows"]) +
+                          " episodes; it disagrees with the governor's on " +
+                          std::to_string(v["disagreements"].size()) + "."});
+  if (!v["disagreements"].empty()) {
+    Table t{{"Arm", "Cell", "Task", "Seed", "Governor", "Simulator", "Goal first held at step", "Episode"}, {}};
+    for (const json& d : v["disagreements"]) {
+      const int at = d["sim_goal_step"].get<int>();
+      t.rows.push_back({d["arm"].get<std::string>(), d["cell"].get<std::string>(), count(d["task"]),
+                        count(d["seed"]), d["governor"].get<bool>() ? "success" : "failure",
+                        d["simulator"].get<bool>() ? "success" : "failure", at < 0 ? kNone : std::to_string(at),
+                        d["episode_id"].get<std::string>()});
+    }
+    doc.push_back(std::move(t));
+  }
   const json& e = s["evidence"];
   doc.push_back(Paragraph{"Evidence files read: " + count(e["read"]) + "; missing or unreadable: " +
                           count(e["missing"]) + "; not recorded: " + count(e["not_recorded"]) + "."});

@@ -199,7 +199,8 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
   std::map<std::string, Latencies> latency_by_arm;
   std::map<std::string, Mechanisms> mechanisms_by_arm;
   std::set<FailedKey> failed;  // the counted rows that failed
-  unsigned rows = 0, duplicates = 0, infrastructure = 0;
+  unsigned rows = 0, duplicates = 0, infrastructure = 0, sim_reported = 0;
+  json disagreements = json::array();  // the simulator's own verdict against the governor's
   std::map<EvidenceStatus, unsigned> evidence;
   json source_list = json::array();
 
@@ -224,6 +225,11 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
       by_task[{r.arm, r.cell, r.task}].add(r);
       wall_s[{r.arm, r.cell}].push_back(r.wall_s);
       infrastructure += r.infrastructure;
+      sim_reported += r.sim_success.has_value();
+      if (r.verdict_disagrees())
+        disagreements.push_back({{"arm", r.arm}, {"cell", r.cell}, {"task", r.task}, {"seed", r.seed},
+                                 {"governor", r.success}, {"simulator", *r.sim_success},
+                                 {"sim_goal_step", r.sim_goal_step}, {"episode_id", r.episode_id}});
       ++evidence[collect_evidence(r.evidence_path, latency_by_arm[r.arm], mechanisms_by_arm[r.arm])];
     }
   }
@@ -288,6 +294,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
           {"cells", cells.names},
           {"infrastructure", infrastructure},
           {"duplicates", duplicates},
+          {"verdict", {{"reported", sim_reported}, {"disagreements", disagreements}}},
           {"summary", summary},
           {"arm_totals", totals},
           {"paired", paired_comparisons(arms.names, cells.names, success_by_key, options)},

@@ -307,6 +307,26 @@ TEST(Summarize, ARepeatedKeyIsCountedAsADuplicateAndNowhereElse) {
   EXPECT_EQ(s["paired"][0]["overall"]["wins"], 3);
 }
 
+TEST(Summarize, EpisodesWhereTheSimulatorsVerdictDiffersFromTheGovernorsAreFlaggedAndRendered) {
+  TempDir dir;
+  EpisodeRecord agrees = row("full", "goal", 1, 0, true, 10), differs = row("full", "goal", 1, 1, true, 10),
+                unknown = row("full", "goal", 1, 2, false, 10);
+  agrees.sim_success = true;
+  agrees.sim_goal_step = 120;
+  differs.sim_success = false;  // the governor says success, the simulator never saw the goal hold
+  differs.episode_id = "ep-differs";
+  const std::vector<Source> sources{{"c.db", {agrees, differs, unknown}}};
+  const json s = summarize(sources, options(dir.path()));
+  EXPECT_EQ(s["verdict"]["reported"], 2);
+  ASSERT_EQ(s["verdict"]["disagreements"].size(), 1u);
+  EXPECT_EQ(s["verdict"]["disagreements"][0]["seed"], 1);
+  EXPECT_EQ(s["verdict"]["disagreements"][0]["governor"], true);
+  EXPECT_EQ(s["verdict"]["disagreements"][0]["simulator"], false);
+  const std::string md = read(render(sources, options(dir.path())).markdown);
+  EXPECT_NE(md.find("reported for 2 of 3 episodes; it disagrees with the governor's on 1."), std::string::npos) << md;
+  EXPECT_NE(md.find("| full | goal | 1 | 1 | success | failure | – | ep-differs |"), std::string::npos) << md;
+}
+
 TEST(Summarize, FailuresByLayerPerArmAndCellWithTheHarnessShare) {
   TempDir dir;
   auto sources = campaign(dir.path());

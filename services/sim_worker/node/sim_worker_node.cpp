@@ -144,6 +144,8 @@ class Channel {
     st.last_episode_id(last_episode_);
     st.last_steps(last_steps_);
     st.last_physics_s(last_physics_s_);
+    st.last_goal_step(last_goal_step_);
+    st.last_goal_at_end(last_goal_at_end_);
     st.last_error(last_error_);
     w_.channel.write(st);
   }
@@ -269,6 +271,9 @@ class Channel {
     last_episode_ = episode;
     last_steps_ = error.empty() ? core_.step() : 0;
     last_physics_s_ = error.empty() ? reset_s_ + core_.physics_s() : 0;
+    const auto goal = core_.goal_step();
+    last_goal_step_ = error.empty() && goal ? static_cast<std::int32_t>(*goal) : -1;
+    last_goal_at_end_ = error.empty() && core_.observation().goal_holds;
     last_error_ = error;
     core_.end();
     announce(msg::CHANNEL_IDLE);
@@ -422,6 +427,8 @@ class Channel {
   std::string last_episode_, last_error_;
   double reset_s_ = 0, last_physics_s_ = 0;  ///< wall time inside MuJoCo: the reset, the last episode in all
   std::uint32_t last_steps_ = 0;
+  std::int32_t last_goal_step_ = -1;  ///< the simulator's own verdict on the last episode (-1: goal never held)
+  bool last_goal_at_end_ = false;
 };
 
 int run(int argc, char** argv) {

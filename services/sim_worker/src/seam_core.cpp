@@ -66,6 +66,7 @@ void SeamCore::begin(Workcell& cell, std::string episode_id, std::uint32_t budge
   lease_ = {};
   pending_.clear();
   predicate_ = false;
+  goal_step_.reset();
   physics_s_ = 0;
   lease_at_ = last_sign_of_life_ = now;
   log_.reset();
@@ -182,6 +183,7 @@ void SeamCore::observe(SeamEffects& fx, const ActionIn* applied) {
   observation_.episode_id = episode_;
   observation_.step = step_;
   observation_.budget_steps = budget_;
+  if (observation_.goal_holds && !goal_step_) goal_step_ = step_;
   if (observation_.goal_holds != predicate_) {
     predicate_ = observation_.goal_holds;
     fx.verdict = VerdictChange{step_, predicate_text_, predicate_};

@@ -1,6 +1,7 @@
 // One finished episode of a campaign: the row a campaign database holds and a report reads.
 #pragma once
 
+#include <optional>
 #include <string>
 
 namespace dh {
@@ -26,6 +27,14 @@ struct EpisodeRecord {
   std::string worker;           ///< sim_worker name that ran it
   unsigned channel = 0;
   std::string finished_at;      ///< UTC ISO-8601
+
+  // The simulator's own verdict, reported by the channel that ran the episode, beside the governor's
+  // `success`. LIBERO's rule: the goal held at some step. Unknown when no report came (a lost episode).
+  std::optional<bool> sim_success;
+  int sim_goal_step = -1;  ///< the first step the goal held (-1: never, or unknown)
+  bool sim_goal_at_end = false;  ///< the goal held in the state the episode ended in
+  /// The simulator and the governor disagree on the episode's success.
+  bool verdict_disagrees() const { return sim_success && *sim_success != success; }
 };
 
 }  // namespace dh

@@ -35,6 +35,12 @@ struct ResultInfo {
   std::string reason, evidence_path;
 };
 
+/// What a channel reports of its last finished episode beside its physics time: the simulator's own verdict.
+struct SimVerdict {
+  std::int32_t goal_step = -1;  ///< the first step the goal held (-1: never)
+  bool goal_at_end = false;     ///< the goal held in the state the episode ended in
+};
+
 struct SchedulerOptions {
   std::string run_tag;  ///< makes episode ids unique across runs of one campaign (e.g. time + pid)
   /// An episode without a result after start_allowance + budget × per_step_allowance is an
@@ -54,10 +60,12 @@ class Scheduler {
   Scheduler(std::vector<EpisodeKey> todo, std::function<unsigned(const EpisodeKey&)> budget_of,
             SchedulerOptions options);
 
-  /// A channel announced its state; `last_episode`/`last_physics_s` report its last finished episode and
-  /// `last_error` why it could not run it (then that episode ends at once as an infrastructure loss).
+  /// A channel announced its state; `last_episode`/`last_physics_s`/`verdict` report its last finished
+  /// episode and `last_error` why it could not run it (then that episode ends at once as an infrastructure
+  /// loss).
   void channel_status(std::uint32_t channel, const std::string& worker, bool idle, const std::string& last_episode,
-                      double last_physics_s, const std::string& last_error, Clock::time_point now);
+                      double last_physics_s, const std::string& last_error, Clock::time_point now,
+                      SimVerdict verdict = {});
   /// Pairs pending episodes with free channels (lowest channel first); the caller sends the requests.
   /// Pending episodes for which `skip` holds (recorded meanwhile by another process) are dropped.
   std::vector<Dispatch> assign(Clock::time_point now, const std::function<bool(const EpisodeKey&)>& skip = {});
@@ -69,7 +77,7 @@ class Scheduler {
   /// `worker` is gone (its announcements lost liveliness): what its channels were running is lost at
   /// once, and they are not used again until they announce themselves again.
   void worker_lost(const std::string& worker, Clock::time_point now);
-  /// Finished episodes ready to be recorded (their physics report arrived or stopped being awaited).
+  /// Finished episodes ready to be recorded (their channel's report arrived or stopped being awaited).
   std::vector<EpisodeRecord> take_finished(Clock::time_point now);
   /// Attempts lost to infrastructure that were put back to run again (SchedulerOptions::reruns).
   std::vector<EpisodeRecord> take_losses();
@@ -109,7 +117,11 @@ class Scheduler {
   std::map<std::uint32_t, ChannelInfo> channels_;
   std::map<std::string, Running> running_;     ///< by episode id
   std::map<std::string, Finishing> finishing_; ///< by episode id
-  std::map<std::string, double> physics_;      ///< episode id → physics seconds reported by its channel
+  struct SimReport {
+    double physics_s = 0;
+    std::optional<SimVerdict> verdict;  ///< none when the channel could not run the episode
+  };
+  std::map<std::string, SimReport> reports_;   ///< episode id → what its channel reported of it
   std::map<EpisodeKey, unsigned> reruns_;      ///< attempts put back per episode
   std::vector<EpisodeRecord> losses_;
   std::size_t dispatched_ = 0;

@@ -109,6 +109,8 @@ class SeamCore {
   const Observation& observation() const { return observation_; }
   std::size_t held() const { return pending_.size(); }
   double physics_s() const { return physics_s_; }  ///< wall time inside MuJoCo this episode
+  /// The simulator's own verdict: the first step at which the task's goal held this episode (none: never).
+  std::optional<std::uint32_t> goal_step() const { return goal_step_; }
   Workcell* cell() const { return cell_; }
 
  private:
@@ -137,6 +139,7 @@ class SeamCore {
   std::unique_ptr<StateLogWriter> states_;
   std::set<std::string> started_;  ///< the commands whose start the state log holds
   bool predicate_ = false;
+  std::optional<std::uint32_t> goal_step_;
   double physics_s_ = 0;
 };
 
