@@ -48,13 +48,12 @@ constexpr AddedColumn kVerdictColumns[] = {{"sim_success", "INTEGER"},
 
 // Column order shared by the insert and read_row(); a file older than version 4 opened read-only reads
 // the verdict columns as unknown.
-constexpr const char* kColumns =
-    "arm, cell, task, seed, success, steps, budget, wall_s, physics_s, outcome, reason, infrastructure, "
-    "tick_limit, evidence_path, episode_id, worker, channel, finished_at, sim_success, sim_goal_step, "
-    "sim_goal_at_end, verdict_disagrees";
-constexpr const char* kColumnsBeforeVerdict =
-    "arm, cell, task, seed, success, steps, budget, wall_s, physics_s, outcome, reason, infrastructure, "
-    "tick_limit, evidence_path, episode_id, worker, channel, finished_at, NULL, -1, 0, 0";
+#define DH_BASE_COLUMNS                                                                                    \
+  "arm, cell, task, seed, success, steps, budget, wall_s, physics_s, outcome, reason, infrastructure, " \
+  "tick_limit, evidence_path, episode_id, worker, channel, finished_at, "
+constexpr const char* kColumns = DH_BASE_COLUMNS "sim_success, sim_goal_step, sim_goal_at_end, verdict_disagrees";
+constexpr const char* kColumnsBeforeVerdict = DH_BASE_COLUMNS "NULL, -1, 0, 0";
+#undef DH_BASE_COLUMNS
 
 // Clears a reused prepared statement whichever way the call leaves.
 struct Reset {
