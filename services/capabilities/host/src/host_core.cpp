@@ -136,6 +136,7 @@ HostEffects HostCore::on_observation(const Observation& obs, Clock::time_point n
   auto& last = last_obs_[obs.channel];
   if (last.episode_id != obs.episode_id) keyframes_.erase(obs.channel);
   last = obs;
+  take_keyframe(obs);
   auto it = running_.find(obs.channel);
   if (it != running_.end()) return step(it, obs, now);
   // Every observation goes through the channel's perceived world, so it sees each grasp and release.
@@ -243,10 +244,22 @@ HostEffects HostCore::retry_awaiting(std::uint32_t channel, Clock::time_point no
 }
 
 // The tool pose when a command starts on a channel with an empty hand: a pose the arm reached safely.
+// It is the start step's pose whichever of the command and that step's observation comes first (they
+// come on two topics), so the keyframes do not depend on delivery order.
 void HostCore::record_keyframe(const CommandStart& c) {
-  const auto o = last_obs_.find(c.channel);
-  if (o == last_obs_.end() || o->second.episode_id != c.episode_id || o->second.holding()) return;
-  keyframes_[c.channel].push_back({o->second.step, o->second.ee_p, o->second.ee_q});
+  keyframe_due_[c.channel] = {c.episode_id, c.start_step};
+  if (const auto o = last_obs_.find(c.channel); o != last_obs_.end()) take_keyframe(o->second);
+}
+
+void HostCore::take_keyframe(const Observation& obs) {
+  const auto due = keyframe_due_.find(obs.channel);
+  if (due == keyframe_due_.end() || obs.episode_id != due->second.episode_id || obs.step < due->second.step) return;
+  const bool at_start = obs.step == due->second.step;
+  keyframe_due_.erase(due);
+  if (!at_start || obs.holding()) return;
+  auto& k = keyframes_[obs.channel];
+  // Commands started on one step (a refused one, then another) leave one keyframe.
+  if (k.empty() || k.back().step != obs.step) k.push_back({obs.step, obs.ee_p, obs.ee_q});
 }
 
 StatusReport HostCore::status(const Running& r, CommandState st, std::string reason, std::uint32_t step,

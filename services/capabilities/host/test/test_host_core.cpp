@@ -195,6 +195,23 @@ TEST_F(HostCoreTest, KeyframesAreEmptyHandedCommandStartsOfTheEpisode) {
   EXPECT_TRUE(core.keyframes(3).empty());
 }
 
+// The command and its start step's observation come on two topics: either order leaves the start
+// step's pose, once (over DDS and in process alike).
+TEST_F(HostCoreTest, AKeyframeIsTheStartStepsPoseWhicheverComesFirst) {
+  core.on_observation(obs(4), t0);
+  core.on_start(start("c1", 5, 20, {{"steps", 1}}), t0);  // before step 5's observation
+  EXPECT_TRUE(core.keyframes(3).empty());
+  core.on_observation(obs(5), t0);
+  ASSERT_EQ(core.keyframes(3).size(), 1u);
+  EXPECT_EQ(core.keyframes(3)[0].step, 5u);
+  EXPECT_DOUBLE_EQ(core.keyframes(3)[0].p[0], 0.5);
+  core.on_observation(obs(6), t0);  // c1 completes
+  core.on_start(start("c2", 6, 20, {{"object", 0}}), t0);  // refused by θ, after its observation
+  core.on_start(start("c3", 6), t0);                      // the next one on the same step
+  ASSERT_EQ(core.keyframes(3).size(), 2u);
+  EXPECT_EQ(core.keyframes(3)[1].step, 6u);
+}
+
 TEST_F(HostCoreTest, ADrainingCoreRefusesNewCommandsAndFinishesRunningOnes) {
   core.on_observation(obs(0), t0);
   core.on_start(start("c1", 0, 20, {{"steps", 2}}), t0);

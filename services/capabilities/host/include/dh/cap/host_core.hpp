@@ -135,6 +135,8 @@ class HostCore {
   bool begin(Running& r, const Observation& obs, HostEffects& fx);
   HostEffects retry_awaiting(std::uint32_t channel, Clock::time_point now);
   void record_keyframe(const CommandStart& c);
+  /// Records the keyframe a command start left due, once `obs` is of its start step.
+  void take_keyframe(const Observation& obs);
   static StatusReport status(const Running& r, CommandState st, std::string reason, std::uint32_t step,
                              std::uint32_t used, std::string stage = "", double progress = 0,
                              FailureCode failure = FailureCode::None);
@@ -143,6 +145,11 @@ class HostCore {
   RunningMap running_;
   std::map<std::uint32_t, Observation> last_obs_;
   std::map<std::uint32_t, std::vector<Keyframe>> keyframes_;
+  struct KeyframeDue {
+    std::string episode_id;
+    std::uint32_t step = 0;
+  };
+  std::map<std::uint32_t, KeyframeDue> keyframe_due_;  ///< per channel: the last command start's step
   std::map<std::uint32_t, PerceivedWorld> worlds_;  ///< per channel: its current episode's perceived world
   bool draining_ = false;
 };
