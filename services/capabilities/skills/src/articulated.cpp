@@ -316,16 +316,22 @@ void SwingDoorSkill::start(const Bindings& args, const Observation& obs, const S
 
 void SwingDoorSkill::begin_move(const Observation&) {
   swing_step_ = 0;
-  swing_steps_ = steps(p_.swing_steps);
+  swing_steps_ = std::max(steps(p_.swing_steps), track_steps(radius_ * std::abs(sweep_), std::abs(sweep_)));
 }
 
 std::array<double, 7> SwingDoorSkill::move_step(const Observation& obs, bool& finished) {
+  // The hand's reference on the arc, turning with the door, now and a step later.
+  auto s = [&](int step) { return profile(static_cast<double>(step) / swing_steps_); };
+  auto at = [&](double s) {
+    const double phi = phi0_ + s * sweep_;
+    return Eigen::Vector3d(hinge_.x() + radius_ * std::cos(phi), hinge_.y() + radius_ * std::sin(phi), z_);
+  };
+  const double now = s(swing_step_);
   swing_step_ = std::min(swing_step_ + 1, swing_steps_);
   finished = swing_step_ >= swing_steps_;
-  const double s = geo::smooth(static_cast<double>(swing_step_) / swing_steps_);
-  const double phi = phi0_ + s * sweep_;
-  const Eigen::Vector3d p(hinge_.x() + radius_ * std::cos(phi), hinge_.y() + radius_ * std::sin(phi), z_);
-  return action_towards(obs, p, geo::top_down(yaw0_ + s * sweep_), kGripClose);
+  const double next = s(swing_step_);
+  return track(obs, at(now), geo::top_down(yaw0_ + now * sweep_), at(next),
+               geo::top_down(yaw0_ + next * sweep_), kGripClose);
 }
 
 std::optional<std::string> SwingDoorSkill::verify(const EntityState& d) const {

@@ -74,6 +74,8 @@ TEST_F(SkillsPhysics, BowlOnPlateSucceedsOnAtLeast18OfSeeds1To20) {
     const auto r = run(t, seed, "pick_place", {{"object", "bowl"}, {"target", "plate"}});
     ok += r.goal;
     EXPECT_EQ(r.safety_events, 0) << "seed " << seed;
+    EXPECT_LE(100 * r.speed_limited, static_cast<int>(r.steps))
+        << "seed " << seed << ": the limiter braked on over 1 % of steps";
     if (!r.goal) ADD_FAILURE() << "seed " << seed << " failed at " << r.stage << ": " << r.reason;
   }
   EXPECT_GE(ok, 18);
