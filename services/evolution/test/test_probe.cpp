@@ -32,7 +32,7 @@ struct Probe : ::testing::Test {
     inproc::Stack stack(paths::config_dir());
     const auto suites = load_suites(paths::config_dir());
     outcome = new inproc::EpisodeOutcome(
-        stack.run(find_task(suites, "goal-swap", 5), 22, "full", *dir / "ep.jsonl"));
+        stack.run(find_task(suites, "goal-swap", 5), 21, "full", *dir / "ep.jsonl"));
     // A grasp that misses (the jaw closes on nothing), then a reseat and a grasp that holds.
     missed = new inproc::EpisodeOutcome(
         stack.run(find_task(suites, "goal-task", 1), 21, "full", *dir / "missed.jsonl"));
