@@ -32,10 +32,11 @@ struct Probe : ::testing::Test {
     inproc::Stack stack(paths::config_dir());
     const auto suites = load_suites(paths::config_dir());
     outcome = new inproc::EpisodeOutcome(
-        stack.run(find_task(suites, "goal-swap", 5), 22, "full", *dir / "ep.jsonl"));
-    // A grasp that misses (the jaw closes on nothing), then a reseat and a grasp that holds.
+        stack.run(find_task(suites, "goal-swap", 5), 21, "full", *dir / "ep.jsonl"));
+    // The stove turned on (command 0), then a carry whose grasp slips (1), a regrasp that misses (2)
+    // and a pick and place that completes (3).
     missed = new inproc::EpisodeOutcome(
-        stack.run(find_task(suites, "goal-task", 1), 21, "full", *dir / "missed.jsonl"));
+        stack.run(find_task(suites, "long-task", 2), 27, "full", *dir / "missed.jsonl"));
   }
   static void TearDownTestSuite() {
     fs::remove_all(*dir);
@@ -58,14 +59,14 @@ struct Probe : ::testing::Test {
     std::ofstream(lib / (capability + ".yaml")) << text;
     return lib;
   }
-  /// The campaign row of the recording `name` (ep: Figure 3's, missed: the missed grasp's).
+  /// The campaign row of the recording `name` (ep: Figure 3's, missed: the slipped grasp's).
   static EpisodeRecord row(const std::string& name) {
     EpisodeRecord r;
     r.arm = "full";
     const bool fig3 = name == "ep";
-    r.cell = fig3 ? "goal-swap" : "goal-task";
-    r.task = fig3 ? 5 : 1;
-    r.seed = fig3 ? 22 : 21;
+    r.cell = fig3 ? "goal-swap" : "long-task";
+    r.task = fig3 ? 5 : 2;
+    r.seed = fig3 ? 21 : 27;
     r.success = (fig3 ? outcome : missed)->success;
     r.evidence_path = (*dir / (name + ".jsonl")).string();
     return r;
@@ -115,22 +116,23 @@ TEST_F(Probe, UnderTheRecordedThetaARefusedCommandIsRefusedAgainAtItsStep) {
 }
 
 TEST_F(Probe, UnderTheRecordedThetaAFailedCommandFailsAgainBitForBit) {
-  const auto r = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 0, std::nullopt});
+  const auto r = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 1, std::nullopt});
   EXPECT_EQ(r.capability, "pick_place");
   EXPECT_EQ(r.state, "failed");
-  EXPECT_EQ(r.failure, "grasp_missed");
-  EXPECT_EQ(r.effect, "On(cream_cheese, stove_cook_region)");
+  EXPECT_EQ(r.failure, "grasp_slipped");
+  EXPECT_EQ(r.effect, "On(butter, stove_cook_region)");
   EXPECT_FALSE(r.effect_held);
   ASSERT_TRUE(r.recorded);
-  EXPECT_EQ(r.recorded->failure, "grasp_missed");
+  EXPECT_EQ(r.recorded->failure, "grasp_slipped");
   EXPECT_EQ(r.recorded->step, r.end_step);
   EXPECT_TRUE(r.same_end);
   EXPECT_EQ(r.steps_compared, r.end_step - r.from_step);
   EXPECT_FALSE(r.first_divergence);
   EXPECT_TRUE(r.reproduces);
-  // The command after the reseat, from the state the reseat left: its grasp holds.
-  const auto retry = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 2, std::nullopt});
+  // The command after the regrasp, from the state the regrasp left: it completes again.
+  const auto retry = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 3, std::nullopt});
   EXPECT_EQ(retry.capability, "pick_place");
+  EXPECT_EQ(retry.state, "completed");
   EXPECT_TRUE(retry.reproduces);
 }
 
@@ -170,14 +172,16 @@ TEST_F(Probe, BadInputIsNamed) {
 
 TEST_F(Probe, AProbeSetHoldsTheFailingStatesAndDrawnSuccessesTheSameOnAnyNumberOfThreads) {
   const std::vector<EpisodeRecord> rows{row("ep"), row("missed")};
-  // pick_place ran three commands: Figure 3's substitute and the missed grasp's two.
+  // pick_place ran three commands: Figure 3's substitute (its effect holds) and the slipped grasp
+  // episode's two (the second completes with the butter off the stove).
   const auto set = evo::probe_set(rows, {"pick_place", 1, 7}, paths::config_dir(), 1).states;
-  ASSERT_EQ(set.size(), 2u) << "the one failing state and one drawn success (as many as failing, at least 1)";
+  ASSERT_EQ(set.size(), 3u) << "the two failing states and the one success there is";
   EXPECT_TRUE(set[0].state.failing);
-  EXPECT_EQ(set[0].state.label, "goal-task/1 seed 21 command 0");
-  EXPECT_EQ(set[0].report->failure, "grasp_missed");
-  EXPECT_FALSE(set[1].state.failing);
-  EXPECT_TRUE(set[1].report->effect_held);
+  EXPECT_TRUE(set[1].state.failing);
+  EXPECT_EQ(set[0].state.label, "long-task/2 seed 27 command 1");
+  EXPECT_EQ(set[0].report->failure, "grasp_slipped");
+  EXPECT_FALSE(set[2].state.failing);
+  EXPECT_TRUE(set[2].report->effect_held);
   const auto all = evo::probe_set(rows, {"pick_place", 20, 7}, paths::config_dir(), 2).states;
   ASSERT_EQ(all.size(), 3u) << "every success there is, when fewer than asked";
   // The same states under a candidate, on one thread and on two: the same results.
@@ -195,14 +199,14 @@ TEST_F(Probe, AProbeSetHoldsTheFailingStatesAndDrawnSuccessesTheSameOnAnyNumberO
 }
 
 TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParentsTheta) {
-  const auto set = evo::probe_set({row("missed")}, {"pick_place", 1, 0}, paths::config_dir(), 2).states;
-  ASSERT_EQ(set.size(), 2u);
+  const auto set = evo::probe_set({row("ep"), row("missed")}, {"pick_place", 1, 0}, paths::config_dir(), 2).states;
+  ASSERT_EQ(set.size(), 3u);
   const auto parent = paths::config_dir() / "library";
   const evo::Revision rev = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 0});
   EXPECT_LE(rev.evals, 4u);
   EXPECT_GE(rev.evals, 1u);
-  EXPECT_EQ(rev.states, 2u);
-  EXPECT_EQ(rev.failing, 1u);
+  EXPECT_EQ(rev.states, 3u);
+  EXPECT_EQ(rev.failing, 2u);
   EXPECT_EQ(rev.parent_held, 1u) << "the success holds under the parent";
   EXPECT_GE(rev.best_held, rev.parent_held);
   EXPECT_EQ(rev.improved(), !rev.kappa.empty());
@@ -216,8 +220,8 @@ TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParents
   const auto other = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
   EXPECT_THROW(evo::revise(set, {"pick_place", paths::config_dir(), other, 4, 2, 0}), std::invalid_argument);
   EXPECT_THROW(evo::revise({}, {"pick_place", paths::config_dir(), parent, 4, 2, 0}), std::invalid_argument);
-  // --max-probes bounds the round: two states per candidate, two probes at most, so one candidate.
-  const evo::Revision bounded = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 2});
+  // --max-probes bounds the round: three states per candidate, three probes at most, so one candidate.
+  const evo::Revision bounded = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 3});
   EXPECT_EQ(bounded.max_evals, 1u);
   EXPECT_EQ(bounded.evals, 1u);
 }

@@ -58,7 +58,10 @@ CommandOutcome CommandRunner::run(cap::CommandStart c) {
                              std::to_string(obs.step));
     const cap::ActionOut& a = fx.actions.back();
     const sim::SeamEffects sx = seam_.on_action({a.episode_id, a.command_id, a.step, a.a}, step_time(a.step));
-    for (const auto& e : sx.events) out.safety_events += e.kind == SeamEventKind::SafetyHold;
+    for (const auto& e : sx.events) {
+      out.safety_events += e.kind == SeamEventKind::SafetyHold;
+      out.speed_limited += e.kind == SeamEventKind::SpeedLimited;
+    }
     if (!sx.observation)
       throw std::logic_error("the seam did not apply the action of " + c.command_id + " at step " +
                              std::to_string(a.step) + (sx.ended ? ": " + *sx.ended : std::string()));

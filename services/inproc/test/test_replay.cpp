@@ -25,7 +25,8 @@ struct Replay : ::testing::Test {
     fs::remove_all(*dir);
     inproc::Stack stack(paths::config_dir());
     const auto suites = load_suites(paths::config_dir());
-    outcome = new inproc::EpisodeOutcome(stack.run(find_task(suites, "goal-swap", 5), 22, "full", *dir / "ep.jsonl"));
+    outcome = new inproc::EpisodeOutcome(
+        stack.run(find_task(suites, "goal-swap", 5), 21, "full", *dir / "ep.jsonl"));
   }
   static void TearDownTestSuite() {
     fs::remove_all(*dir);

@@ -174,7 +174,7 @@ SceneSpec load_scene(const std::filesystem::path& file) {
   s.robot_base = get_array<3>(robot, "base");
   s.ready_q = get_array<7>(robot, "ready_q");
   s.finger_friction = robot.get_or<double>("finger_friction", 1.5);
-  s.controller = robot.get_or<std::string>("controller", "joint_ik");
+  s.controller = robot.get_or<std::string>("controller", "osc_pose");
   if (s.controller != "joint_ik" && s.controller != "osc_pose")
     robot.fail("controller", "expected joint_ik or osc_pose, not '" + s.controller + "'");
   const ConfigNode ws = root.child("workspace");

@@ -173,6 +173,10 @@ void Workcell::store_controller() {
   d_->userdata[1] = q.x();
   d_->userdata[2] = q.y();
   d_->userdata[3] = q.z();
+  // The controller goes on from the goal as stored, which is what restore() rebuilds: a rotation matrix does
+  // not survive its quaternion bit for bit, and a restored state would step on from a goal 1e-16 apart.
+  osc_->set_orientation_goal(
+      Eigen::Quaterniond(d_->userdata[0], d_->userdata[1], d_->userdata[2], d_->userdata[3]));
 }
 
 std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {

@@ -22,6 +22,16 @@ inline constexpr double kOscKp = 150;
 inline constexpr double kOscKd = 24.494897427831781;
 static_assert(kOscKd * kOscKd > 4 * kOscKp - 1e-9 && kOscKd * kOscKd < 4 * kOscKp + 1e-9);
 
+/// The controller's lag, as a skill steering the tool must know it. The goal is rebased on the
+/// measured pose every step, so the tool never reaches it: a constant action settles at a speed
+/// where the tool covers this share of the goal's offset per step. It is the spring's exact
+/// one-step response over T = 50 ms, with x = √kp T: α + βγ / (1 − δ), where
+/// α = 1 − (1 + x) e^−x is the share of the offset covered from rest, β = T e^−x the distance a
+/// unit speed carries, γ = kp T e^−x the speed the offset gives and δ = (1 − x) e^−x the speed kept
+/// (docs/controller.md). A skill's feed-forward divides a reference's step by it: 0.05 m × a
+/// moves the tool 0.0133 m × a a step, 0.265 m/s × a (not 1 m/s); for rotation, 2.65 rad/s × a.
+inline constexpr double kOscStepShare = 0.2655;
+
 /// The gripper command a[6]: -1 opens the jaw fully, +1 closes it; in between, a finger gap.
 inline constexpr double kJawMaxGapM = 0.08;  ///< finger gap at a[6] = -1 (each finger travels half of it)
 inline double finger_target(double command) { return kJawMaxGapM / 2 * (1.0 - command) / 2.0; }

@@ -141,15 +141,23 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
 
 // ---------------------------------------------------------------------------------------------------------
 ParamTable DrawerParams::table() {
-  return ParamTable("slide_drawer", {{"open_position", &open_position}, {"closed_position", &closed_position},
-                                     {"done_tolerance", &done_tolerance}, {"hook_offset", &hook_offset},
-                                     {"grasp_drop", &grasp_drop}, {"pull_slack", &pull_slack},
-                                     {"push_slack", &push_slack}, {"bar_clearance", &bar_clearance},
+  return ParamTable("slide_drawer", {{"open_position", &open_position},
+                                     {"closed_position", &closed_position},
+                                     {"done_tolerance", &done_tolerance},
+                                     {"hook_offset", &hook_offset},
+                                     {"grasp_drop", &grasp_drop},
+                                     {"pull_slack", &pull_slack},
+                                     {"push_slack", &push_slack},
+                                     {"bar_clearance", &bar_clearance},
                                      {"retreat_rise", &retreat_rise},
+                                     {"tilt", &tilt},
                                      {"approach_distance", &approach_distance},
-                                     {"slide_speed", &slide_speed}, {"approach_steps", &approach_steps},
-                                     {"descent_steps", &descent_steps}, {"slide_min_steps", &slide_min_steps},
-                                     {"slide_max_steps", &slide_max_steps}, {"retreat_steps", &retreat_steps}});
+                                     {"slide_speed", &slide_speed},
+                                     {"approach_steps", &approach_steps},
+                                     {"descent_steps", &descent_steps},
+                                     {"slide_min_steps", &slide_min_steps},
+                                     {"slide_max_steps", &slide_max_steps},
+                                     {"retreat_steps", &retreat_steps}});
 }
 
 SlideDrawerSkill::SlideDrawerSkill(const Theta& theta) { p_.table().load(theta); }
@@ -177,9 +185,21 @@ void SlideDrawerSkill::start(const Bindings& args, const Observation& obs, const
   const double hover = open_ ? d.half_extents[2] + p_.bar_clearance + 0.01 - p_.grasp_drop : 0.0;
   via_.reset();
   if (open_) via_ = tool + up * hover;
+  // The fist leans about the bar, its wrist back over the pull. Upright, the wrist (link 7's capsule, from 9
+  // cm up the tool's axis) meets the fixture's front wherever the fixture rises over 9 cm above the handle;
+  // the lean, by θ tilt once the fixture rises kFullLeanRise above the handle, keeps it off. Under a lower
+  // rise it leans less, down to half: a full lean at a handle 4 cm under the top folds the elbow to its limit
+  // and the fist stops above the bar, while a fist under half the lean slips over the bar under OSC's
+  // compliance (measured on the goal kitchen's three drawers, seeds 21 and 23).
+  constexpr double kFullLeanRise = 0.15;
+  const EntityState* fixture = obs.entity(d.owner);
+  const double rise = fixture ? top_of(*fixture) - tool.z() : 0.0;
+  const double tilt = p_.tilt * std::clamp(rise / kFullLeanRise, 0.5, 1.0);
+  const Eigen::Vector2d bar(-f.y(), f.x());
+  const Eigen::Quaterniond q =
+      Eigen::AngleAxisd(tilt, Eigen::Vector3d(bar.x(), bar.y(), 0)) * jaw_along(obs, bar);
   // Back off and rise clear of the drawer's walls, so the next motion does not sweep it shut.
-  begin(obs, tool, jaw_along(obs, Eigen::Vector2d(-f.y(), f.x())), 0.0,
-        out * (p_.hook_offset + p_.approach_distance) + up * hover,
+  begin(obs, tool, q, 0.0, out * (p_.hook_offset + p_.approach_distance) + up * hover,
         {p_.approach_steps, p_.descent_steps, 0, 0, p_.retreat_steps}, cost_steps(),
         Eigen::Vector3d(out * (p_.hook_offset + p_.approach_distance) + up * p_.retreat_rise));
 }
@@ -316,16 +336,22 @@ void SwingDoorSkill::start(const Bindings& args, const Observation& obs, const S
 
 void SwingDoorSkill::begin_move(const Observation&) {
   swing_step_ = 0;
-  swing_steps_ = steps(p_.swing_steps);
+  swing_steps_ = std::max(steps(p_.swing_steps), track_steps(radius_ * std::abs(sweep_), std::abs(sweep_)));
 }
 
 std::array<double, 7> SwingDoorSkill::move_step(const Observation& obs, bool& finished) {
+  // The hand's reference on the arc, turning with the door, now and a step later.
+  auto s = [&](int step) { return profile(static_cast<double>(step) / swing_steps_); };
+  auto at = [&](double s) {
+    const double phi = phi0_ + s * sweep_;
+    return Eigen::Vector3d(hinge_.x() + radius_ * std::cos(phi), hinge_.y() + radius_ * std::sin(phi), z_);
+  };
+  const double now = s(swing_step_);
   swing_step_ = std::min(swing_step_ + 1, swing_steps_);
   finished = swing_step_ >= swing_steps_;
-  const double s = geo::smooth(static_cast<double>(swing_step_) / swing_steps_);
-  const double phi = phi0_ + s * sweep_;
-  const Eigen::Vector3d p(hinge_.x() + radius_ * std::cos(phi), hinge_.y() + radius_ * std::sin(phi), z_);
-  return action_towards(obs, p, geo::top_down(yaw0_ + s * sweep_), kGripClose);
+  const double next = s(swing_step_);
+  return track(obs, at(now), geo::top_down(yaw0_ + now * sweep_), at(next),
+               geo::top_down(yaw0_ + next * sweep_), kGripClose);
 }
 
 std::optional<std::string> SwingDoorSkill::verify(const EntityState& d) const {

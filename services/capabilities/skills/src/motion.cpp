@@ -1,6 +1,7 @@
 #include "dh/cap/motion.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <numbers>
 
 #include "dh/common/geometry.hpp"
@@ -8,12 +9,34 @@
 
 namespace dh::cap {
 
+namespace {
+constexpr double kRamp = 0.25;               // share of a motion's time its speed rises (and falls) over
+constexpr double kPeak = 1.0 / (1 - kRamp);  // peak speed over mean speed
+
+/// Scales `v` down, its direction kept, so no component exceeds 1 in magnitude.
+Eigen::Vector3d within_unit(const Eigen::Vector3d& v) { return v / std::max(1.0, v.cwiseAbs().maxCoeff()); }
+}  // namespace
+
+double profile(double tau) {
+  tau = std::clamp(tau, 0.0, 1.0);
+  if (tau > 1 - kRamp) return 1 - profile(1 - tau);
+  if (tau < kRamp)
+    return kPeak * (tau / 2 - kRamp / (2 * std::numbers::pi) * std::sin(std::numbers::pi * tau / kRamp));
+  return kPeak * (tau - kRamp / 2);
+}
+
+int track_steps(double distance, double turn) {
+  const double step = kTrackShare * robot::kOscStepShare * robot::kMaxDeltaPosM;  // m a step at the peak
+  const double turn_step = kMaxTurnRadS * robot::kControlPeriodS;                 // rad a step at the peak
+  return static_cast<int>(std::ceil(kPeak * std::max(distance / step, turn / turn_step)));
+}
+
 void Motion::go(const Observation& obs, const Eigen::Vector3d& to, const Eigen::Quaterniond& q_to, int steps) {
   from_ = geo::vec(obs.ee_p);
   q_from_ = geo::quat(obs.ee_q);
   to_ = to;
   q_to_ = q_to;
-  steps_ = std::max(1, steps);
+  steps_ = std::max({1, steps, track_steps((to_ - from_).norm(), q_from_.angularDistance(q_to_))});
   step_ = 0;
 }
 
@@ -23,23 +46,34 @@ void Motion::hold(const Observation& obs, int steps) {
 
 double Motion::error(const Observation& obs) const { return (geo::vec(obs.ee_p) - to_).norm(); }
 
+Eigen::Vector3d Motion::p_at(int step) const {
+  return from_ + profile(static_cast<double>(step) / steps_) * (to_ - from_);
+}
+
+Eigen::Quaterniond Motion::q_at(int step) const {
+  return q_from_.slerp(profile(static_cast<double>(step) / steps_), q_to_);
+}
+
 std::array<double, 7> Motion::advance(const Observation& obs, double grip) {
+  const int now = step_;
   step_ = std::min(step_ + 1, steps_);
-  const double s = geo::smooth(static_cast<double>(step_) / steps_);
-  return action_towards(obs, from_ + s * (to_ - from_), q_from_.slerp(s, q_to_), grip);
+  return track(obs, p_at(now), q_at(now), p_at(step_), q_at(step_), grip);
+}
+
+std::array<double, 7> track(const Observation& obs, const Eigen::Vector3d& p, const Eigen::Quaterniond& q,
+                            const Eigen::Vector3d& p_next, const Eigen::Quaterniond& q_next, double grip) {
+  const Eigen::Quaterniond ee_q = geo::quat(obs.ee_q);
+  const Eigen::Vector3d dp = p - geo::vec(obs.ee_p) + (p_next - p) / robot::kOscStepShare;
+  const Eigen::Vector3d dr =
+      geo::rotvec_between(ee_q, q) + geo::rotvec_between(q, q_next) / robot::kOscStepShare;
+  const Eigen::Vector3d ap = within_unit(dp / robot::kMaxDeltaPosM),
+                        ar = within_unit(dr / robot::kMaxDeltaRotRad);
+  return {ap.x(), ap.y(), ap.z(), ar.x(), ar.y(), ar.z(), grip};
 }
 
 std::array<double, 7> action_towards(const Observation& obs, const Eigen::Vector3d& p, const Eigen::Quaterniond& q,
                                      double grip) {
-  std::array<double, 7> a{};
-  const Eigen::Vector3d dp = (p - geo::vec(obs.ee_p)) / robot::kMaxDeltaPosM;
-  const Eigen::Vector3d dr = geo::rotvec_between(geo::quat(obs.ee_q), q) / robot::kMaxDeltaRotRad;
-  for (int i = 0; i < 3; ++i) {
-    a[i] = std::clamp(dp[i], -1.0, 1.0);
-    a[3 + i] = std::clamp(dr[i], -1.0, 1.0);
-  }
-  a[6] = grip;
-  return a;
+  return track(obs, p, q, p, q, grip);
 }
 
 Eigen::Quaterniond jaw_along(const Observation& obs, const Eigen::Vector2d& axis) {

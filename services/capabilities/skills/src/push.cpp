@@ -140,16 +140,27 @@ SkillStep PushSkill::next(const Observation& obs) {
       const double along = (now - object0_).dot(dir_);
       const Eigen::Vector2d ee(obs.ee_p[0], obs.ee_p[1]);
       if ((now - ee).dot(dir_) < 0) return fail(FailureCode::ContactLost, "object slid off the pusher (it is no longer ahead of the pads)");
+      const double before = reference_;
       if (reference_ - along < 0.03) reference_ = std::min(travel_, reference_ + p_.max_speed * robot::kControlPeriodS);
       const Eigen::Vector2d side(-dir_.y(), dir_.x());
-      const Eigen::Vector2d centre = object0_ + dir_ * reference_ + side * (now - object0_).dot(side);
-      Eigen::Vector2d to = centre - dir_ * (support(*o, dir_) + kPadThickness / 2 - p_.lead);
-      // Before contact the tool closes the standoff at max_speed, not in one lunge.
-      const double reach = p_.lead + p_.max_speed * robot::kControlPeriodS;
-      if ((to - ee).norm() > reach) to = ee + (to - ee).normalized() * reach;
+      auto pads_at = [&](double reference) {
+        const Eigen::Vector2d centre = object0_ + dir_ * reference + side * (now - object0_).dot(side);
+        const Eigen::Vector2d to = centre - dir_ * (support(*o, dir_) + kPadThickness / 2 - p_.lead);
+        return Eigen::Vector3d(to.x(), to.y(), start_.z());
+      };
+      const Eigen::Vector3d to = pads_at(reference_);
       ++total_steps_;
       out.stage = "push";
-      out.action = action_towards(obs, {to.x(), to.y(), start_.z()}, q_, grip_for_opening(p_.push_opening));
+      // Before contact the tool closes the standoff at max_speed, not in one lunge; then it tracks the
+      // pads' reference.
+      const Eigen::Vector3d ee3(ee.x(), ee.y(), start_.z());
+      const double reach = p_.lead + p_.max_speed * robot::kControlPeriodS;
+      if ((to - ee3).norm() > reach) {
+        const Eigen::Vector3d step = (to - ee3).normalized() * p_.max_speed * robot::kControlPeriodS;
+        out.action = track(obs, ee3, q_, ee3 + step, q_, grip_for_opening(p_.push_opening));
+      } else {
+        out.action = track(obs, pads_at(before), q_, to, q_, grip_for_opening(p_.push_opening));
+      }
       out.progress = std::min(1.0, along / std::max(travel_, 1e-6));
       return out;
     }

@@ -74,6 +74,8 @@ TEST_F(SkillsPhysics, BowlOnPlateSucceedsOnAtLeast18OfSeeds1To20) {
     const auto r = run(t, seed, "pick_place", {{"object", "bowl"}, {"target", "plate"}});
     ok += r.goal;
     EXPECT_EQ(r.safety_events, 0) << "seed " << seed;
+    EXPECT_LE(100 * r.speed_limited, static_cast<int>(r.steps))
+        << "seed " << seed << ": the limiter braked on over 1 % of steps";
     if (!r.goal) ADD_FAILURE() << "seed " << seed << " failed at " << r.stage << ": " << r.reason;
   }
   EXPECT_GE(ok, 18);
@@ -153,9 +155,9 @@ TEST_F(SkillsPhysics, PushRefusesWhatIsWiderThanTheJawAndPushesWithARevisedTheta
   EXPECT_GE(ok, 4) << "pushed along the table into the region, never lifted";
 }
 
-// Disabled at 0f4e259: with every arm link colliding (issue 18) the arm meets the cabinet while pulling the
-// middle drawer on seed 1; slide_drawer's approach must be re-planned (README, "Not built yet").
-TEST_F(SkillsPhysics, DISABLED_SlideDrawerOpensAndCloses) {
+// With every arm link colliding (issue 18), an upright fist behind the middle drawer's handle put the wrist
+// on the cabinet's top front edge; the fist now leans back about the bar (θ tilt).
+TEST_F(SkillsPhysics, SlideDrawerOpensAndCloses) {
   const TaskDef& t = task("goal", 0);
   const auto r = run(t, 1, "slide_drawer", {{"drawer", "cabinet_middle_drawer"}, {"state", "open"}});
   EXPECT_EQ(r.state, CommandState::Completed) << r.stage << ": " << r.reason;

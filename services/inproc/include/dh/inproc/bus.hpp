@@ -41,6 +41,7 @@ struct CommandOutcome {
   std::uint32_t steps = 0;  ///< steps the command spent
   bool goal = false;        ///< the task's goal held at some step while it ran
   int safety_events = 0;
+  int speed_limited = 0;  ///< steps in which the controller braked an over-fast joint (docs/controller.md)
   Observation last;
 };
 

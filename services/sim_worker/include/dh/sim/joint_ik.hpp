@@ -1,8 +1,8 @@
 // The arm controller the benchmark was measured with before robosuite's OSC_POSE (osc_pose.hpp): each
 // control step a damped-least-squares IK turns the pose goal into joint goals, reached by speed-capped
 // joint references under a joint PD with bias compensation. An action's goal is met within the step
-// (the tool moves 0.05 m at |a| = 1), which is what the shipped skills are tuned to. A scene picks it
-// with `robot: controller: joint_ik` (the default until the skills are re-tuned to OSC's lag).
+// (the tool moves 0.05 m at |a| = 1), which the skills were tuned to until they tracked OSC's lag. A scene
+// picks it with `robot: controller: joint_ik`; the default is osc_pose.
 #pragma once
 
 #include <Eigen/Dense>

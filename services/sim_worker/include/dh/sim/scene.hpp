@@ -64,9 +64,9 @@ struct SceneSpec {
   std::array<double, 7> ready_q{};
   std::array<double, 3> workspace_min{}, workspace_max{};
   double finger_friction = 1.5;
-  /// The arm controller behind the seam: "joint_ik" (joint_ik.hpp, what the skills are tuned to) or
-  /// "osc_pose" (robosuite's, osc_pose.hpp; docs/controller.md).
-  std::string controller = "joint_ik";
+  /// The arm controller behind the seam: "osc_pose" (robosuite's, osc_pose.hpp; docs/controller.md), what
+  /// LIBERO runs and the skills are tuned to, or "joint_ik" (joint_ik.hpp, the controller before it).
+  std::string controller = "osc_pose";
   std::vector<EntitySpec> entities;
   std::vector<TableRegion> regions;
   /// Extra fixed cameras (not from the scene file: sim_worker adds configs/cameras.yaml's); none by default.

@@ -1,7 +1,7 @@
 // One MuJoCo workcell (one channel): physics at 2 ms, control at 20 Hz. An action means what the robot
-// contract says (dh/common/robot_contract.hpp), tracked by the scene's controller: the joint-space IK the
-// skills are tuned to (joint_ik.hpp) or robosuite's OSC_POSE with a joint-speed limiter under it
-// (osc_pose.hpp); the 50 Hz safety check runs inside the step.
+// contract says (dh/common/robot_contract.hpp), tracked by the scene's controller: robosuite's OSC_POSE
+// with a joint-speed limiter under it (osc_pose.hpp, the default, which the skills are tuned to) or the
+// joint-space IK used before it (joint_ik.hpp); the 50 Hz safety check runs inside the step.
 #pragma once
 
 #include <array>

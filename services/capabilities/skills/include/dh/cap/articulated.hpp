@@ -26,6 +26,7 @@ struct DrawerParams {
   double bar_clearance;      ///< m between the fist and the bar's top as it comes in over the bar
   double approach_distance;  ///< m in front of the bar where the level approach starts
   double retreat_rise;       ///< m the fist rises as it backs off, clear of the drawer's walls
+  double tilt;               ///< rad the fist leans about the bar, its wrist back from the fixture
   double slide_speed;        ///< m/s
   double approach_steps, descent_steps, slide_min_steps, slide_max_steps, retreat_steps;
   ParamTable table();
