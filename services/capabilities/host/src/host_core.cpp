@@ -256,6 +256,7 @@ void HostCore::take_keyframe(const Observation& obs) {
   if (due == keyframe_due_.end() || obs.episode_id != due->second.episode_id || obs.step < due->second.step) return;
   const bool at_start = obs.step == due->second.step;
   keyframe_due_.erase(due);
+  // A start step whose observation never came leaves no keyframe rather than a later pose.
   if (!at_start || obs.holding()) return;
   auto& k = keyframes_[obs.channel];
   // Commands started on one step (a refused one, then another) leave one keyframe.
