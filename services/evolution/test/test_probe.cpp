@@ -227,18 +227,16 @@ TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParents
 }
 
 TEST_F(Probe, TheRevisionSearchFindsAThetaThatMakesAFailedEffectHold) {
-  // goal-swap 6 (cream cheese in the bowl set low in front of the base): the placements complete but the
-  // cheese does not end on the bowl. A higher approach makes one of them hold (measured over DDS too).
+  // Figure 3's task (goal-swap 5) on seeds 27 and 28: the substituted pick and place completes but the
+  // plate does not end in front of the stove. A higher approach makes both hold (found by `dh revise` on
+  // a campaign of seeds 27-32 over DDS); Figure 3's own seed 21 is the success it must keep.
   inproc::Stack stack(paths::config_dir());
   const auto suites = load_suites(paths::config_dir());
-  std::vector<EpisodeRecord> rows;
-  for (unsigned seed : {21u, 22u, 23u}) {
-    const auto file = *dir / ("gs6_" + std::to_string(seed) + ".jsonl");
-    const auto o = stack.run(find_task(suites, "goal-swap", 6), seed, "full", file);
-    EpisodeRecord r;
-    r.arm = "full";
-    r.cell = "goal-swap";
-    r.task = 6;
+  std::vector<EpisodeRecord> rows{row("ep")};
+  for (unsigned seed : {27u, 28u}) {
+    const auto file = *dir / ("gs5_" + std::to_string(seed) + ".jsonl");
+    const auto o = stack.run(find_task(suites, "goal-swap", 5), seed, "full", file);
+    EpisodeRecord r = row("ep");
     r.seed = seed;
     r.success = o.success;
     r.evidence_path = file.string();
@@ -246,13 +244,15 @@ TEST_F(Probe, TheRevisionSearchFindsAThetaThatMakesAFailedEffectHold) {
   }
   const auto set = evo::probe_set(rows, {"pick_place", 1, 0}, paths::config_dir(), 2);
   EXPECT_TRUE(set.skipped.empty());
+  ASSERT_EQ(set.states.size(), 3u);
   const evo::Revision rev =
-      evo::revise(set.states, {"pick_place", paths::config_dir(), paths::config_dir() / "library", 6, 2, 0});
-  ASSERT_GT(rev.failing, 0u);
+      evo::revise(set.states, {"pick_place", paths::config_dir(), paths::config_dir() / "library", 4, 2, 0});
+  EXPECT_EQ(rev.failing, 2u);
+  EXPECT_EQ(rev.parent_held, 1u);
   EXPECT_TRUE(rev.improved()) << rev.best_held << " held, the parent " << rev.parent_held;
   EXPECT_GT(rev.fixed, 0u);
-  EXPECT_EQ(rev.kept, rev.states - rev.failing) << "every success kept";
-  EXPECT_FALSE(rev.kappa.empty());
+  EXPECT_EQ(rev.kept, 1u) << "Figure 3's success kept";
+  EXPECT_TRUE(rev.kappa.count("approach_height"));
 }
 
 TEST_F(Probe, TheGateReadsAnEpisodesLibraryAndOutcomeFromItsEvidence) {
