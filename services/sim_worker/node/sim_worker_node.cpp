@@ -228,8 +228,8 @@ class Channel {
 
   void handle(msg::EpisodeResult& r) {
     if (!core_.running() || r.episode_id() != core_.episode_id()) return;
-    log_->info("channel={} episode={} ended success={} steps={} physics_s={:.3f}", id_, r.episode_id(), r.success(),
-               r.steps(), reset_s_ + core_.physics_s());
+    log_->info("channel={} episode={} ended success={} steps={} physics_s={:.3f} stragglers={}", id_, r.episode_id(),
+               r.success(), r.steps(), reset_s_ + core_.physics_s(), core_.stragglers());
     if (images_)
       log_->info("channel={} episode={} {} camera images, {:.1f} ms each (render and publish)", id_, r.episode_id(),
                  images_, 1e3 * render_s_ / images_);

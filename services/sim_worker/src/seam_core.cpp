@@ -72,6 +72,8 @@ void SeamCore::begin(Workcell& cell, std::string episode_id, std::uint32_t budge
   log_.reset();
   states_.reset();
   started_.clear();
+  handed_over_.clear();
+  stragglers_ = 0;
 }
 
 void SeamCore::end() {
@@ -89,6 +91,17 @@ SeamEffects SeamCore::on_lease(const LeaseGrant& l, SeamClock::time_point now) {
   if (states_ && !l.revoked && started_.insert(l.command_id).second) {
     states_->append({step_, l.command_id, cell_->physics_state()});
   }
+  // The governor has moved on from a command it revokes or whose lease it gives to another.
+  if (l.revoked) handed_over_.insert(l.command_id);
+  else {
+    handed_over_.erase(l.command_id);
+    if (lease_.known && lease_.command_id != l.command_id) handed_over_.insert(lease_.command_id);
+  }
+  std::erase_if(pending_, [&](const auto& p) {
+    const bool straggler = handed_over_.count(p.first) > 0;
+    stragglers_ += straggler;
+    return straggler;
+  });
   lease_ = {true, l.command_id, l.valid_until_step, l.budget_until_step, l.revoked, false};
   lease_at_ = last_sign_of_life_ = now;
   return admit(now);
@@ -100,6 +113,13 @@ SeamEffects SeamCore::on_action(const ActionIn& a, SeamClock::time_point now) {
     fx.events.push_back({a.step, a.command_id, SeamEventKind::RejectedCommand,
                          "action for episode '" + a.episode_id + "' which is not running on this channel",
                          a.episode_id});
+    return fx;
+  }
+  // A straggler: the command's host answered a step before it heard that the governor moved on. Over
+  // DDS whether one comes, and whether before or after the handover, is a race between topics, so it is
+  // counted, not recorded; it can never apply.
+  if (handed_over_.count(a.command_id)) {
+    ++stragglers_;
     return fx;
   }
   std::optional<SeamEvent> superseded;

@@ -108,6 +108,8 @@ class SeamCore {
   /// The observation of the current step (the last one the seam gave out).
   const Observation& observation() const { return observation_; }
   std::size_t held() const { return pending_.size(); }
+  /// Actions of commands the governor had revoked or handed the lease on from, dropped unrecorded.
+  std::size_t stragglers() const { return stragglers_; }
   double physics_s() const { return physics_s_; }  ///< wall time inside MuJoCo this episode
   /// The simulator's own verdict: the first step at which the task's goal held this episode (none: never).
   std::optional<std::uint32_t> goal_step() const { return goal_step_; }
@@ -138,6 +140,8 @@ class SeamCore {
   std::unique_ptr<StepLogWriter> log_;
   std::unique_ptr<StateLogWriter> states_;
   std::set<std::string> started_;  ///< the commands whose start the state log holds
+  std::set<std::string> handed_over_;  ///< commands revoked or superseded by another's lease
+  std::size_t stragglers_ = 0;
   bool predicate_ = false;
   std::optional<std::uint32_t> goal_step_;
   double physics_s_ = 0;
