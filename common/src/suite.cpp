@@ -30,6 +30,14 @@ std::string SwapSpec::text() const {
   return s;
 }
 
+std::string PosSpec::text() const {
+  std::ostringstream s;
+  s << "pos " << reach_m << " m x{";
+  for (std::size_t i = 0; i < magnitudes.size(); ++i) s << (i ? "," : "") << magnitudes[i];
+  s << "}";
+  return s.str();
+}
+
 namespace {
 
 std::vector<PredicateSpec> load_goal(const ConfigNode& n) {
@@ -138,6 +146,33 @@ void load_wordings(const std::filesystem::path& file, std::map<std::string, Suit
   }
 }
 
+// "<suite>-pos" cells: the base cell's tasks, each object placed by the seed's magnitude.
+void load_positions(const std::filesystem::path& file, std::map<std::string, SuiteDef>& suites) {
+  const ConfigNode root = ConfigNode::load_file(file);
+  PosSpec pos;
+  pos.reach_m = root.get<double>("reach_m");
+  if (!(pos.reach_m > 0 && pos.reach_m <= 1)) root.fail("reach_m", "give the displacement at magnitude 1, in (0, 1] m");
+  pos.magnitudes = root.get<std::vector<double>>("magnitudes");
+  if (pos.magnitudes.empty()) root.fail("magnitudes", "give at least one magnitude");
+  for (const double m : pos.magnitudes)
+    if (!(m > 0 && m <= 1)) root.fail("magnitudes", "each magnitude is in (0, 1], not " + std::to_string(m));
+  for (const std::string& base : root.get<std::vector<std::string>>("suites")) {
+    const auto it = suites.find(base);
+    if (it == suites.end() || !it->second.perturbation.empty())
+      root.fail("suites", "no unperturbed suite '" + base + "' in configs/suites to displace");
+    SuiteDef cell = it->second;
+    cell.name = base + "-pos";
+    cell.perturbation = "pos";
+    cell.modelled_on = it->second.modelled_on + " with LIBERO-Pro position perturbation";
+    for (auto& [id, task] : cell.tasks) {
+      task.suite = cell.name;
+      task.perturbation = "pos";
+      task.pos = pos;
+    }
+    suites.emplace(cell.name, std::move(cell));
+  }
+}
+
 }  // namespace
 
 const std::string& instruction_for(const TaskDef& task, std::uint64_t seed) {
@@ -161,6 +196,8 @@ std::map<std::string, SuiteDef> load_suites(const std::filesystem::path& config_
     }
   if (const auto wordings = dir / "lan" / "wordings.yaml"; std::filesystem::exists(wordings))
     load_wordings(wordings, suites);
+  if (const auto positions = dir / "pos" / "positions.yaml"; std::filesystem::exists(positions))
+    load_positions(positions, suites);
   return suites;
 }
 

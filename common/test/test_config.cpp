@@ -86,6 +86,43 @@ TEST(Suites, WordingsForAMissingTaskOrSuiteAreNamed) {
   EXPECT_EQ(instruction_for(find_task(load_suites(t.dir), "x-lan", 0), 3), "there");
 }
 
+TEST(Suites, PosCellsKeepEveryTaskAndTheSeedPicksTheMagnitude) {
+  const auto suites = load_suites(paths::config_dir());
+  for (const std::string base : {"goal", "long"}) {
+    const SuiteDef& pos = suites.at(base + "-pos");
+    const SuiteDef& plain = suites.at(base);
+    ASSERT_EQ(pos.tasks.size(), plain.tasks.size());
+    for (const auto& [id, t] : pos.tasks) {
+      EXPECT_EQ(goal_text(t.goal), goal_text(plain.tasks.at(id).goal)) << "a displacement keeps the goal";
+      EXPECT_EQ(t.instruction, plain.tasks.at(id).instruction);
+      EXPECT_EQ(t.suite, base + "-pos");
+      EXPECT_EQ(t.perturbation, "pos");
+      EXPECT_EQ(t.pos.magnitudes, (std::vector<double>{0.1, 0.2, 0.3, 0.4, 0.5}));
+    }
+    EXPECT_TRUE(plain.tasks.at(0).pos.empty());
+  }
+  EXPECT_EQ(find_task(suites, "goal-pos", 3).pos.magnitude_for(23), 0.4);
+}
+
+TEST(Suites, ABadPositionsFileIsNamed) {
+  TempDir t;
+  t.write("scenes/s.yaml", "scene: s\n");
+  t.write("suites/x.yaml", "suite: x\nbudget_steps: 10\nscene: s.yaml\ntasks:\n  - {id: 0, instruction: hi, goal: "
+                           "[{predicate: Open, args: [d]}], task: {instruction: ho, goal: [{predicate: Open, args: [e]}]}, "
+                           "swap: {exchange: [[a, b]]}}\n");
+  t.write("suites/pos/positions.yaml", "reach_m: 0.4\nmagnitudes: [0.1, 1.5]\nsuites: [x]\n");
+  auto e = error_of([&] { load_suites(t.dir); });
+  EXPECT_NE(e.find("positions.yaml: key 'magnitudes': each magnitude is in (0, 1]"), std::string::npos) << e;
+  t.write("suites/pos/positions.yaml", "reach_m: 0.4\nmagnitudes: [0.1]\nsuites: [x-swap]\n");
+  e = error_of([&] { load_suites(t.dir); });
+  EXPECT_NE(e.find("no unperturbed suite 'x-swap'"), std::string::npos) << e;
+  t.write("suites/pos/positions.yaml", "magnitudes: [0.1]\nsuites: [x]\n");
+  e = error_of([&] { load_suites(t.dir); });
+  EXPECT_NE(e.find("reach_m"), std::string::npos) << e;
+  t.write("suites/pos/positions.yaml", "reach_m: 0.3\nmagnitudes: [0.1, 0.2]\nsuites: [x]\n");
+  EXPECT_EQ(find_task(load_suites(t.dir), "x-pos", 0).pos.magnitude_for(3), 0.2);
+}
+
 TEST(Evidence, AppendsFlushedRecordsAndSkipsATornLine) {
   TempDir t;
   const auto f = t.dir / "e.jsonl";

@@ -144,7 +144,7 @@ TEST(Faults, AKilledGovernorLeavesTheArmHeldAndTheOrphanedEpisodeAbandoned) {
   }
 }
 
-TEST(Faults, TheSeamHoldsActionsPastTheirLeaseAndRefusesUnleasedOrRevokedOnes) {
+TEST(Faults, TheSeamHoldsActionsPastTheirLeaseRefusesUnleasedOnesAndDropsRevokedOnes) {
   itest::IsolatedEnv env;
   cli::Deployment sim({itest::service("sim_worker", {"--lease-grace-ms", "300"})}, paths::bin_dir(), env.runs / "logs");
   dds::Participant p("itest");
@@ -217,17 +217,16 @@ TEST(Faults, TheSeamHoldsActionsPastTheirLeaseAndRefusesUnleasedOrRevokedOnes) {
   send(7, "intruder");
   ASSERT_TRUE(itest::wait_until(m, cv, 5s, [&] { return !events.empty(); }));
   EXPECT_EQ(events.back().kind(), msg::SEAM_REJECTED_COMMAND);
-  // A revoked lease refuses at once.
+  // A revoked command's action never applies; it is a straggler, counted and not recorded (whether one
+  // comes at a switch is a race between topics).
   l.revoked(true);
   lease.write(l);
   std::this_thread::sleep_for(100ms);
   send(7, "c0");
-  ASSERT_TRUE(itest::wait_until(m, cv, 5s, [&] { return events.size() >= 2; }));
-  EXPECT_EQ(events.back().kind(), msg::SEAM_REJECTED_LEASE);
-  EXPECT_NE(events.back().reason().find("revoked"), std::string::npos) << events.back().reason();
-  std::this_thread::sleep_for(200ms);
+  std::this_thread::sleep_for(900ms);  // three grace periods
   std::lock_guard g(m);
-  EXPECT_EQ(step, 7) << "a refused action moved the robot";
+  EXPECT_EQ(events.size(), 1u) << events.back().reason();
+  EXPECT_EQ(step, 7) << "a revoked command's action moved the robot";
 }
 
 }  // namespace dh

@@ -39,6 +39,8 @@ int cmd_report(const ReportArgs& a) {
   options.bootstrap_seed = a.bootstrap_seed;
   options.plots = a.plots;
   options.policy_dir = a.policy_dir;
+  for (const auto& [cell, suite] : load_suites(paths::config_dir()))
+    if (suite.perturbation == "pos") options.positions[cell] = suite.tasks.begin()->second.pos;
   if (a.json && a.out.empty()) {
     std::cout << report::summarize(sources, options).dump() << "\n";
     return 0;

@@ -20,7 +20,8 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-const std::vector<std::string> kPlotFiles{"success.png", "wall_clock.png"};
+// Every plot a report may draw; positions.png only when it has -pos cells.
+const std::vector<std::string> kPlotFiles{"success.png", "wall_clock.png", "positions.png"};
 
 fs::path find_on_path(const std::string& program) {
   const char* path = std::getenv("PATH");
@@ -82,6 +83,30 @@ std::string wall_clock_data(const json& summary, const std::vector<Source>& sour
   return out.str();
 }
 
+// "-pos" cells: one block per arm/cell (gnuplot's index), a line per magnitude.
+std::string positions_data(const json& summary) {
+  std::ostringstream out;
+  out << "# per arm/cell block: radius (m), rate, wilson_lo, wilson_hi (%)\n";
+  std::string last;
+  for (const json& p : summary["positions"]) {
+    const std::string series = p["arm"].get<std::string>() + "/" + p["cell"].get<std::string>();
+    if (series != last && !last.empty()) out << "\n\n";
+    last = series;
+    out << p["radius_m"].get<double>() << ' ' << 100 * p["rate"].get<double>() << ' '
+        << 100 * p["wilson_lo"].get<double>() << ' ' << 100 * p["wilson_hi"].get<double>() << '\n';
+  }
+  return out.str();
+}
+
+std::vector<std::string> series_of(const json& summary) {
+  std::vector<std::string> out;
+  for (const json& p : summary["positions"]) {
+    const std::string series = p["arm"].get<std::string>() + "/" + p["cell"].get<std::string>();
+    if (out.empty() || out.back() != series) out.push_back(series);
+  }
+  return out;
+}
+
 std::string script(const json& summary, const fs::path& dir) {
   const auto file = [&](const char* name) { return gp_quote((dir / name).string()); };
   std::ostringstream gp;
@@ -120,8 +145,23 @@ set style fill solid 0.3 border -1
 set boxwidth 0.5
 set pointsize 0.5
 plot )" << file("wall_clock.dat") << R"( using (1):2:(0.5):1
-set output
 )";
+  if (const auto series = series_of(summary); !series.empty()) {
+    gp << R"(reset
+set output )" << file("positions.png") << R"(
+set title 'Success against displacement, -pos cells (Wilson 95 % intervals)'
+set xlabel 'displacement radius (m)'
+set ylabel 'success (%)'
+set yrange [0:105]
+set grid
+set key outside right top
+plot )";
+    for (std::size_t i = 0; i < series.size(); ++i)
+      gp << (i ? ", '' " : file("positions.dat") + " ") << "index " << i
+         << " using 1:2:3:4 with yerrorlines title " << gp_quote(series[i]);
+    gp << "\n";
+  }
+  gp << "set output\n";
   return gp.str();
 }
 
@@ -169,7 +209,10 @@ PlotResult draw_plots(const json& summary, const std::vector<Source>& sources, c
     return result;
   }
   const fs::path script_path = dir / "plots.gp";
+  std::vector<std::string> expected{kPlotFiles[0], kPlotFiles[1]};
+  if (!summary["positions"].empty()) expected.push_back(kPlotFiles[2]);
   if (!write_file(dir / "success.dat", success_data(summary)) ||
+      !write_file(dir / "positions.dat", positions_data(summary)) ||
       !write_file(dir / "wall_clock.dat", wall_clock_data(summary, sources)) ||
       !write_file(script_path, script(summary, dir))) {
     result.note = "could not write the plot data into " + dir.string() + ".";
@@ -182,14 +225,14 @@ PlotResult draw_plots(const json& summary, const std::vector<Source>& sources, c
                   "; see plots.log.";
     return result;
   }
-  for (const std::string& name : kPlotFiles) {
+  for (const std::string& name : expected) {
     std::error_code ec;
     if (fs::file_size(dir / name, ec) > 0 && !ec)
       result.files.push_back(name);
     else
       result.note += (result.note.empty() ? "gnuplot did not write " : ", ") + name;
   }
-  result.skipped = result.files.size() != kPlotFiles.size();
+  result.skipped = result.files.size() != expected.size();
   if (result.skipped) result.note += "; see plots.log.";
   return result;
 }

@@ -194,6 +194,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
   std::map<std::pair<std::string, std::string>, Tally> by_arm_cell;
   std::map<std::string, Tally> by_arm;
   std::map<std::tuple<std::string, std::string, unsigned>, Tally> by_task;
+  std::map<std::tuple<std::string, std::string, double>, Tally> by_magnitude;  // "-pos" cells
   std::map<std::pair<std::string, std::string>, std::vector<double>> wall_s;
   std::map<std::string, std::map<PairKey, bool>> success_by_key;
   std::map<std::string, Latencies> latency_by_arm;
@@ -223,6 +224,8 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
       by_arm_cell[{r.arm, r.cell}].add(r);
       by_arm[r.arm].add(r);
       by_task[{r.arm, r.cell, r.task}].add(r);
+      if (const auto p = options.positions.find(r.cell); p != options.positions.end())
+        by_magnitude[{r.arm, r.cell, p->second.magnitude_for(r.seed)}].add(r);
       wall_s[{r.arm, r.cell}].push_back(r.wall_s);
       infrastructure += r.infrastructure;
       sim_reported += r.sim_success.has_value();
@@ -235,6 +238,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
   }
 
   json summary = json::array(), totals = json::array(), tasks = json::array(), wall = json::array();
+  json positions = json::array();
   json latency_by = json::array(), mechanisms = json::array();
   Latencies all_latencies;
   for (const std::string& arm : arms.names) {
@@ -256,6 +260,15 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
                          {"task", std::get<2>(t->first)},
                          {"successes", t->second.successes},
                          {"episodes", t->second.episodes}});
+      for (const auto& [key, tally] : by_magnitude)
+        if (std::get<0>(key) == arm && std::get<1>(key) == cell) {
+          json m = tally.to_json(options);
+          m["arm"] = arm;
+          m["cell"] = cell;
+          m["magnitude"] = std::get<2>(key);
+          m["radius_m"] = std::get<2>(key) * options.positions.at(cell).reach_m;
+          positions.push_back(std::move(m));
+        }
     }
     json total = by_arm.at(arm).to_json(options);
     total["arm"] = arm;
@@ -301,6 +314,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
           {"bootstrap", {{"resamples", options.bootstrap_resamples}, {"seed", options.bootstrap_seed}}},
           {"attribution", attribution_json(sources, failed, arms.names, cells.names, by_arm_cell, options)},
           {"tasks", tasks},
+          {"positions", positions},
           {"wall_clock", wall},
           {"latency",
            {{"decision", percentiles_json(all_latencies.decision_ms)},

@@ -401,6 +401,37 @@ TEST(Render, WritesMarkdownHtmlJsonAndPlotsWhenGnuplotIsThere) {
   EXPECT_EQ(read(files.html).find("<img src=\"success.png\"") != std::string::npos, gnuplot);
 }
 
+// A -pos cell: its episodes tallied by the magnitude each seed picked (seed mod 2 here), with the
+// displacement radius, a table and a plot; other cells stay out of it.
+TEST(Render, PosCellsAreTalliedByTheSeedsMagnitudeAndPlotted) {
+  TempDir dir;
+  ReportOptions o = options(dir.path());
+  o.positions["goal-pos"] = dh::PosSpec{{0.1, 0.5}, 0.4};
+  Source s{"pos", {}};
+  for (unsigned seed = 21; seed <= 28; ++seed) {
+    s.rows.push_back(row("full", "goal-pos", seed % 3, seed, seed % 2 == 0 || seed == 21, 10));  // x0.1: 4/4, x0.5: 1/4
+    s.rows.push_back(row("full", "goal", 0, seed, true, 10));
+  }
+  const json sum = summarize({s}, o);
+  ASSERT_EQ(sum["positions"].size(), 2u);
+  EXPECT_EQ(sum["positions"][0]["magnitude"], 0.1);
+  EXPECT_NEAR(sum["positions"][0]["radius_m"].get<double>(), 0.04, 1e-12);
+  EXPECT_EQ(sum["positions"][0]["successes"], 4u);
+  EXPECT_EQ(sum["positions"][1]["magnitude"], 0.5);
+  EXPECT_EQ(sum["positions"][1]["successes"], 1u);
+  EXPECT_EQ(sum["positions"][1]["episodes"], 4u);
+  const ReportFiles files = render({s}, o);
+  EXPECT_NE(read(files.markdown).find("| full | goal-pos | x0.5 | 0.20 | 1 | 4 | 25.0 % |"), std::string::npos)
+      << read(files.markdown);
+  const bool gnuplot = gnuplot_on_path();
+  EXPECT_EQ(fs::exists(o.out_dir / "positions.png"), gnuplot) << files.plots_note;
+  EXPECT_EQ(files.plots.size(), gnuplot ? 3u : 0u);
+  // Without -pos rows there is no such table or plot, and an old plot of it is removed.
+  const ReportFiles plain = render(campaign(dir.path()), o);
+  EXPECT_EQ(read(plain.markdown).find("Success against displacement"), std::string::npos);
+  EXPECT_FALSE(fs::exists(o.out_dir / "positions.png"));
+}
+
 TEST(Render, WithoutGnuplotTheReportStillRendersAndSaysSo) {
   TempDir dir;
   const std::string saved = std::getenv("PATH") ? std::getenv("PATH") : "";

@@ -210,10 +210,14 @@ SceneSpec apply_swap(SceneSpec scene, const SwapSpec& swap) {
 }
 
 SceneSpec load_task_scene(const TaskDef& task) {
-  return apply_swap(load_scene(task.scene_file), task.swap);
+  SceneSpec scene = apply_swap(load_scene(task.scene_file), task.swap);
+  scene.pos = task.pos;
+  return scene;
 }
 
-std::string task_scene_key(const TaskDef& task) { return task.scene_file.string() + "|" + task.swap.text(); }
+std::string task_scene_key(const TaskDef& task) {
+  return task.scene_file.string() + "|" + task.swap.text() + (task.pos.empty() ? "" : "|" + task.pos.text());
+}
 
 std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t seed) {
   std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ULL + 1);
@@ -229,25 +233,70 @@ std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t s
         return true;
     return false;
   };
-  // Fixtures first (they do not move), then free objects in scene order.
-  for (const bool fixtures : {true, false})
-    for (std::size_t i = 0; i < n; ++i) {
-      const EntitySpec& e = scene.entities[i];
-      if (e.fixture() != fixtures) continue;
-      const auto fp = e.asset.footprint();
-      for (int attempt = 0; attempt < 200 && !placed[i]; ++attempt) {
-        const double dx = e.jitter * uniform(rng()), dy = e.jitter * uniform(rng());
-        const double yaw = e.yaw + e.yaw_jitter * uniform(rng());
-        out[i] = {e.name, e.nominal_xy[0] + dx, e.nominal_xy[1] + dy, yaw};
-        const double c = std::abs(std::cos(yaw)), s = std::abs(std::sin(yaw));
-        half[i] = {c * fp[0] + s * fp[1], s * fp[0] + c * fp[1]};
-        placed[i] = !overlaps(i);
-        if (e.fixture() && !placed[i]) break;
-      }
-      if (!placed[i])
-        throw std::runtime_error(scene.file.string() + ": cannot place '" + e.name + "' without overlap for seed " +
-                                 std::to_string(seed) + "; widen its jitter or move its xy");
+  // Where a displaced object may stand: on the table and in the workspace with its whole footprint, in
+  // the arm's reach, and on no named region (an object starting on its target would hold the goal).
+  auto allowed = [&](std::size_t i) {
+    const Placement& p = out[i];
+    for (int a = 0; a < 2; ++a) {
+      const double v = a == 0 ? p.x : p.y;
+      const double lo = std::max(-scene.table_size[a] / 2, scene.workspace_min[a]);
+      const double hi = std::min(scene.table_size[a] / 2, scene.workspace_max[a]);
+      if (v - half[i][a] < lo || v + half[i][a] > hi) return false;
     }
+    const double reach = std::hypot(p.x - scene.robot_base[0], p.y - scene.robot_base[1]);
+    if (reach < kPosMinReach || reach > kPosMaxReach) return false;
+    for (const TableRegion& r : scene.regions)
+      if (std::abs(p.x - r.xy[0]) < half[i][0] + r.half[0] && std::abs(p.y - r.xy[1]) < half[i][1] + r.half[1])
+        return false;
+    return true;
+  };
+  const double radius = scene.pos.empty() ? 0 : scene.pos.magnitude_for(seed) * scene.pos.reach_m;
+  // One entity: `attempts` draws until it stands clear (and, displaced, where it may).
+  auto place = [&](std::size_t i, int attempts) {
+    const EntitySpec& e = scene.entities[i];
+    const bool displaced = !e.fixture() && radius > 0;
+    const auto fp = e.asset.footprint();
+    for (int attempt = 0; attempt < attempts && !placed[i]; ++attempt) {
+      double dx, dy;
+      if (displaced) {  // uniform on the disc
+        const double r = radius * std::sqrt(0.5 * (uniform(rng()) + 1)), a = std::numbers::pi * uniform(rng());
+        dx = r * std::cos(a);
+        dy = r * std::sin(a);
+      } else {
+        dx = e.jitter * uniform(rng());
+        dy = e.jitter * uniform(rng());
+      }
+      const double yaw = e.yaw + e.yaw_jitter * uniform(rng());
+      out[i] = {e.name, e.nominal_xy[0] + dx, e.nominal_xy[1] + dy, yaw};
+      const double c = std::abs(std::cos(yaw)), s = std::abs(std::sin(yaw));
+      half[i] = {c * fp[0] + s * fp[1], s * fp[0] + c * fp[1]};
+      placed[i] = !overlaps(i) && (!displaced || allowed(i));
+      if (e.fixture()) break;
+    }
+    return placed[i];
+  };
+  auto cannot = [&](std::size_t i) {
+    return std::runtime_error(scene.file.string() + ": cannot place '" + scene.entities[i].name +
+                              "' without overlap for seed " + std::to_string(seed) +
+                              (radius > 0 ? " within " + std::to_string(radius) + " m of its place (" + scene.pos.text() +
+                                                "): lower the magnitude or reach_m in configs/suites/pos/positions.yaml"
+                                          : "; widen its jitter or move its xy"));
+  };
+  // Fixtures first (they do not move), then free objects in scene order.
+  for (std::size_t i = 0; i < n; ++i)
+    if (scene.entities[i].fixture() && !place(i, 1)) throw cannot(i);
+  // Displaced objects may leave a later one no room: then all of them are drawn again, from the same
+  // stream, so a seed still gives one placement.
+  const int rounds = radius > 0 ? 50 : 1;
+  for (int round = 0; round < rounds; ++round) {
+    std::size_t stuck = n;
+    for (std::size_t i = 0; i < n && stuck == n; ++i)
+      if (!scene.entities[i].fixture() && !place(i, radius > 0 ? 500 : 200)) stuck = i;
+    if (stuck == n) break;
+    if (round + 1 == rounds) throw cannot(stuck);
+    for (std::size_t i = 0; i < n; ++i)
+      if (!scene.entities[i].fixture()) placed[i] = false;
+  }
   return out;
 }
 

@@ -30,7 +30,7 @@ const std::map<std::string, SuiteDef>& suites() {
 }
 
 TEST(BenchmarkCells, SixCellsOfTenTasksWithTheirPerturbations) {
-  for (const char* name : {"goal", "goal-task", "goal-swap", "long", "long-task", "long-swap"}) {
+  for (const char* name : {"goal", "goal-task", "goal-swap", "long", "long-task", "long-swap", "goal-pos", "long-pos"}) {
     ASSERT_TRUE(suites().count(name)) << name;
     EXPECT_EQ(suites().at(name).tasks.size(), 10u) << name;
   }
@@ -84,6 +84,51 @@ TEST(BenchmarkCells, EveryCellAndTaskInstantiatesForSeeds1To60) {
   RecordProperty("worst_penetration_m", std::to_string(worst_overlap));
   std::cout << "worst object speed " << worst_speed << " m/s, deepest overlap " << worst_overlap << " m over "
             << by_scene.size() << " scene models\n";
+}
+
+// "-pos" cells: each free object within its seed's magnitude x reach_m of its place, in reach, on the
+// table and off every named region; fixtures where they were; displacement grows with the magnitude.
+TEST(BenchmarkCells, PosCellsDisplaceFreeObjectsWithinTheSeedsMagnitude) {
+  for (const char* cell : {"goal-pos", "long-pos"}) {
+    std::set<std::string> scenes;
+    for (const auto& [id, task] : suites().at(cell).tasks) {
+      if (!scenes.insert(sim::task_scene_key(task)).second) continue;
+      const sim::SceneSpec spec = sim::load_task_scene(task);
+      ASSERT_FALSE(spec.pos.empty()) << cell;
+      std::map<double, std::pair<double, int>> mean;  // magnitude -> (sum of displacements, count)
+      for (unsigned seed = 1; seed <= 50; ++seed) {
+        const double radius = spec.pos.magnitude_for(seed) * spec.pos.reach_m;
+        const auto placed = sim::sample_placements(spec, seed);
+        for (std::size_t i = 0; i < placed.size(); ++i) {
+          const sim::EntitySpec& e = spec.entities[i];
+          const double d = std::hypot(placed[i].x - e.nominal_xy[0], placed[i].y - e.nominal_xy[1]);
+          const std::string what = std::string(cell) + "/" + std::to_string(id) + " " + e.name + " seed " + std::to_string(seed);
+          if (e.fixture()) {
+            EXPECT_EQ(d, 0.0) << what;
+            continue;
+          }
+          EXPECT_LE(d, radius + 1e-12) << what;
+          const double reach = std::hypot(placed[i].x - spec.robot_base[0], placed[i].y - spec.robot_base[1]);
+          EXPECT_GE(reach, sim::kPosMinReach) << what;
+          EXPECT_LE(reach, sim::kPosMaxReach) << what;
+          EXPECT_GE(placed[i].x, spec.workspace_min[0]) << what;
+          EXPECT_LE(placed[i].x, spec.workspace_max[0]) << what;
+          for (const auto& r : spec.regions)
+            EXPECT_FALSE(std::abs(placed[i].x - r.xy[0]) < r.half[0] && std::abs(placed[i].y - r.xy[1]) < r.half[1])
+                << what << " starts on " << r.name;
+          mean[spec.pos.magnitude_for(seed)].first += d;
+          ++mean[spec.pos.magnitude_for(seed)].second;
+        }
+      }
+      double last = 0;
+      for (const auto& [m, sum] : mean) {
+        const double avg = sum.first / sum.second;
+        EXPECT_GT(avg, last) << cell << " " << spec.name << ": mean displacement at magnitude " << m;
+        EXPECT_GT(avg, 0.4 * m * spec.pos.reach_m) << cell << " " << spec.name << " at magnitude " << m;
+        last = avg;
+      }
+    }
+  }
 }
 
 // Articulated fixtures start as the `:init` of the LIBERO BDDL file each scene models says (notes

@@ -2,7 +2,9 @@
 // unperturbed suite ("goal") and its LIBERO-Pro-style perturbations "<suite>-task" (the instruction and
 // goal redirected to another object or target in the same scene) and "<suite>-swap" (task-relevant
 // entities trade placements or move; instruction and goal unchanged). configs/suites/lan/wordings.yaml
-// adds "<suite>-lan": each task's instruction reworded, the goal unchanged, one wording per seed.
+// adds "<suite>-lan": each task's instruction reworded, the goal unchanged, one wording per seed;
+// configs/suites/pos/positions.yaml adds "<suite>-pos": free objects placed anywhere reachable, as far
+// from their places as the seed's magnitude allows.
 #pragma once
 
 #include <array>
@@ -30,10 +32,21 @@ struct SwapSpec {
   std::string text() const;  ///< stable description, e.g. "bowl<->plate;bowl->(0.1,0.2)"
 };
 
+/// A position perturbation: each free object is drawn uniformly from the disc of radius magnitude x
+/// `reach_m` around its place (collision-free, reachable, clear of the table's named regions); the seed
+/// picks the magnitude (seed mod the number of magnitudes), as LIBERO-Pro's x0.1...x0.5 sets.
+struct PosSpec {
+  std::vector<double> magnitudes;
+  double reach_m = 0;
+  bool empty() const { return magnitudes.empty(); }
+  double magnitude_for(std::uint64_t seed) const { return magnitudes[seed % magnitudes.size()]; }
+  std::string text() const;  ///< stable description, e.g. "pos 0.4 m x{0.1,0.2}"
+};
+
 struct TaskDef {
   std::string suite;          ///< the cell: "goal", "goal-task", "goal-swap", ...
   std::string base_suite;     ///< "goal" or "long"
-  std::string perturbation;   ///< "", "task", "swap" or "lan"
+  std::string perturbation;   ///< "", "task", "swap", "lan" or "pos"
   unsigned id = 0;
   std::string instruction;
   std::vector<std::string> wordings;  ///< "lan" cells: the instruction's rewordings (instruction_for)
@@ -41,6 +54,7 @@ struct TaskDef {
   std::filesystem::path scene_file;  ///< absolute, resolved relative to the suite file
   std::vector<PredicateSpec> goal;   ///< conjunction
   SwapSpec swap;                     ///< applied to the scene (swap cells only)
+  PosSpec pos;                       ///< applied to the seed's placements (pos cells only)
 };
 
 struct SuiteDef {
@@ -59,8 +73,9 @@ const std::string& instruction_for(const TaskDef& task, std::uint64_t seed);
 /// A goal as one line: its terms joined by " AND ".
 std::string goal_text(const std::vector<PredicateSpec>& goal);
 
-/// Loads every configs/suites/*.yaml under `config_dir` (three cells per file, keyed by cell name) and the
-/// "lan" cells of configs/suites/lan/wordings.yaml; throws ConfigError naming file and key.
+/// Loads every configs/suites/*.yaml under `config_dir` (three cells per file, keyed by cell name), the
+/// "lan" cells of configs/suites/lan/wordings.yaml and the "pos" cells of configs/suites/pos/positions.yaml;
+/// throws ConfigError naming file and key.
 std::map<std::string, SuiteDef> load_suites(const std::filesystem::path& config_dir);
 
 /// The task, or ConfigError saying which suites/tasks exist.

@@ -8,11 +8,13 @@
 #pragma once
 
 #include "dh/common/episode_record.hpp"
+#include "dh/common/suite.hpp"
 
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -53,6 +55,9 @@ struct ReportOptions {
   /// A `dh train-policy` output folder (train.json, loss.csv): the report then describes the embedded
   /// policy and its loss curve. Empty: no policy section.
   std::filesystem::path policy_dir;
+  /// The "-pos" cells' position perturbations, by cell (load_suites): their episodes are also tallied by
+  /// the magnitude their seed picked, for success against displacement. Empty: no such table.
+  std::map<std::string, PosSpec> positions;
 };
 
 struct ReportFiles {
@@ -77,6 +82,8 @@ struct ReportFiles {
 ///               u_d}]}: failures by layer per arm and cell (u_d: those the harness owns); config null and
 ///               cells empty when no source holds labels
 ///   tasks      [{arm, cell, task, successes, episodes}]
+///   positions  [{arm, cell, magnitude, radius_m, successes, episodes, rate, wilson_*, cluster_*, ...}]: "-pos"
+///               cells by the magnitude each seed picked (ReportOptions::positions)
 ///   wall_clock [{arm, cell, episodes, mean_s, p50_s, p90_s, total_s}]
 ///   latency    {decision: L, planner: L, unanswered_plan_requests, by_arm: [{arm, decision, planner}]},
 ///               L = {count, p50_ms, p90_ms, p99_ms}

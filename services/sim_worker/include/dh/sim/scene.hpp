@@ -71,6 +71,8 @@ struct SceneSpec {
   std::vector<TableRegion> regions;
   /// Extra fixed cameras (not from the scene file: sim_worker adds configs/cameras.yaml's); none by default.
   std::vector<CameraSpec> cameras;
+  /// A "-pos" cell's position perturbation (sample_placements); none elsewhere.
+  PosSpec pos;
 
   const EntitySpec* entity(const std::string& name) const;
 };
@@ -88,13 +90,21 @@ SceneSpec load_scene(const std::filesystem::path& file);
 /// throws std::invalid_argument naming an entity the scene lacks.
 SceneSpec apply_swap(SceneSpec scene, const SwapSpec& swap);
 
-/// The scene a task runs in: its scene file with the task's swap applied.
+/// The scene a task runs in: its scene file with the task's swap and position perturbation applied.
 SceneSpec load_task_scene(const TaskDef& task);
 /// Tasks with equal keys share one compiled model.
 std::string task_scene_key(const TaskDef& task);
 
+/// Horizontal distance from the robot's base within which a displaced object must stand (m): no nearer
+/// than the scenes' own nearest place allows (kitchen_goal's cream cheese, 0.26 m less its 2 cm jitter;
+/// nearer, the top-down hand cannot come down), no farther than the farthest (living_room_pudding's
+/// pudding, 0.71 m) and its jitter.
+inline constexpr double kPosMinReach = 0.24, kPosMaxReach = 0.75;
+
 /// Samples placements for `seed` (deterministic, every entity, fixtures at their nominal pose) with
-/// footprints apart; throws std::runtime_error when no placement without overlap is found.
+/// footprints apart. Free objects are jittered about their place, or under a position perturbation drawn
+/// from its disc, on the table, inside the workspace box, within kPosMinReach..kPosMaxReach of the base
+/// and clear of the table's regions. Throws std::runtime_error when no placement is found.
 std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t seed);
 
 /// The complete MJCF document of the workcell with entities at `placements`, with the cameras
