@@ -118,6 +118,26 @@ msg::PerceptionLimits to_msg(const PerceptionLimits& l) {
   return m;
 }
 
+PlannerErrorRates from_msg(const msg::PlannerErrorRates& m) {
+  return {m.wrong_capability(), m.wrong_argument(), m.dropped_step(), m.repeated_step()};
+}
+
+msg::PlannerErrorRates to_msg(const PlannerErrorRates& r) {
+  msg::PlannerErrorRates m;
+  m.wrong_capability(r.wrong_capability);
+  m.wrong_argument(r.wrong_argument);
+  m.dropped_step(r.dropped_step);
+  m.repeated_step(r.repeated_step);
+  return m;
+}
+
+PlannerError from_msg(msg::PlannerError e) {
+  const auto v = static_cast<int>(e);
+  return v >= 0 && v <= static_cast<int>(PlannerError::RepeatedStep) ? static_cast<PlannerError>(v) : PlannerError::None;
+}
+
+msg::PlannerError to_msg(PlannerError e) { return static_cast<msg::PlannerError>(static_cast<int>(e)); }
+
 std::map<std::string, double> from_msg(const std::vector<msg::Param>& p) {
   std::map<std::string, double> out;
   for (const auto& x : p) out[x.name()] = x.value();

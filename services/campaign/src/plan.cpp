@@ -122,7 +122,8 @@ std::string to_json(const Plan& p) {
                         {"tasks", p.tasks},
                         {"seeds", p.seeds},
                         {"rerun_rule", p.rerun_rule},
-                        {"library_version", p.library_version}}
+                        {"library_version", p.library_version},
+                        {"planner_errors", p.planner_errors}}
       .dump();
 }
 
@@ -136,6 +137,7 @@ Plan plan_from_json(const std::string& json) {
     j.at("seeds").get_to(p.seeds);
     j.at("rerun_rule").get_to(p.rerun_rule);
     p.library_version = j.value("library_version", "");  // not stored before the library travelled
+    p.planner_errors = j.value("planner_errors", "");    // not stored before planner errors existed
     return p;
   } catch (const nlohmann::json::exception& e) {
     throw PlanError(std::string("stored plan is malformed (") + e.what() + "): " + json);
@@ -165,6 +167,8 @@ std::vector<std::string> plan_differences(const Plan& stored, const Plan& reques
     out.push_back("rerun rule: stored '" + stored.rerun_rule + "', requested '" + requested.rerun_rule + "'");
   if (!stored.library_version.empty() && stored.library_version != requested.library_version)
     out.push_back("library: stored " + stored.library_version + ", requested " + requested.library_version);
+  if (stored.planner_errors != requested.planner_errors)
+    out.push_back("planner errors: stored '" + stored.planner_errors + "', requested '" + requested.planner_errors + "'");
   return out;
 }
 

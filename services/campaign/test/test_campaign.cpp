@@ -421,7 +421,7 @@ TEST(CampaignPlan, RejectsBadSeedsNamingOptionAndToken) {
 }
 
 TEST(CampaignPlan, JsonRoundTrip) {
-  const Plan p{{"full", "seq"}, {"goal", "long-swap"}, {8, 2}, {1000001, 5}, "none"};
+  const Plan p{{"full", "seq"}, {"goal", "long-swap"}, {8, 2}, {1000001, 5}, "none", "lib-0123", "vlm"};
   EXPECT_EQ(plan_from_json(to_json(p)), p);
   EXPECT_EQ(plan_from_json(to_json(Plan{})), Plan{});
   EXPECT_TRUE(
@@ -436,9 +436,11 @@ TEST(CampaignPlan, DifferencesNameEachChangedField) {
   b.arms = {"full"};
   b.tasks = {8};
   b.rerun_rule = "infrastructure once";
+  b.planner_errors = "vlm";
   const std::vector<std::string> want = {"arms: stored full,static, requested full",
                                          "tasks: stored every, requested 8",
-                                         "rerun rule: stored 'none', requested 'infrastructure once'"};
+                                         "rerun rule: stored 'none', requested 'infrastructure once'",
+                                         "planner errors: stored '', requested 'vlm'"};
   EXPECT_EQ(plan_differences(a, b), want);
 }
 

@@ -16,6 +16,7 @@
 #include "dh/cli/launcher.hpp"
 #include "dh/common/arms.hpp"
 #include "dh/common/convert.hpp"
+#include "dh/common/paths.hpp"
 #include "dh/gov/config.hpp"
 #include "dh/common/dds.hpp"
 #include "dh/msg/capabilityPubSubTypes.h"
@@ -54,6 +55,11 @@ class Client {
   dds::Reader<msg::CapabilityAnnouncePubSubType> caps_;
   dds::Reader<msg::EpisodeResultPubSubType> results_;
 };
+
+/// The rates of planner-error profile `name` of configs/planner_errors.yaml; none for "".
+inline PlannerErrorRates planner_errors(const std::string& name) {
+  return name.empty() ? PlannerErrorRates{} : load_planner_errors(paths::config_dir() / "planner_errors.yaml", name);
+}
 
 /// Puts the library an episode runs into its request: version and θ by capability.
 inline void set_library(msg::EpisodeRequest& r, const cap::LibraryTheta& lib) {

@@ -79,6 +79,8 @@ int cmd_campaign(const CampaignArgs& a) {
       cap::load_library_theta(a.library.empty() ? paths::config_dir() / "library" : std::filesystem::path(a.library));
   campaign::Plan plan = make_plan(a, suites);
   plan.library_version = library.version;
+  plan.planner_errors = a.planner_errors;
+  const msg::PlannerErrorRates errors = convert::to_msg(planner_errors(a.planner_errors));
   const auto settings = arm_settings(paths::config_dir(), plan.arms);
   if (a.db.empty()) throw campaign::PlanError("--db: missing (the campaign database file, e.g. runs/c1.db)");
   auto db = campaign::CampaignDb::open(a.db);
@@ -197,6 +199,7 @@ int cmd_campaign(const CampaignArgs& a) {
         r.budget_steps(t.budget_steps);
         set_library(r, library);
         set_settings(r, settings.at(d.key.arm));
+        r.planner_errors(errors);
         client.request(r);
       }
       const bool changed = record(scheduler.take_finished(now));
@@ -218,7 +221,7 @@ int cmd_campaign(const CampaignArgs& a) {
     nlohmann::json out = summary;
     out["campaign"] = {{"db", a.db},           {"episodes", all.size()},     {"recorded_before", done_before},
                        {"ran_now", ran_now},    {"remaining", all.size() - done_before - ran_now},
-                       {"interrupted", interrupted}, {"rerun_rule", plan.rerun_rule}, {"library_version", plan.library_version}, {"reran", reran}, {"run_wall_s", run_wall_s}};
+                       {"interrupted", interrupted}, {"rerun_rule", plan.rerun_rule}, {"library_version", plan.library_version}, {"planner_errors", plan.planner_errors}, {"reran", reran}, {"run_wall_s", run_wall_s}};
     std::cout << out.dump() << "\n";
   } else {
     std::cout << (interrupted ? "campaign interrupted; rerun the same command to resume\n" : "campaign complete\n");

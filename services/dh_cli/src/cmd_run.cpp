@@ -41,6 +41,7 @@ int cmd_run(const RunArgs& a) {
   r.budget_steps(t.budget_steps);
   set_library(r, library);
   set_settings(r, arm_settings(paths::config_dir(), {a.arm}).at(a.arm));
+  r.planner_errors(convert::to_msg(planner_errors(a.planner_errors)));
   const auto t0 = std::chrono::steady_clock::now();
   client.request(r);
   if (!a.json) std::cerr << "episode " << r.episode_id() << " on channel " << *ch << ": " << r.instruction() << "\n";

@@ -63,6 +63,7 @@ int cmd_library_perturb(const std::string& from, std::uint64_t seed, const std::
 struct RunArgs {
   std::string suite, launch_file, library;
   std::string instruction;  ///< replaces the task's (a -lan cell's: the seed's wording) when not empty
+  std::string planner_errors;  ///< a profile of configs/planner_errors.yaml; empty: none
   unsigned task = 0, seed = 0, timeout_s = 180, ready_ms = 2500;
   std::string arm = "full";
   std::optional<std::uint32_t> channel;
@@ -79,6 +80,7 @@ int cmd_dds_profile(const std::string& file, const std::string& host);
 
 struct CampaignArgs {
   std::string arms = "full", cells = "goal", tasks, seeds, db, launch_file, library;
+  std::string planner_errors;  ///< a profile of configs/planner_errors.yaml; empty: none
   unsigned fresh_seeds = 0;
   std::uint64_t salt = 1;
   unsigned ready_ms = 2500;

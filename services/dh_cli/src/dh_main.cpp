@@ -69,6 +69,8 @@ int main(int argc, char** argv) {
   run->add_option("--library", run_args.library,
                   "capability library the episode runs (a folder of descriptors; default configs/library): its θ "
                   "travels in the request");
+  run->add_option("--planner-errors", run_args.planner_errors,
+                  "a profile of configs/planner_errors.yaml: the planner's advice is wrong on purpose at its rates");
   run->add_flag("--json", run_args.json, "one JSON object on stdout");
 
   CampaignArgs camp;
@@ -81,6 +83,9 @@ int main(int argc, char** argv) {
   campaign->add_option("--salt", camp.salt, "salt of the fresh seed block (default 1)");
   campaign->add_option("--db", camp.db, "campaign database (SQLite); rerun with the same file to resume")->required();
   campaign->add_option("--launch", camp.launch_file, "launch file to start when no deployment answers");
+  campaign->add_option("--planner-errors", camp.planner_errors,
+                       "a profile of configs/planner_errors.yaml: every episode's planner errs on purpose at its "
+                       "rates (a campaign of its own: the profile is part of its plan)");
   campaign->add_option("--library", camp.library,
                        "capability library every episode runs (a folder of descriptors; default configs/library): "
                        "its θ travels in each request, the running capability processes serve it");

@@ -74,6 +74,7 @@ gov::EpisodeRequest from_msg(const msg::EpisodeRequest& r) {
   if (r.decision_period_steps() > 0) q.decision_period = r.decision_period_steps();
   if (!r.grounding().empty()) q.grounding = r.grounding();
   if (r.perception().max_age_steps() > 0) q.perception = convert::from_msg(r.perception());
+  q.planner_errors = convert::from_msg(r.planner_errors());
   return q;
 }
 
@@ -95,6 +96,7 @@ class Shell {
     gov::Advice adv{a.request_id(), a.refused(), a.capability(), convert::from_msg(a.args()), a.rationale(),
                     a.reason(), a.backend(), a.done(), {}};
     for (const auto& st : a.rest()) adv.rest.push_back({st.capability(), convert::from_msg(st.args())});
+    adv.injected = convert::from_msg(a.injected());
     carry_out(core_.on_advice(a.channel(), a.episode_id(), adv, gov::Clock::now()));
   }
   void handle(const msg::CommandStatus& s) {
@@ -193,6 +195,9 @@ class Shell {
       m.capabilities(r.capabilities);
       m.history(r.history);
       m.step(r.step);
+      m.seed(r.seed);
+      m.index(r.index);
+      m.errors(convert::to_msg(r.errors));
       plan_.write(m);
     }
     if (fx.end) {

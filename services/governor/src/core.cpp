@@ -72,8 +72,9 @@ CoreEffects GovernorCore::on_request(const EpisodeRequest& r, Clock::time_point 
   Channel& ch = channels_[r.channel];
   if (known(ch, r.episode_id)) return out;  // a redelivery
   const std::string arm = r.arm.empty() ? "full" : r.arm;
-  EpisodeSpec spec{r.channel,         r.episode_id, r.instruction, arm,          r.budget_steps,
-                   r.library_version, r.library,    r.decision_period, r.grounding, r.perception};
+  EpisodeSpec spec{r.channel,         r.episode_id, r.instruction,     arm,         r.budget_steps,
+                   r.library_version, r.library,    r.decision_period, r.grounding, r.perception,
+                   r.seed,            r.planner_errors};
   std::optional<GovernorConfig> episode_config;
   std::string why;
   try {
@@ -104,7 +105,7 @@ CoreEffects GovernorCore::on_request(const EpisodeRequest& r, Clock::time_point 
   ch.lease.reset();
   ch.instance_of.clear();
   ch.evidence = std::make_unique<EvidenceWriter>(path);
-  record_request(*ch.evidence, r.suite, r.task, r.seed, r.cell, r.arm);
+  record_request(*ch.evidence, r.suite, r.task, r.seed, r.cell, r.arm, r.planner_errors);
   if (!episode_config) {
     // Answered at once, so the client and the simulator channel do not wait for a deadline.
     ch.evidence->append("governor", "episode_rejected", {{"reason", why}});

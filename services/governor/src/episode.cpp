@@ -102,7 +102,10 @@ Effects EpisodeMachine::on_scene_estimate(const SceneEstimate& estimate, Clock::
 Effects EpisodeMachine::request_plan(const std::string& why, Clock::time_point now) {
   phase_ = Phase::Planning;
   PlanRequestOut r;
-  r.request_id = spec_.episode_id + "/p" + std::to_string(plans_++);
+  r.index = plans_++;
+  r.request_id = spec_.episode_id + "/p" + std::to_string(r.index);
+  r.seed = spec_.seed;
+  r.errors = spec_.planner_errors;
   r.instruction = spec_.instruction;
   r.scene = perceived_scene().entities;
   for (const auto& c : registry_.alive_capabilities())
@@ -129,11 +132,12 @@ Effects EpisodeMachine::on_advice(const Advice& advice, Clock::time_point now) {
     return {};
   }
   pending_request_.clear();
-  evidence_.append("planner", "advice",
-                   {{"request_id", advice.request_id}, {"step", last_obs_.step}, {"refused", advice.refused},
-                    {"capability", advice.capability}, {"args", bindings_json(advice.args)},
-                    {"rationale", advice.rationale}, {"reason", advice.reason}, {"backend", advice.backend},
-                    {"done", advice.done}});
+  nlohmann::json record{{"request_id", advice.request_id}, {"step", last_obs_.step}, {"refused", advice.refused},
+                        {"capability", advice.capability}, {"args", bindings_json(advice.args)},
+                        {"rationale", advice.rationale}, {"reason", advice.reason}, {"backend", advice.backend},
+                        {"done", advice.done}};
+  if (advice.injected != PlannerError::None) record["injected_error"] = to_string(advice.injected);
+  evidence_.append("planner", "advice", std::move(record));
   if (advice.done) {
     // The planner judges every step complete. With the latch on, a true verdict would have ended the
     // episode at the last decision; the final state decides without it.
@@ -497,13 +501,15 @@ Effects EpisodeMachine::stop_command() {
 }
 
 void record_request(EvidenceWriter& evidence, const std::string& suite, std::uint32_t task, std::uint64_t seed,
-                    const std::string& cell, const std::string& arm) {
-  evidence.append("governor", "episode_request", {{"suite", suite},
-                                                  {"task", task},
-                                                  {"seed", seed},
-                                                  {"cell", cell},
-                                                  {"arm", arm},
-                                                  {"build", build_info().str()}});
+                    const std::string& cell, const std::string& arm, const PlannerErrorRates& planner_errors) {
+  nlohmann::json fields{{"suite", suite}, {"task", task}, {"seed", seed}, {"cell", cell}, {"arm", arm},
+                        {"build", build_info().str()}};
+  if (!planner_errors.none())
+    fields["planner_errors"] = {{"wrong_capability", planner_errors.wrong_capability},
+                                {"wrong_argument", planner_errors.wrong_argument},
+                                {"dropped_step", planner_errors.dropped_step},
+                                {"repeated_step", planner_errors.repeated_step}};
+  evidence.append("governor", "episode_request", std::move(fields));
 }
 
 Effects EpisodeMachine::then(const Effects& first, Effects next) {

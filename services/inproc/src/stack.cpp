@@ -8,6 +8,7 @@
 #include "dh/common/config.hpp"
 #include "dh/gov/config.hpp"
 #include "dh/inproc/bus.hpp"
+#include "dh/planner/errors.hpp"
 #include "dh/planner/rules.hpp"
 #include "dh/sim/scene.hpp"
 
@@ -65,6 +66,7 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   request.library_version = library_.version;
   request.library = library_.theta;
   request.evidence = evidence_path;
+  request.planner_errors = planner_errors_;
   sim::SeamCore seam(channel, kBusSeam);
   cap::Clock::time_point now = step_time(0);
   Observation obs = *seam.start(cell, episode_id, task.budget_steps, goal_text(task.goal), now,
@@ -108,8 +110,13 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
       }
       if (fx.plan_request) {
         const auto& r = *fx.plan_request;
-        const planner::PlannerAdvice a = planner::plan_rules({r.instruction, r.scene, r.capabilities, r.history});
-        gov::Advice adv{r.request_id, a.refused, a.capability, a.args, a.rationale, a.reason, "rules", a.done, {}};
+        const planner::PlanContext context{r.instruction, r.scene, r.capabilities, r.history};
+        planner::PlannerAdvice a = planner::plan_rules(context);
+        const PlannerError injected =
+            r.errors.none() ? PlannerError::None
+                            : planner::make_wrong(a, context, draw_planner_error(r.errors, r.seed, r.index));
+        gov::Advice adv{r.request_id, a.refused, a.capability, a.args, a.rationale, a.reason, "rules", a.done, {},
+                        injected};
         for (const auto& s : a.rest) adv.rest.push_back({s.capability, s.args});
         from_governor(governor_.on_advice(channel, episode_id, adv, now));
       }

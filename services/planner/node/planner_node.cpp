@@ -32,6 +32,7 @@
 #include "dh/msg/capabilityPubSubTypes.h"
 #include "dh/msg/plannerPubSubTypes.h"
 #include "dh/planner/curl_transport.hpp"
+#include "dh/planner/errors.hpp"
 #include "dh/planner/openai.hpp"
 #include "dh/planner/rules.hpp"
 
@@ -40,8 +41,10 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-msg::Advice to_msg(const msg::PlanRequest& r, const planner::PlannerAdvice& a, const std::string& backend) {
+msg::Advice to_msg(const msg::PlanRequest& r, const planner::PlannerAdvice& a, PlannerError injected,
+                   const std::string& backend) {
   msg::Advice m;
+  m.injected(convert::to_msg(injected));
   m.channel(r.channel());
   m.request_id(r.request_id());
   m.episode_id(r.episode_id());
@@ -194,11 +197,15 @@ int run(int argc, char** argv) {
   std::unique_ptr<planner::CurlTransport> http;
   std::unique_ptr<planner::OpenAiPlanner> model;
   std::unique_ptr<RequestPool> pool;
-  auto publish = [&](const msg::PlanRequest& r, const planner::PlannerAdvice& a, Clock::time_point t0) {
+  auto publish = [&](const msg::PlanRequest& r, planner::PlannerAdvice a, Clock::time_point t0) {
+    // The request's planner-error rates make the backend's advice wrong on purpose, whichever backend.
+    PlannerError injected = PlannerError::None;
+    if (const PlannerErrorRates rates = convert::from_msg(r.errors()); !rates.none())
+      injected = planner::make_wrong(a, context(r), draw_planner_error(rates, r.seed(), r.index()));
     const auto ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     {
       std::lock_guard lock(write_mutex);
-      advice->write(to_msg(r, a, backend));
+      advice->write(to_msg(r, a, injected, backend));
     }
     if (a.refused)
       log->info("channel={} request={} {:.1f} ms -> refused: {}", r.channel(), r.request_id(), ms, a.reason);

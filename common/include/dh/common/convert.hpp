@@ -9,6 +9,7 @@
 #include "dh/common/command.hpp"
 #include "dh/common/observation.hpp"
 #include "dh/common/perceived_world.hpp"
+#include "dh/common/planner_errors.hpp"
 #include "dh/msg/episode.h"
 #include "dh/msg/perception.h"
 #include "dh/msg/robot.h"
@@ -32,6 +33,12 @@ PerceptionLimits from_msg(const msg::PerceptionLimits& m);
 /// (a mismatched peer), never as the agent's failure.
 Outcome from_msg(msg::Outcome o);
 msg::PerceptionLimits to_msg(const PerceptionLimits& l);
+
+PlannerErrorRates from_msg(const msg::PlannerErrorRates& m);
+msg::PlannerErrorRates to_msg(const PlannerErrorRates& r);
+/// An error code this build does not know reads as none: the advice is taken as the planner gave it.
+PlannerError from_msg(msg::PlannerError e);
+msg::PlannerError to_msg(PlannerError e);
 
 std::map<std::string, double> from_msg(const std::vector<msg::Param>& p);
 std::vector<msg::Param> to_msg(const std::map<std::string, double>& p);

@@ -31,6 +31,7 @@ struct EpisodeRequest {
   std::optional<std::uint32_t> decision_period;
   std::optional<std::string> grounding;
   std::optional<PerceptionLimits> perception;
+  PlannerErrorRates planner_errors;  ///< the slow brain's injected errors (none by default)
   /// Where its evidence goes; empty: runs/evidence/<episode>.jsonl (the in-process bus names its own).
   std::filesystem::path evidence;
 };

@@ -15,6 +15,7 @@
 #include "dh/common/evidence.hpp"
 #include "dh/common/observation.hpp"
 #include "dh/common/perceived_world.hpp"
+#include "dh/common/planner_errors.hpp"
 #include "dh/common/robot_contract.hpp"
 #include "dh/common/seam_event.hpp"
 #include "dh/gov/decide.hpp"
@@ -57,6 +58,8 @@ struct EpisodeSpec {
   std::optional<std::uint32_t> decision_period{};
   std::optional<std::string> grounding{};        ///< "state" | "perception"
   std::optional<PerceptionLimits> perception{};  ///< the limits with "perception"
+  std::uint64_t seed = 0;                        ///< with planner_errors: their draws' seed
+  PlannerErrorRates planner_errors{};
 };
 
 struct PlanRequestOut {
@@ -64,6 +67,9 @@ struct PlanRequestOut {
   std::vector<EntityState> scene;
   std::vector<std::string> capabilities, history;
   std::uint32_t step = 0;
+  std::uint64_t seed = 0;    ///< the episode's
+  std::uint32_t index = 0;   ///< the request's number in the episode, from 0
+  PlannerErrorRates errors;  ///< the episode's planner-error rates
 };
 
 struct EpisodeEnd {
@@ -85,7 +91,7 @@ struct Effects {
 /// An episode's first evidence record, what was asked for, written by whoever takes the request (the
 /// governor's shell, the in-process stack) before the machine exists, and read by `dh replay`.
 void record_request(EvidenceWriter& evidence, const std::string& suite, std::uint32_t task, std::uint64_t seed,
-                    const std::string& cell, const std::string& arm);
+                    const std::string& cell, const std::string& arm, const PlannerErrorRates& planner_errors = {});
 
 class EpisodeMachine {
  public:

@@ -9,6 +9,7 @@
 
 #include "dh/common/command.hpp"
 #include "dh/common/perceived_world.hpp"
+#include "dh/common/planner_errors.hpp"
 #include "dh/common/robot_contract.hpp"
 
 namespace dh::gov {
@@ -28,6 +29,7 @@ struct Advice {
   std::string rationale, reason, backend;
   bool done = false;            ///< the planner judges every step completed
   std::vector<PlanStep> rest;   ///< the plan's later steps (seq runs them in order)
+  PlannerError injected = PlannerError::None;  ///< the error the planner made on purpose
 };
 
 struct CapabilityInfo {

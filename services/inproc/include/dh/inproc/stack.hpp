@@ -48,6 +48,8 @@ class Stack {
   /// Runs one episode of `task` with `seed` under `arm`; evidence goes to `evidence` (JSON lines).
   EpisodeOutcome run(const TaskDef& task, std::uint64_t seed, const std::string& arm,
                      const std::filesystem::path& evidence, const StepTap& tap = {});
+  /// The planner-error rates every later episode's planner runs with (none by default).
+  void set_planner_errors(const PlannerErrorRates& rates) { planner_errors_ = rates; }
   /// Serves one more capability, described by `library_dir`/<name>.yaml, e.g. vla_act with a loaded policy.
   void add_capability(cap::CapabilityDef def, const std::filesystem::path& library_dir);
 
@@ -58,6 +60,7 @@ class Stack {
   cap::HostCore host_;  ///< every capability's instance "<name>@inproc"
   cap::LibraryTheta library_;
   std::uint64_t runs_ = 0;  ///< episodes run, for unique episode ids
+  PlannerErrorRates planner_errors_;
   std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  ///< by scene key
 };
 
