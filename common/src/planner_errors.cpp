@@ -24,6 +24,15 @@ std::string PlannerErrorRates::text() const {
                      wrong_capability, wrong_argument, dropped_step, repeated_step);
 }
 
+std::uint64_t planner_error_seed(const std::string& cell, std::uint32_t task, std::uint64_t seed) {
+  std::uint64_t h = 0xcbf29ce484222325ULL;
+  for (const char c : cell + "/" + std::to_string(task) + "/" + std::to_string(seed)) {
+    h ^= static_cast<unsigned char>(c);
+    h *= 0x100000001b3ULL;
+  }
+  return h;
+}
+
 PlannerErrorDraw draw_planner_error(const PlannerErrorRates& rates, std::uint64_t seed, std::uint32_t index) {
   // A stream of its own per (seed, request): independent of every other draw of the episode.
   std::seed_seq seq{static_cast<std::uint32_t>(seed), static_cast<std::uint32_t>(seed >> 32), index, 0x706c6eu};

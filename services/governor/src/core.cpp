@@ -74,7 +74,7 @@ CoreEffects GovernorCore::on_request(const EpisodeRequest& r, Clock::time_point 
   const std::string arm = r.arm.empty() ? "full" : r.arm;
   EpisodeSpec spec{r.channel,         r.episode_id, r.instruction,     arm,         r.budget_steps,
                    r.library_version, r.library,    r.decision_period, r.grounding, r.perception,
-                   r.seed,            r.planner_errors};
+                   planner_error_seed(r.cell, r.task, r.seed), r.planner_errors};
   std::optional<GovernorConfig> episode_config;
   std::string why;
   try {

@@ -104,7 +104,7 @@ Effects EpisodeMachine::request_plan(const std::string& why, Clock::time_point n
   PlanRequestOut r;
   r.index = plans_++;
   r.request_id = spec_.episode_id + "/p" + std::to_string(r.index);
-  r.seed = spec_.seed;
+  r.seed = spec_.error_seed;
   r.errors = spec_.planner_errors;
   r.instruction = spec_.instruction;
   r.scene = perceived_scene().entities;

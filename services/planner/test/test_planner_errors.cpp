@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include "dh/common/config.hpp"
 #include "dh/common/history.hpp"
@@ -61,6 +62,19 @@ TEST(PlannerErrors, TheDrawIsReproducibleAndMeetsItsRates) {
   EXPECT_NEAR(seen[PlannerError::None] / double(n), 0.6, 0.012);
   for (std::uint32_t i = 0; i < 100; ++i)
     EXPECT_EQ(draw_planner_error(PlannerErrorRates{}, 7, i).error, PlannerError::None);
+}
+
+TEST(PlannerErrors, TheDrawSeedTellsTasksApartButNotArms) {
+  EXPECT_EQ(planner_error_seed("goal", 3, 21), planner_error_seed("goal", 3, 21));
+  EXPECT_NE(planner_error_seed("goal", 3, 21), planner_error_seed("goal", 4, 21));
+  EXPECT_NE(planner_error_seed("goal", 3, 21), planner_error_seed("long", 3, 21));
+  EXPECT_NE(planner_error_seed("goal", 3, 21), planner_error_seed("goal", 3, 22));
+  // Tasks sharing a seed do not share their first requests' errors.
+  const PlannerErrorRates rates{0.25, 0.25, 0.25, 0.25};
+  std::set<PlannerError> first;
+  for (std::uint32_t task = 0; task < 10; ++task)
+    first.insert(draw_planner_error(rates, planner_error_seed("goal", task, 21), 0).error);
+  EXPECT_GT(first.size(), 1u);
 }
 
 TEST(PlannerErrors, EachErrorChangesTheAdviceAsDeclared) {

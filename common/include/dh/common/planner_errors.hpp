@@ -2,7 +2,7 @@
 // an option on any cell. The paper's full harness beats its static one because its VLM planner errs and
 // the fast brain recovers; a perfect rules planner hides that. Profiles live in
 // configs/planner_errors.yaml; the planner draws one error (or none) per plan request from the episode's
-// seed and the request's number, so a campaign is reproducible.
+// cell, task and seed and the request's number, so a campaign is reproducible and its arms pair.
 #pragma once
 
 #include <cstdint>
@@ -29,7 +29,11 @@ struct PlannerErrorRates {
   std::string text() const;  ///< "wrong_capability 0.05, wrong_argument 0.05, ..."
 };
 
-/// The error plan request `index` of an episode with `seed` suffers (one uniform draw against the
+/// The seed of an episode's error draws: its cell, task and seed mixed (FNV-1a of "cell/task/seed"), so
+/// tasks sharing a seed do not share their errors, while every arm on one state draws the same ones.
+std::uint64_t planner_error_seed(const std::string& cell, std::uint32_t task, std::uint64_t seed);
+
+/// The error plan request `index` of an episode with draw seed `seed` (planner_error_seed) suffers (one uniform draw against the
 /// cumulative rates), and a second draw `pick` in [0, 1) that chooses among the error's candidates.
 struct PlannerErrorDraw {
   PlannerError error = PlannerError::None;

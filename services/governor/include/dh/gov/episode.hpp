@@ -58,7 +58,7 @@ struct EpisodeSpec {
   std::optional<std::uint32_t> decision_period{};
   std::optional<std::string> grounding{};        ///< "state" | "perception"
   std::optional<PerceptionLimits> perception{};  ///< the limits with "perception"
-  std::uint64_t seed = 0;                        ///< with planner_errors: their draws' seed
+  std::uint64_t error_seed = 0;                  ///< with planner_errors: their draws' (planner_error_seed)
   PlannerErrorRates planner_errors{};
 };
 
@@ -67,7 +67,7 @@ struct PlanRequestOut {
   std::vector<EntityState> scene;
   std::vector<std::string> capabilities, history;
   std::uint32_t step = 0;
-  std::uint64_t seed = 0;    ///< the episode's
+  std::uint64_t seed = 0;    ///< the error draws' (EpisodeSpec::error_seed)
   std::uint32_t index = 0;   ///< the request's number in the episode, from 0
   PlannerErrorRates errors;  ///< the episode's planner-error rates
 };
