@@ -1,6 +1,6 @@
-// The benchmark's cells: six cells of ten tasks each, every cell x task instantiating for seeds 1-60
-// with objects at rest, nothing interpenetrating, the goal not already met, and the same state for the
-// same seed.
+// The benchmark's cells: eight cells of ten tasks each (and the -lan ones), every cell x task
+// instantiating for seeds 1-60 with objects at rest, nothing interpenetrating, the goal not already met,
+// and the same state for the same seed; -pos cells within their magnitudes.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -29,7 +29,7 @@ const std::map<std::string, SuiteDef>& suites() {
   return s;
 }
 
-TEST(BenchmarkCells, SixCellsOfTenTasksWithTheirPerturbations) {
+TEST(BenchmarkCells, EightCellsOfTenTasksWithTheirPerturbations) {
   for (const char* name : {"goal", "goal-task", "goal-swap", "long", "long-task", "long-swap", "goal-pos", "long-pos"}) {
     ASSERT_TRUE(suites().count(name)) << name;
     EXPECT_EQ(suites().at(name).tasks.size(), 10u) << name;
