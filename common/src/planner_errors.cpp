@@ -5,6 +5,7 @@
 #include <fmt/format.h>
 
 #include "dh/common/config.hpp"
+#include "dh/common/digest.hpp"
 
 namespace dh {
 
@@ -25,12 +26,8 @@ std::string PlannerErrorRates::text() const {
 }
 
 std::uint64_t planner_error_seed(const std::string& cell, std::uint32_t task, std::uint64_t seed) {
-  std::uint64_t h = 0xcbf29ce484222325ULL;
-  for (const char c : cell + "/" + std::to_string(task) + "/" + std::to_string(seed)) {
-    h ^= static_cast<unsigned char>(c);
-    h *= 0x100000001b3ULL;
-  }
-  return h;
+  const std::string key = cell + "/" + std::to_string(task) + "/" + std::to_string(seed);
+  return fnv1a64(key.data(), key.size());
 }
 
 PlannerErrorDraw draw_planner_error(const PlannerErrorRates& rates, std::uint64_t seed, std::uint32_t index) {

@@ -117,6 +117,20 @@ std::vector<SuiteDef> load_suite(const std::filesystem::path& file) {
   return cells;
 }
 
+// A cell derived from `base` by `kind` ("lan", "pos"): its tasks, renamed and marked, for the caller to
+// perturb.
+SuiteDef derived_cell(const SuiteDef& base, const std::string& kind, const std::string& description) {
+  SuiteDef cell = base;
+  cell.name = base.name + "-" + kind;
+  cell.perturbation = kind;
+  cell.modelled_on = base.modelled_on + " with LIBERO-Pro " + description + " perturbation";
+  for (auto& [id, task] : cell.tasks) {
+    task.suite = cell.name;
+    task.perturbation = kind;
+  }
+  return cell;
+}
+
 // "<suite>-lan" cells: the base cell's tasks, each with its rewordings (every task must have some).
 void load_wordings(const std::filesystem::path& file, std::map<std::string, SuiteDef>& suites) {
   const ConfigNode root = ConfigNode::load_file(file);
@@ -124,10 +138,7 @@ void load_wordings(const std::filesystem::path& file, std::map<std::string, Suit
   for (const std::string& base : by_suite.keys()) {
     const auto it = suites.find(base);
     if (it == suites.end()) by_suite.fail(base, "no suite '" + base + "' in configs/suites to reword");
-    SuiteDef cell = it->second;
-    cell.name = base + "-lan";
-    cell.perturbation = "lan";
-    cell.modelled_on = it->second.modelled_on + " with LIBERO-Pro language perturbation";
+    SuiteDef cell = derived_cell(it->second, "lan", "language");
     for (const ConfigNode& t : by_suite.items(base)) {
       const unsigned id = t.get<unsigned>("task");
       const auto task = cell.tasks.find(id);
@@ -136,12 +147,9 @@ void load_wordings(const std::filesystem::path& file, std::map<std::string, Suit
       task->second.wordings = t.get<std::vector<std::string>>("wordings");
       if (task->second.wordings.empty()) t.fail("wordings", "give at least one wording");
     }
-    for (auto& [id, task] : cell.tasks) {
+    for (const auto& [id, task] : cell.tasks)
       if (task.wordings.empty())
         by_suite.fail(base, "task " + std::to_string(id) + " has no wordings: every task of a -lan cell needs some");
-      task.suite = cell.name;
-      task.perturbation = "lan";
-    }
     suites.emplace(cell.name, std::move(cell));
   }
 }
@@ -160,15 +168,8 @@ void load_positions(const std::filesystem::path& file, std::map<std::string, Sui
     const auto it = suites.find(base);
     if (it == suites.end() || !it->second.perturbation.empty())
       root.fail("suites", "no unperturbed suite '" + base + "' in configs/suites to displace");
-    SuiteDef cell = it->second;
-    cell.name = base + "-pos";
-    cell.perturbation = "pos";
-    cell.modelled_on = it->second.modelled_on + " with LIBERO-Pro position perturbation";
-    for (auto& [id, task] : cell.tasks) {
-      task.suite = cell.name;
-      task.perturbation = "pos";
-      task.pos = pos;
-    }
+    SuiteDef cell = derived_cell(it->second, "pos", "position");
+    for (auto& [id, task] : cell.tasks) task.pos = pos;
     suites.emplace(cell.name, std::move(cell));
   }
 }

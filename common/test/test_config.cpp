@@ -70,12 +70,19 @@ TEST(Suites, LanCellsRewordEveryTaskAndTheSeedPicksTheWording) {
   EXPECT_EQ(instruction_for(find_task(suites, "goal", 8), 21), "put the bowl on the plate");
 }
 
-TEST(Suites, WordingsForAMissingTaskOrSuiteAreNamed) {
-  TempDir t;
+namespace {
+/// Suite `x`: one task (0) in scene `s`, with its task and swap perturbations.
+void write_one_task_suite(TempDir& t) {
   t.write("scenes/s.yaml", "scene: s\n");
   t.write("suites/x.yaml", "suite: x\nbudget_steps: 10\nscene: s.yaml\ntasks:\n  - {id: 0, instruction: hi, goal: "
                            "[{predicate: Open, args: [d]}], task: {instruction: ho, goal: [{predicate: Open, args: [e]}]}, "
                            "swap: {exchange: [[a, b]]}}\n");
+}
+}  // namespace
+
+TEST(Suites, WordingsForAMissingTaskOrSuiteAreNamed) {
+  TempDir t;
+  write_one_task_suite(t);
   t.write("suites/lan/wordings.yaml", "suites:\n  x:\n    - {task: 3, wordings: [hey]}\n");
   auto e = error_of([&] { load_suites(t.dir); });
   EXPECT_NE(e.find("wordings.yaml: key 'suites.x[0].task': suite 'x' has no task 3"), std::string::npos) << e;
@@ -106,10 +113,7 @@ TEST(Suites, PosCellsKeepEveryTaskAndTheSeedPicksTheMagnitude) {
 
 TEST(Suites, ABadPositionsFileIsNamed) {
   TempDir t;
-  t.write("scenes/s.yaml", "scene: s\n");
-  t.write("suites/x.yaml", "suite: x\nbudget_steps: 10\nscene: s.yaml\ntasks:\n  - {id: 0, instruction: hi, goal: "
-                           "[{predicate: Open, args: [d]}], task: {instruction: ho, goal: [{predicate: Open, args: [e]}]}, "
-                           "swap: {exchange: [[a, b]]}}\n");
+  write_one_task_suite(t);
   t.write("suites/pos/positions.yaml", "reach_m: 0.4\nmagnitudes: [0.1, 1.5]\nsuites: [x]\n");
   auto e = error_of([&] { load_suites(t.dir); });
   EXPECT_NE(e.find("positions.yaml: key 'magnitudes': each magnitude is in (0, 1]"), std::string::npos) << e;

@@ -83,13 +83,16 @@ std::string wall_clock_data(const json& summary, const std::vector<Source>& sour
   return out.str();
 }
 
+/// A "-pos" row's line in the displacement plot: its arm and cell.
+std::string series_name(const json& row) { return row["arm"].get<std::string>() + "/" + row["cell"].get<std::string>(); }
+
 // "-pos" cells: one block per arm/cell (gnuplot's index), a line per magnitude.
 std::string positions_data(const json& summary) {
   std::ostringstream out;
   out << "# per arm/cell block: radius (m), rate, wilson_lo, wilson_hi (%)\n";
   std::string last;
   for (const json& p : summary["positions"]) {
-    const std::string series = p["arm"].get<std::string>() + "/" + p["cell"].get<std::string>();
+    const std::string series = series_name(p);
     if (series != last && !last.empty()) out << "\n\n";
     last = series;
     out << p["radius_m"].get<double>() << ' ' << 100 * p["rate"].get<double>() << ' '
@@ -100,10 +103,8 @@ std::string positions_data(const json& summary) {
 
 std::vector<std::string> series_of(const json& summary) {
   std::vector<std::string> out;
-  for (const json& p : summary["positions"]) {
-    const std::string series = p["arm"].get<std::string>() + "/" + p["cell"].get<std::string>();
-    if (out.empty() || out.back() != series) out.push_back(series);
-  }
+  for (const json& p : summary["positions"])
+    if (out.empty() || out.back() != series_name(p)) out.push_back(series_name(p));
   return out;
 }
 
