@@ -38,6 +38,20 @@ std::string PosSpec::text() const {
   return s.str();
 }
 
+std::string ObjectSpec::text() const {
+  std::ostringstream s;
+  s << "object w[" << width[0] << "," << width[1] << "] h[" << height[0] << "," << height[1] << "] m[" << mass[0]
+    << "," << mass[1] << "] shade " << shade << " instances " << instance_share << " {";
+  bool first = true;
+  for (const auto& [asset, others] : instances)
+    for (const auto& o : others) {
+      s << (first ? "" : ",") << asset << ">" << o;
+      first = false;
+    }
+  s << "}";
+  return s.str();
+}
+
 namespace {
 
 std::vector<PredicateSpec> load_goal(const ConfigNode& n) {
@@ -117,7 +131,7 @@ std::vector<SuiteDef> load_suite(const std::filesystem::path& file) {
   return cells;
 }
 
-// A cell derived from `base` by `kind` ("lan", "pos"): its tasks, renamed and marked, for the caller to
+// A cell derived from `base` by `kind` ("lan", "pos", "object"): its tasks, renamed and marked, for the caller to
 // perturb.
 SuiteDef derived_cell(const SuiteDef& base, const std::string& kind, const std::string& description) {
   SuiteDef cell = base;
@@ -174,6 +188,43 @@ void load_positions(const std::filesystem::path& file, std::map<std::string, Sui
   }
 }
 
+// "<suite>-object" cells: the base cell's tasks, each object's attributes drawn per seed.
+void load_objects(const std::filesystem::path& file, const std::filesystem::path& assets_dir,
+                  std::map<std::string, SuiteDef>& suites) {
+  const ConfigNode root = ConfigNode::load_file(file);
+  ObjectSpec object;
+  const auto range = [&](const char* key, double low, double high) {
+    const auto r = root.get<std::vector<double>>(key);
+    if (r.size() != 2 || !(r[0] >= low && r[0] <= r[1] && r[1] <= high))
+      root.fail(key, "give [low, high] factors within [" + std::to_string(low) + ", " + std::to_string(high) + "]");
+    return std::array<double, 2>{r[0], r[1]};
+  };
+  object.width = range("width", 0.5, 2.0);
+  object.height = range("height", 0.5, 2.0);
+  object.mass = range("mass", 0.2, 5.0);
+  object.shade = root.get<double>("shade");
+  if (!(object.shade >= 0 && object.shade < 0.5)) root.fail("shade", "give the colour channels' change, in [0, 0.5)");
+  object.instance_share = root.get<double>("instance_share");
+  if (!(object.instance_share >= 0 && object.instance_share <= 1)) root.fail("instance_share", "give a share in [0, 1]");
+  const ConfigNode instances = root.child("instances");
+  for (const std::string& asset : instances.keys()) {
+    object.instances[asset] = instances.get<std::vector<std::string>>(asset);
+    if (object.instances[asset].empty()) instances.fail(asset, "list at least one other instance, or remove the entry");
+    for (const std::string& a : object.instances[asset])
+      for (const std::string& name : {asset, a})
+        if (!std::filesystem::exists(assets_dir / (name + ".yaml")))
+          instances.fail(asset, "no asset '" + name + "' (" + (assets_dir / (name + ".yaml")).string() + " does not exist)");
+  }
+  for (const std::string& base : root.get<std::vector<std::string>>("suites")) {
+    const auto it = suites.find(base);
+    if (it == suites.end() || !it->second.perturbation.empty())
+      root.fail("suites", "no unperturbed suite '" + base + "' in configs/suites to vary");
+    SuiteDef cell = derived_cell(it->second, "object", "object");
+    for (auto& [id, task] : cell.tasks) task.object = object;
+    suites.emplace(cell.name, std::move(cell));
+  }
+}
+
 }  // namespace
 
 const std::string& instruction_for(const TaskDef& task, std::uint64_t seed) {
@@ -199,6 +250,8 @@ std::map<std::string, SuiteDef> load_suites(const std::filesystem::path& config_
     load_wordings(wordings, suites);
   if (const auto positions = dir / "pos" / "positions.yaml"; std::filesystem::exists(positions))
     load_positions(positions, suites);
+  if (const auto objects = dir / "object" / "objects.yaml"; std::filesystem::exists(objects))
+    load_objects(objects, config_dir / "assets", suites);
   return suites;
 }
 

@@ -141,7 +141,7 @@ class Cameras : public ::testing::Test {
 sim::GlContext* Cameras::gl = nullptr;
 
 TEST_F(Cameras, BothCamerasOfTheGoalKitchenGiveSensibleImages) {
-  sim::Workcell cell(sim::load_task_scene(bowl_on_plate()));
+  sim::Workcell cell(sim::load_task_scene(bowl_on_plate(), 1));
   cell.reset(kSeed, bowl_on_plate().goal);
   const auto made = std::chrono::steady_clock::now();
   sim::CameraRig rig(cell, sim::workcell_cameras(), kSize, kSize);
@@ -171,7 +171,7 @@ TEST_F(Cameras, BothCamerasOfTheGoalKitchenGiveSensibleImages) {
 }
 
 TEST_F(Cameras, TheWristImageFollowsTheArm) {
-  sim::Workcell cell(sim::load_task_scene(bowl_on_plate()));
+  sim::Workcell cell(sim::load_task_scene(bowl_on_plate(), 1));
   cell.reset(kSeed, bowl_on_plate().goal);
   sim::CameraRig rig(cell, {sim::kWristCamera, sim::kAgentviewCamera}, kSize, kSize);
   const sim::Image wrist0 = rig.render(0), agent0 = rig.render(1);
@@ -187,7 +187,7 @@ TEST_F(Cameras, TheWristImageFollowsTheArm) {
 }
 
 TEST_F(Cameras, TheAgentviewSeesTheBowlWhereItIs) {
-  sim::SceneSpec scene = sim::load_task_scene(bowl_on_plate());
+  sim::SceneSpec scene = sim::load_task_scene(bowl_on_plate(), 1);
   sim::Workcell here(scene);
   here.reset(kSeed, bowl_on_plate().goal);
   // The same scene with the bowl across the table, on the cabinet's side.
@@ -224,7 +224,7 @@ TEST_F(Cameras, EveryBenchmarkSceneHasBothCameras) {
     for (const auto& [id, task] : suites.at(suite).tasks) scenes.emplace(task.scene_file, &task);
   EXPECT_GE(scenes.size(), 9u);
   for (const auto& [file, task] : scenes) {
-    sim::Workcell cell(sim::load_task_scene(*task));
+    sim::Workcell cell(sim::load_task_scene(*task, 1));
     cell.reset(1, task->goal);
     sim::CameraRig rig(cell, sim::workcell_cameras(), kSize, kSize);
     for (std::size_t i = 0; i < rig.cameras().size(); ++i) {
@@ -239,7 +239,7 @@ TEST_F(Cameras, EveryBenchmarkSceneHasBothCameras) {
 
 // Cameras are MJCF elements without mass or contacts, and rendering only reads the state.
 TEST_F(Cameras, NeitherTheCamerasNorRenderingChangeThePhysics) {
-  const sim::SceneSpec scene = sim::load_task_scene(bowl_on_plate());
+  const sim::SceneSpec scene = sim::load_task_scene(bowl_on_plate(), 1);
   const std::string xml = sim::scene_mjcf(scene, sim::sample_placements(scene, kSeed));
   ASSERT_NE(xml.find("<camera name=\"agentview\""), std::string::npos);
   ASSERT_NE(xml.find("<camera name=\"wrist\""), std::string::npos);
@@ -263,7 +263,7 @@ TEST_F(Cameras, NeitherTheCamerasNorRenderingChangeThePhysics) {
 }
 
 TEST_F(Cameras, AskingForTheImpossibleIsAClearError) {
-  sim::Workcell cell(sim::load_task_scene(bowl_on_plate()));
+  sim::Workcell cell(sim::load_task_scene(bowl_on_plate(), 1));
   try {
     sim::CameraRig rig(cell, {"birdseye"}, kSize, kSize);
     ADD_FAILURE() << "no error for an unknown camera";

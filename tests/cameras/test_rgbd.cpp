@@ -381,7 +381,7 @@ std::size_t nearest_colour(const std::uint8_t* c, const std::vector<std::array<d
 // The goal kitchen through the configured workcell camera: 640 x 480, the table top back-projects onto
 // z = 0, and each entity's top face lies at its projected pixel at the projected depth, in its colour.
 TEST_F(RgbdRender, TheWorkcellCameraSeesTheKitchenWhereItsPublishedGeometrySays) {
-  sim::SceneSpec spec = sim::load_task_scene(bowl_on_plate());
+  sim::SceneSpec spec = sim::load_task_scene(bowl_on_plate(), 1);
   const auto config = sim::load_cameras_config(paths::config_dir() / "cameras.yaml");
   spec.cameras = config.for_scene(spec.name);
   sim::Workcell cell(spec);

@@ -274,7 +274,7 @@ TEST(RgbdE2E, SimWorkerAnswersARequestWithAMetricFrameOfTheChannelsCurrentStep) 
   EXPECT_NEAR(centre.v, K.cy, 1e-6);
 
   // Entities of step 5's observation, projected with what the frame says: depth and colour agree.
-  const auto spec = sim::load_task_scene(find_task(load_suites(paths::config_dir()), "goal", 8));
+  const auto spec = sim::load_task_scene(find_task(load_suites(paths::config_dir()), "goal", 8), 1);
   std::vector<std::array<double, 4>> palette{spec.table_rgba};
   std::vector<std::string> names{"table"};
   for (const auto& e : spec.entities) palette.push_back(e.rgba), names.push_back(e.name);

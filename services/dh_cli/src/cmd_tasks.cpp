@@ -17,11 +17,12 @@ int cmd_tasks(bool json) {
         out.push_back({{"suite", cell}, {"base_suite", s.base_suite}, {"perturbation", s.perturbation},
                        {"task", id}, {"instruction", t.instruction}, {"goal", goal}, {"budget", t.budget_steps},
                        {"scene", t.scene_file.filename().string()}, {"swap", t.swap.text()},
-                       {"modelled_on", s.modelled_on}, {"wordings", t.wordings}, {"pos", t.pos.empty() ? "" : t.pos.text()}});
+                       {"modelled_on", s.modelled_on}, {"wordings", t.wordings}, {"pos", t.pos.empty() ? "" : t.pos.text()},
+                       {"object", t.object.empty() ? "" : t.object.text()}});
       } else {
         std::cout << cell << "  " << id << "  budget " << t.budget_steps << "  " << t.instruction << "  [" << goal
                   << (t.swap.empty() ? "" : "; swap " + t.swap.text()) << (t.pos.empty() ? "" : "; " + t.pos.text())
-                  << "]\n";
+                  << (t.object.empty() ? "" : "; " + t.object.text()) << "]\n";
         for (std::size_t w = 0; w < t.wordings.size(); ++w)
           std::cout << "      seed mod " << t.wordings.size() << " = " << w << ": " << t.wordings[w] << "\n";
       }

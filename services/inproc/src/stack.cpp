@@ -38,15 +38,9 @@ void Stack::add_capability(cap::CapabilityDef def, const std::filesystem::path& 
   host_.serve({std::move(def), info.instance});
 }
 
-sim::Workcell& Stack::cell_for(const TaskDef& task) {
-  auto& c = cells_[sim::task_scene_key(task)];
-  if (!c) c = std::make_unique<sim::Workcell>(sim::load_task_scene(task));
-  return *c;
-}
-
 EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::string& arm,
                           const std::filesystem::path& evidence_path, const StepTap& tap) {
-  sim::Workcell& cell = cell_for(task);
+  sim::Workcell& cell = cells_.get(task, seed).cell;
   cell.reset(seed, task.goal);
   std::filesystem::remove(evidence_path);
   // Unique per run: the host core keeps a channel's keyframes for as long as its episode id stays the same.

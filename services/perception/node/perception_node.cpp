@@ -86,7 +86,8 @@ class Perception {
     ch = {};
     try {
       const TaskDef& task = find_task(suites_, r.suite(), r.task());
-      ch.objects = perception::free_objects(sim::load_task_scene(task));
+      // What the scene names: an object cell's draws (size, shade, instance) are not known to perception.
+      ch.objects = perception::free_objects(sim::load_nominal_scene(task));
       ch.looked_for = perception::appearances(ch.objects);
       ch.episode_id = r.episode_id();
       log_->info("channel={} episode={} looking for {} free objects", r.channel(), r.episode_id(), ch.looked_for.size());

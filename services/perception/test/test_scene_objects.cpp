@@ -25,7 +25,7 @@ LookFor object(const std::string& name, const Eigen::Vector3d& size) {
 
 TEST(SceneObjects, TheGoalKitchensFreeObjectsWithTheirColoursAndSizes) {
   const auto suites = load_suites(paths::config_dir());
-  const auto objects = free_objects(sim::load_task_scene(find_task(suites, "goal", 8)));
+  const auto objects = free_objects(sim::load_nominal_scene(find_task(suites, "goal", 8)));
   std::vector<std::string> names;
   for (const auto& o : objects) names.push_back(o.appearance.entity);
   for (const char* fixture : {"cabinet", "stove", "wine_rack"})

@@ -29,7 +29,7 @@
 #include "dh/perception/scene_entities.hpp"
 #include "dh/sim/camera.hpp"
 #include "dh/sim/rgbd.hpp"
-#include "dh/sim/workcell.hpp"
+#include "dh/sim/workcell_cache.hpp"
 
 namespace {
 
@@ -83,23 +83,24 @@ int main(int argc, char** argv) {
       csv << "scene,seed,entity,class,candidates,seen,confidence,error_m,horizontal_m,size_x,size_y,size_z,true_x,true_y,true_z\n";
     }
     std::size_t frames = 0;
+    sim::WorkcellCache cache([&](sim::SceneSpec& s) { s.cameras = cameras.for_scene(s.name); });
+    std::unique_ptr<sim::CameraRig> rig;
     for (const auto& cell_name : campaign::parse_list(cells, "--cells")) {
       const SuiteDef& suite = suites.at(cell_name);
       for (const auto& [id, task] : suite.tasks) {
-        sim::SceneSpec spec = sim::load_task_scene(task);
-        spec.cameras = cameras.for_scene(spec.name);
+        // Perception looks for what the scene names (an object cell's draws are not known to it).
+        const sim::SceneSpec spec = sim::load_nominal_scene(task);
         const auto objects = perception::free_objects(spec);
         const auto appearances = perception::appearances(objects);
-        std::unique_ptr<sim::Workcell> cell;
-        std::unique_ptr<sim::CameraRig> rig;
         for (const unsigned seed : campaign::parse_seeds(seeds)) {
-          if (!done.insert(sim::task_scene_key(task) + "/" + std::to_string(seed)).second) continue;
-          if (!cell) {
-            cell = std::make_unique<sim::Workcell>(spec);
+          if (!done.insert(sim::task_scene_key(task, seed) + "/" + std::to_string(seed)).second) continue;
+          const auto got = cache.get(task, seed);
+          sim::Workcell* cell = &got.cell;
+          if (got.compiled || !rig || rig->model() != cell->model()) {
             rig.reset();
+            rig = std::make_unique<sim::CameraRig>(*cell, std::vector<std::string>{"workcell"}, 640, 480);
           }
           cell->reset(seed, task.goal);
-          if (!rig) rig = std::make_unique<sim::CameraRig>(*cell, std::vector<std::string>{"workcell"}, 640, 480);
           sim::Image img;
           std::vector<std::uint16_t> depth;
           rig->render(0, img, depth);

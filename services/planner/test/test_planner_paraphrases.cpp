@@ -160,9 +160,9 @@ Terms stated_goal(const TaskDef& task) {
 
 std::vector<EntityState> task_scene(const TaskDef& task) {
   static std::map<std::string, std::vector<EntityState>> cache;
-  auto& s = cache[sim::task_scene_key(task)];
+  auto& s = cache[sim::task_scene_key(task, 1)];
   if (s.empty()) {
-    sim::Workcell cell(sim::load_task_scene(task));
+    sim::Workcell cell(sim::load_task_scene(task, 1));
     cell.reset(1, task.goal);
     s = cell.observe().entities;
   }
@@ -220,7 +220,8 @@ TEST(RulesWholePlans, EveryBenchmarkInstructionPlansToItsGoal) {
   Tally tally;
   std::set<std::string> distinct, distinct_failed;
   for (const auto& [name, suite] : suites) {
-    if (suite.perturbation == "lan" || suite.perturbation == "pos") continue;  // the base cells' instructions
+    if (suite.perturbation == "lan" || suite.perturbation == "pos" || suite.perturbation == "object")
+      continue;  // the base cells' instructions
     for (const auto& [id, task] : suite.tasks) {
       const std::size_t before = tally.failures.size();
       tally.check(name + "[" + std::to_string(id) + "]", task.instruction, task_scene(task), stated_goal(task));

@@ -60,6 +60,7 @@
 #include "dh/sim/rgbd.hpp"
 #include "dh/sim/seam_core.hpp"
 #include "dh/sim/workcell.hpp"
+#include "dh/sim/workcell_cache.hpp"
 
 namespace dh {
 namespace {
@@ -104,7 +105,9 @@ class Channel {
   Channel(std::uint32_t id, std::string worker, const std::map<std::string, SuiteDef>& suites, Writers& w,
           sim::SeamSettings seam, std::filesystem::path runs, Rendering rendering, std::shared_ptr<spdlog::logger> log)
       : id_(id), worker_(std::move(worker)), suites_(suites), w_(w), core_(id, seam), runs_(std::move(runs)),
-        render_(std::move(rendering)), log_(std::move(log)) {}
+        render_(std::move(rendering)), log_(std::move(log)), cells_([this](sim::SceneSpec& spec) {
+          if (render_.rgbd) spec.cameras = render_.rgbd->for_scene(spec.name);
+        }) {}
 
   EventQueue<Event>& queue() { return queue_; }
   /// Ends run() after its current event (deactivate), as a process-wide stop does.
@@ -161,23 +164,28 @@ class Channel {
     std::string predicate;
     try {
       const TaskDef& task = find_task(suites_, r.suite(), r.task());
-      auto& cell = cells_[sim::task_scene_key(task)];
-      if (!cell) {
-        sim::SceneSpec spec = sim::load_task_scene(task);
-        if (render_.rgbd) spec.cameras = render_.rgbd->for_scene(spec.name);
-        cell = std::make_unique<sim::Workcell>(std::move(spec));
+      const auto got = cells_.get(task, r.seed());
+      if (got.compiled) {
+        // An object cell's new model may sit where the freed one was: nothing may keep the old pointer.
+        rig_.reset();
+        rgbd_rigs_.clear();
+        shown_ = nullptr;
       }
       const auto t0 = Clock::now();
-      cell->reset(r.seed(), task.goal);
+      got.cell.reset(r.seed(), task.goal);
       reset_s_ = std::chrono::duration<double>(Clock::now() - t0).count();
-      reset = cell.get();
+      reset = &got.cell;
       shown_ = reset;
+      std::string varied;
+      for (const auto& e : reset->scene().entities)
+        if (!e.variation.empty()) varied += (varied.empty() ? "" : "; ") + e.name + " " + e.variation;
+      if (!varied.empty()) log_->info("channel={} episode={} objects: {}", id_, r.episode_id(), varied);
       predicate = goal_text(task.goal);
       if (render_.gl && (!rig_ || rig_->model() != reset->model())) {
         rig_.reset();  // one scene's GPU state at a time (a few MB each)
         const auto r0 = Clock::now();
         rig_ = std::make_unique<sim::CameraRig>(*reset, render_.cameras, render_.size, render_.size);
-        log_->debug("channel={} camera rig for {} in {:.1f} ms", id_, sim::task_scene_key(task),
+        log_->debug("channel={} camera rig for {} in {:.1f} ms", id_, sim::task_scene_key(task, r.seed()),
                     std::chrono::duration<double, std::milli>(Clock::now() - r0).count());
       }
     } catch (const std::exception& e) {
@@ -423,7 +431,7 @@ class Channel {
   std::shared_ptr<spdlog::logger> log_;
   EventQueue<Event> queue_;
   std::atomic<bool> stop_{false};
-  std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  // one model per scene (and swap)
+  sim::WorkcellCache cells_;
   std::string last_episode_, last_error_;
   double reset_s_ = 0, last_physics_s_ = 0;  ///< wall time inside MuJoCo: the reset, the last episode in all
   std::uint32_t last_steps_ = 0;

@@ -9,7 +9,9 @@
 
 #include "dh/common/config.hpp"
 #include "dh/sim/config_arrays.hpp"
+#include "dh/sim/object_variation.hpp"
 #include "mjcf_text.hpp"
+#include "uniform_draw.hpp"
 
 namespace dh::sim {
 
@@ -47,9 +49,6 @@ EntitySpec load_entity(const ConfigNode& n, const std::filesystem::path& assets_
   }
   return e;
 }
-
-// A portable uniform draw in [-1, 1): std::uniform_real_distribution's output is implementation-defined.
-double uniform(std::uint64_t bits) { return 2.0 * static_cast<double>(bits >> 11) * 0x1.0p-53 - 1.0; }
 
 std::string geom_xml(const GeomSpec& g, const std::string& name, const std::array<double, 4>& colour,
                      double friction, double density, int condim) {
@@ -209,14 +208,20 @@ SceneSpec apply_swap(SceneSpec scene, const SwapSpec& swap) {
   return scene;
 }
 
-SceneSpec load_task_scene(const TaskDef& task) {
+SceneSpec load_nominal_scene(const TaskDef& task) {
   SceneSpec scene = apply_swap(load_scene(task.scene_file), task.swap);
   scene.pos = task.pos;
   return scene;
 }
 
-std::string task_scene_key(const TaskDef& task) {
-  return task.scene_file.string() + "|" + task.swap.text() + (task.pos.empty() ? "" : "|" + task.pos.text());
+SceneSpec load_task_scene(const TaskDef& task, std::uint64_t seed) {
+  SceneSpec scene = load_nominal_scene(task);
+  return task.object.empty() ? scene : vary_objects(std::move(scene), task.object, seed);
+}
+
+std::string task_scene_key(const TaskDef& task, std::uint64_t seed) {
+  return task.scene_file.string() + "|" + task.swap.text() + (task.pos.empty() ? "" : "|" + task.pos.text()) +
+         (task.object.empty() ? "" : "|" + task.object.text() + " seed " + std::to_string(seed));
 }
 
 std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t seed) {
@@ -259,14 +264,14 @@ std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t s
     for (int attempt = 0; attempt < attempts && !placed[i]; ++attempt) {
       double dx, dy;
       if (displaced) {  // uniform on the disc
-        const double r = radius * std::sqrt(0.5 * (uniform(rng()) + 1)), a = std::numbers::pi * uniform(rng());
+        const double r = radius * std::sqrt(0.5 * (uniform_pm1(rng()) + 1)), a = std::numbers::pi * uniform_pm1(rng());
         dx = r * std::cos(a);
         dy = r * std::sin(a);
       } else {
-        dx = e.jitter * uniform(rng());
-        dy = e.jitter * uniform(rng());
+        dx = e.jitter * uniform_pm1(rng());
+        dy = e.jitter * uniform_pm1(rng());
       }
-      const double yaw = e.yaw + e.yaw_jitter * uniform(rng());
+      const double yaw = e.yaw + e.yaw_jitter * uniform_pm1(rng());
       out[i] = {e.name, e.nominal_xy[0] + dx, e.nominal_xy[1] + dy, yaw};
       const double c = std::abs(std::cos(yaw)), s = std::abs(std::sin(yaw));
       half[i] = {c * fp[0] + s * fp[1], s * fp[0] + c * fp[1]};

@@ -1,13 +1,15 @@
-// The benchmark's cells: eight cells of ten tasks each (and the -lan ones), every cell x task
-// instantiating for seeds 1-60 with objects at rest, nothing interpenetrating, the goal not already met,
-// and the same state for the same seed; -pos cells within their magnitudes.
+// The benchmark's cells: eight cells of ten tasks each (and the -lan, -pos and -object ones), every cell x
+// task instantiating for seeds 1-60 with objects at rest, nothing interpenetrating, the goal not already
+// met, and the same state for the same seed; -pos cells within their magnitudes, -object cells within
+// their bounds.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 #include <map>
-#include <set>
 #include <memory>
+#include <set>
 
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
@@ -50,14 +52,16 @@ TEST(BenchmarkCells, EightCellsOfTenTasksWithTheirPerturbations) {
   for (const auto& [id, t] : suites().at("long").tasks) EXPECT_GE(t.goal.size(), id == 5 ? 1u : 2u) << id;
 }
 
-// One model per scene key, as the simulator worker caches them.
+// One model per scene key, as the simulator worker caches them (object cells, whose model is the seed's,
+// have their own test).
 TEST(BenchmarkCells, EveryCellAndTaskInstantiatesForSeeds1To60) {
   std::map<std::string, std::vector<const TaskDef*>> by_scene;
   for (const auto& [cell, suite] : suites())
-    for (const auto& [id, task] : suite.tasks) by_scene[sim::task_scene_key(task)].push_back(&task);
+    for (const auto& [id, task] : suite.tasks)
+      if (task.object.empty()) by_scene[sim::task_scene_key(task, 0)].push_back(&task);
   double worst_speed = 0, worst_overlap = 0;
   for (const auto& [key, tasks] : by_scene) {
-    sim::Workcell cell(sim::load_task_scene(*tasks.front()));
+    sim::Workcell cell(sim::load_task_scene(*tasks.front(), 0));
     const std::string& cell_name = tasks.front()->suite;
     std::vector<sim::PhysicsState> state(kSeeds + 1);
     for (unsigned seed = 1; seed <= kSeeds; ++seed) {
@@ -92,8 +96,8 @@ TEST(BenchmarkCells, PosCellsDisplaceFreeObjectsWithinTheSeedsMagnitude) {
   for (const char* cell : {"goal-pos", "long-pos"}) {
     std::set<std::string> scenes;
     for (const auto& [id, task] : suites().at(cell).tasks) {
-      if (!scenes.insert(sim::task_scene_key(task)).second) continue;
-      const sim::SceneSpec spec = sim::load_task_scene(task);
+      if (!scenes.insert(sim::task_scene_key(task, 0)).second) continue;
+      const sim::SceneSpec spec = sim::load_task_scene(task, 0);
       ASSERT_FALSE(spec.pos.empty()) << cell;
       std::map<double, std::pair<double, int>> mean;  // magnitude -> (sum of displacements, count)
       for (unsigned seed = 1; seed <= 50; ++seed) {
@@ -150,7 +154,7 @@ TEST(BenchmarkCells, FixturesStartAsTheLiberoInitOfTheirSceneSays) {
       const std::string scene = task.scene_file.filename().string();
       const auto want = initial.find(scene);
       if (want == initial.end() || !seen.insert(scene).second) continue;
-      sim::Workcell workcell(sim::load_task_scene(task));
+      sim::Workcell workcell(sim::load_task_scene(task, 1));
       for (unsigned seed : {1u, 2u}) {
         workcell.reset(seed, task.goal);
         for (const PredicateSpec& p : want->second)
@@ -172,7 +176,7 @@ TEST(BenchmarkCells, EveryOpenGoalRegionCanBeReachedFromAbove) {
   std::map<std::string, std::pair<const TaskDef*, std::set<std::string>>> by_scene;
   for (const auto& [cell, suite] : suites())
     for (const auto& [id, task] : suite.tasks) {
-      auto& entry = by_scene[sim::task_scene_key(task)];
+      auto& entry = by_scene[sim::task_scene_key(task, 1)];
       entry.first = &task;
       for (const auto& p : task.goal)
         if ((p.name == "On" || p.name == "In") &&
@@ -183,7 +187,7 @@ TEST(BenchmarkCells, EveryOpenGoalRegionCanBeReachedFromAbove) {
     }
   for (const auto& [key, entry] : by_scene) {
     if (entry.second.empty()) continue;
-    sim::Workcell cell(sim::load_task_scene(*entry.first));
+    sim::Workcell cell(sim::load_task_scene(*entry.first, 1));
     for (const auto& region : entry.second) {
       cell.reset(1, entry.first->goal);
       std::array<double, 3> target{};
@@ -207,6 +211,76 @@ TEST(BenchmarkCells, EveryOpenGoalRegionCanBeReachedFromAbove) {
                              << o.ee_p[1] << ", " << o.ee_p[2] << ")";
     }
   }
+}
+
+}  // namespace
+}  // namespace dh
+
+namespace dh {
+namespace {
+
+// "-object" cells: every free object redrawn within the bounds of configs/suites/object/objects.yaml
+// (against its own instance's nominal size and mass), fixtures and names untouched, some objects another
+// instance, the seed's scene settling at rest with the goal unmet, and the same draw for the same seed.
+TEST(BenchmarkCells, ObjectCellsVaryEveryFreeObjectWithinItsBoundsAndSettle) {
+  constexpr unsigned kObjectSeeds = 20;
+  std::set<std::string> instances_seen;
+  unsigned varied = 0;
+  for (const char* name : {"goal-object", "long-object"}) {
+    std::map<std::filesystem::path, std::vector<const TaskDef*>> by_scene;
+    for (const auto& [id, task] : suites().at(name).tasks) by_scene[task.scene_file].push_back(&task);
+    for (const auto& [file, tasks] : by_scene) {
+      const TaskDef& task = *tasks.front();
+      const unsigned id = task.id;
+      const ObjectSpec& o = task.object;
+      ASSERT_FALSE(o.empty()) << name;
+      const sim::SceneSpec nominal = sim::load_nominal_scene(task);
+      const auto assets = task.scene_file.parent_path() / ".." / "assets";
+      for (unsigned seed = 1; seed <= kObjectSeeds; ++seed) {
+        const sim::SceneSpec spec = sim::load_task_scene(task, seed);
+        ASSERT_EQ(spec.entities.size(), nominal.entities.size());
+        for (std::size_t i = 0; i < spec.entities.size(); ++i) {
+          const sim::EntitySpec &e = spec.entities[i], &n = nominal.entities[i];
+          const std::string what = std::string(name) + "/" + std::to_string(id) + " " + e.name + " seed " + std::to_string(seed);
+          EXPECT_EQ(e.name, n.name);
+          EXPECT_EQ(e.colour, n.colour) << what;
+          EXPECT_EQ(e.nominal_xy, n.nominal_xy) << what;
+          if (e.fixture()) {
+            EXPECT_TRUE(e.variation.empty()) << what;
+            EXPECT_EQ(e.asset.half_extents(), n.asset.half_extents()) << what;
+            continue;
+          }
+          ASSERT_FALSE(e.variation.empty()) << what;
+          ++varied;
+          const std::string instance = e.variation.substr(0, e.variation.find(' '));
+          const sim::AssetSpec base = sim::load_asset(assets / (instance + ".yaml"));
+          EXPECT_EQ(base.kind, n.asset.kind) << what;
+          if (instance != n.asset.name) instances_seen.insert(instance);
+          const auto h = e.asset.half_extents(), h0 = base.half_extents();
+          for (int k = 0; k < 2; ++k) {
+            EXPECT_GE(h[k] / h0[k], o.width[0] - 0.02) << what;
+            EXPECT_LE(h[k] / h0[k], o.width[1] + 0.02) << what;
+          }
+          EXPECT_GE(h[2] / h0[2], o.height[0] - 1e-9) << what;
+          EXPECT_LE(h[2] / h0[2], o.height[1] + 1e-9) << what;
+          EXPECT_GE(e.asset.mass / base.mass, o.mass[0] - 1e-9) << what;
+          EXPECT_LE(e.asset.mass / base.mass, o.mass[1] + 1e-9) << what;
+          for (int c = 0; c < 3; ++c) {
+            EXPECT_LE(e.rgba[c], std::min(1.0, n.rgba[c] * (1 + o.shade)) + 1e-12) << what;
+            EXPECT_GE(e.rgba[c], n.rgba[c] * (1 - o.shade) - 1e-12) << what;
+          }
+        }
+        EXPECT_EQ(sim::load_task_scene(task, seed).entities.back().variation, spec.entities.back().variation);
+        sim::Workcell cell(spec);
+        ASSERT_NO_THROW(cell.reset(seed, task.goal)) << name << "/" << id << " seed " << seed;
+        EXPECT_LT(cell.max_object_speed(), kAtRest) << name << "/" << id << " seed " << seed;
+        EXPECT_LT(cell.max_penetration(), kMaxPenetration) << name << "/" << id << " seed " << seed;
+        for (const TaskDef* t : tasks) EXPECT_FALSE(cell.holds(t->goal)) << name << "/" << t->id << " seed " << seed;
+      }
+    }
+  }
+  EXPECT_GT(varied, 100u);
+  EXPECT_EQ(instances_seen, (std::set<std::string>{"bowl_deep", "plate_wide", "mug_tall"}));
 }
 
 }  // namespace

@@ -30,7 +30,7 @@ struct SeamCoreTest : ::testing::Test {
   static void SetUpTestSuite() {
     const auto suites = load_suites(paths::config_dir());
     const TaskDef& t = find_task(suites, "goal", 0);
-    cell = new sim::Workcell(sim::load_task_scene(t));
+    cell = new sim::Workcell(sim::load_task_scene(t, 1));
     goal = new std::vector<PredicateSpec>(t.goal);
   }
   static void TearDownTestSuite() {

@@ -4,7 +4,9 @@
 // entities trade placements or move; instruction and goal unchanged). configs/suites/lan/wordings.yaml
 // adds "<suite>-lan": each task's instruction reworded, the goal unchanged, one wording per seed;
 // configs/suites/pos/positions.yaml adds "<suite>-pos": free objects placed anywhere reachable, as far
-// from their places as the seed's magnitude allows.
+// from their places as the seed's magnitude allows; configs/suites/object/objects.yaml adds
+// "<suite>-object": every free object's size, mass and shade drawn per seed, some of them another instance
+// of their category.
 #pragma once
 
 #include <array>
@@ -43,10 +45,23 @@ struct PosSpec {
   std::string text() const;  ///< stable description, e.g. "pos 0.4 m x{0.1,0.2}"
 };
 
+/// An object perturbation, drawn per seed and free object (sim::vary_objects): another instance of its
+/// category with probability `instance_share` where `instances` lists one, then its footprint and height
+/// scaled by factors drawn from `width` and `height`, its mass by one from `mass`, and each colour channel
+/// by 1 ± up to `shade` (the colour's name, the goal and the instruction unchanged).
+struct ObjectSpec {
+  std::array<double, 2> width{}, height{}, mass{};  ///< [low, high] factors
+  double shade = 0;
+  double instance_share = 0;
+  std::map<std::string, std::vector<std::string>> instances;  ///< asset -> other assets of its category
+  bool empty() const { return width[1] == 0; }
+  std::string text() const;  ///< stable description, e.g. "object w[0.8,1.2] h[0.8,1.2] m[0.7,1.4] ..."
+};
+
 struct TaskDef {
   std::string suite;          ///< the cell: "goal", "goal-task", "goal-swap", ...
   std::string base_suite;     ///< "goal" or "long"
-  std::string perturbation;   ///< "", "task", "swap", "lan" or "pos"
+  std::string perturbation;   ///< "", "task", "swap", "lan", "pos" or "object"
   unsigned id = 0;
   std::string instruction;
   std::vector<std::string> wordings;  ///< "lan" cells: the instruction's rewordings (instruction_for)
@@ -55,6 +70,7 @@ struct TaskDef {
   std::vector<PredicateSpec> goal;   ///< conjunction
   SwapSpec swap;                     ///< applied to the scene (swap cells only)
   PosSpec pos;                       ///< applied to the seed's placements (pos cells only)
+  ObjectSpec object;                 ///< applied to the seed's free objects (object cells only)
 };
 
 struct SuiteDef {
@@ -74,8 +90,8 @@ const std::string& instruction_for(const TaskDef& task, std::uint64_t seed);
 std::string goal_text(const std::vector<PredicateSpec>& goal);
 
 /// Loads every configs/suites/*.yaml under `config_dir` (three cells per file, keyed by cell name), the
-/// "lan" cells of configs/suites/lan/wordings.yaml and the "pos" cells of configs/suites/pos/positions.yaml;
-/// throws ConfigError naming file and key.
+/// "lan" cells of configs/suites/lan/wordings.yaml, the "pos" cells of configs/suites/pos/positions.yaml and
+/// the "object" cells of configs/suites/object/objects.yaml; throws ConfigError naming file and key.
 std::map<std::string, SuiteDef> load_suites(const std::filesystem::path& config_dir);
 
 /// The task, or ConfigError saying which suites/tasks exist.

@@ -30,8 +30,10 @@ struct SkillsPhysics : ::testing::Test {
   }
   static const TaskDef& task(const std::string& cell, unsigned id) { return find_task(*suites, cell, id); }
   static sim::Workcell& cell(const TaskDef& t) {
-    auto& c = cells[sim::task_scene_key(t)];
-    if (!c) c = std::make_unique<sim::Workcell>(sim::load_task_scene(t));
+    // One model per scene for every seed: the skill tests run no object cell, whose model is the seed's.
+    EXPECT_TRUE(t.object.empty()) << t.suite;
+    auto& c = cells[sim::task_scene_key(t, 0)];
+    if (!c) c = std::make_unique<sim::Workcell>(sim::load_task_scene(t, 0));
     return *c;
   }
   /// Runs `capability` under the library's θ changed by `revised`, with the task's budget. `fresh`: a new
@@ -40,7 +42,7 @@ struct SkillsPhysics : ::testing::Test {
   static inproc::CommandOutcome run(const TaskDef& t, std::uint64_t seed, const std::string& capability,
                                     const cap::Bindings& args, const cap::Theta& revised = {}, bool fresh = true,
                                     std::uint32_t budget = 0) {
-    auto& runner = runners[sim::task_scene_key(t)];
+    auto& runner = runners[sim::task_scene_key(t, 0)];
     if (fresh) cell(t).reset(seed, t.goal);
     if (fresh || !runner) {
       // Commands of one test may together spend more than one episode's budget: each gets the task's.

@@ -19,7 +19,7 @@
 #include "dh/common/arms.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/gov/core.hpp"
-#include "dh/sim/workcell.hpp"
+#include "dh/sim/workcell_cache.hpp"
 
 namespace dh::inproc {
 
@@ -54,14 +54,13 @@ class Stack {
   void add_capability(cap::CapabilityDef def, const std::filesystem::path& library_dir);
 
  private:
-  sim::Workcell& cell_for(const TaskDef& task);
 
   gov::GovernorCore governor_;  ///< every episode on channel 0
   cap::HostCore host_;  ///< every capability's instance "<name>@inproc"
   cap::LibraryTheta library_;
   std::uint64_t runs_ = 0;  ///< episodes run, for unique episode ids
   PlannerErrorRates planner_errors_;
-  std::map<std::string, std::unique_ptr<sim::Workcell>> cells_;  ///< by scene key
+  sim::WorkcellCache cells_;
 };
 
 }  // namespace dh::inproc

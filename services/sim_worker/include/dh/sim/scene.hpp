@@ -26,6 +26,7 @@ struct EntitySpec {
   double jitter = 0;                   ///< uniform ± on x and y per seed (m); fixtures: 0
   double yaw_jitter = 0;               ///< uniform ± per seed (rad)
   std::map<std::string, double> init_joints;  ///< part name → initial joint position
+  std::string variation;  ///< an object cell's draw for this seed (object_variation.hpp); empty elsewhere
   bool fixture() const { return asset.fixture; }
 };
 
@@ -90,10 +91,13 @@ SceneSpec load_scene(const std::filesystem::path& file);
 /// throws std::invalid_argument naming an entity the scene lacks.
 SceneSpec apply_swap(SceneSpec scene, const SwapSpec& swap);
 
-/// The scene a task runs in: its scene file with the task's swap and position perturbation applied.
-SceneSpec load_task_scene(const TaskDef& task);
-/// Tasks with equal keys share one compiled model.
-std::string task_scene_key(const TaskDef& task);
+/// The scene an episode of `task` with `seed` runs in: its scene file with the task's swap, position and
+/// object perturbations applied.
+SceneSpec load_task_scene(const TaskDef& task, std::uint64_t seed);
+/// The same before the seed's object perturbation: what a perceiver knows of the scene beforehand.
+SceneSpec load_nominal_scene(const TaskDef& task);
+/// Episodes with equal keys share one compiled model (an object cell's key includes the seed).
+std::string task_scene_key(const TaskDef& task, std::uint64_t seed);
 
 /// Horizontal distance from the robot's base within which a displaced object must stand (m): no nearer
 /// than the scenes' own nearest place allows (kitchen_goal's cream cheese, 0.26 m less its 2 cm jitter;
