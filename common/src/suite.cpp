@@ -1,6 +1,7 @@
 #include "dh/common/suite.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <sstream>
 
 #include "dh/common/config.hpp"
@@ -168,6 +169,19 @@ void load_wordings(const std::filesystem::path& file, std::map<std::string, Suit
   }
 }
 
+// A "<base>-<kind>" cell for each unperturbed suite the file's `suites` lists, each task perturbed by `perturb`.
+void add_derived_cells(const ConfigNode& root, const std::string& kind, const std::string& description,
+                       std::map<std::string, SuiteDef>& suites, const std::function<void(TaskDef&)>& perturb) {
+  for (const std::string& base : root.get<std::vector<std::string>>("suites")) {
+    const auto it = suites.find(base);
+    if (it == suites.end() || !it->second.perturbation.empty())
+      root.fail("suites", "no unperturbed suite '" + base + "' in configs/suites to derive a -" + kind + " cell from");
+    SuiteDef cell = derived_cell(it->second, kind, description);
+    for (auto& [id, task] : cell.tasks) perturb(task);
+    suites.emplace(cell.name, std::move(cell));
+  }
+}
+
 // "<suite>-pos" cells: the base cell's tasks, each object placed by the seed's magnitude.
 void load_positions(const std::filesystem::path& file, std::map<std::string, SuiteDef>& suites) {
   const ConfigNode root = ConfigNode::load_file(file);
@@ -178,14 +192,7 @@ void load_positions(const std::filesystem::path& file, std::map<std::string, Sui
   if (pos.magnitudes.empty()) root.fail("magnitudes", "give at least one magnitude");
   for (const double m : pos.magnitudes)
     if (!(m > 0 && m <= 1)) root.fail("magnitudes", "each magnitude is in (0, 1], not " + std::to_string(m));
-  for (const std::string& base : root.get<std::vector<std::string>>("suites")) {
-    const auto it = suites.find(base);
-    if (it == suites.end() || !it->second.perturbation.empty())
-      root.fail("suites", "no unperturbed suite '" + base + "' in configs/suites to displace");
-    SuiteDef cell = derived_cell(it->second, "pos", "position");
-    for (auto& [id, task] : cell.tasks) task.pos = pos;
-    suites.emplace(cell.name, std::move(cell));
-  }
+  add_derived_cells(root, "pos", "position", suites, [&](TaskDef& task) { task.pos = pos; });
 }
 
 // "<suite>-object" cells: the base cell's tasks, each object's attributes drawn per seed.
@@ -215,14 +222,7 @@ void load_objects(const std::filesystem::path& file, const std::filesystem::path
         if (!std::filesystem::exists(assets_dir / (name + ".yaml")))
           instances.fail(asset, "no asset '" + name + "' (" + (assets_dir / (name + ".yaml")).string() + " does not exist)");
   }
-  for (const std::string& base : root.get<std::vector<std::string>>("suites")) {
-    const auto it = suites.find(base);
-    if (it == suites.end() || !it->second.perturbation.empty())
-      root.fail("suites", "no unperturbed suite '" + base + "' in configs/suites to vary");
-    SuiteDef cell = derived_cell(it->second, "object", "object");
-    for (auto& [id, task] : cell.tasks) task.object = object;
-    suites.emplace(cell.name, std::move(cell));
-  }
+  add_derived_cells(root, "object", "object", suites, [&](TaskDef& task) { task.object = object; });
 }
 
 }  // namespace

@@ -72,7 +72,7 @@ void print_summary(const nlohmann::json& s) {
 
 }  // namespace
 
-int cmd_campaign(const CampaignArgs& a) {
+std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
   install_shutdown_handlers();
   const auto suites = load_suites(paths::config_dir());
   const cap::LibraryTheta library =
@@ -124,7 +124,7 @@ int cmd_campaign(const CampaignArgs& a) {
     const std::string ready = ready_capability(campaign::parse_list(a.arms, "--arms"));
     if (!ensure_deployment(client, ready, std::nullopt, a.launch_file, std::chrono::milliseconds(a.ready_ms), a.json,
                            local))
-      return 1;
+      return std::nullopt;
     campaign::SchedulerOptions options;
     options.run_tag = run_tag();
     options.start_allowance = std::chrono::seconds(a.start_allowance_s);
@@ -216,17 +216,26 @@ int cmd_campaign(const CampaignArgs& a) {
       run_wall_s = std::chrono::duration<double>(last_run_record - *first_dispatch).count();
   }
 
-  const auto summary = report::summarize({{a.db, db.rows()}}, report::ReportOptions{});
+  nlohmann::json out = report::summarize({{a.db, db.rows()}}, report::ReportOptions{});
+  out["campaign"] = {{"db", a.db},           {"episodes", all.size()},     {"recorded_before", done_before},
+                     {"ran_now", ran_now},    {"remaining", all.size() - done_before - ran_now},
+                     {"interrupted", interrupted}, {"rerun_rule", plan.rerun_rule}, {"library_version", plan.library_version}, {"planner_errors", plan.planner_errors}, {"reran", reran}, {"run_wall_s", run_wall_s}};
+  return out;
+}
+
+int cmd_campaign(const CampaignArgs& a) {
+  const auto out = run_campaign(a);
+  if (!out) return 1;
+  const nlohmann::json& c = (*out)["campaign"];
+  const bool interrupted = c["interrupted"].get<bool>();
   if (a.json) {
-    nlohmann::json out = summary;
-    out["campaign"] = {{"db", a.db},           {"episodes", all.size()},     {"recorded_before", done_before},
-                       {"ran_now", ran_now},    {"remaining", all.size() - done_before - ran_now},
-                       {"interrupted", interrupted}, {"rerun_rule", plan.rerun_rule}, {"library_version", plan.library_version}, {"planner_errors", plan.planner_errors}, {"reran", reran}, {"run_wall_s", run_wall_s}};
-    std::cout << out.dump() << "\n";
+    std::cout << out->dump() << "\n";
   } else {
     std::cout << (interrupted ? "campaign interrupted; rerun the same command to resume\n" : "campaign complete\n");
-    print_summary(summary);
-    if (reran > 0) std::cout << "  " << reran << " attempt(s) lost to infrastructure were run again (rule: " << plan.rerun_rule << ")\n";
+    print_summary(*out);
+    if (const auto reran = c["reran"].get<std::size_t>(); reran > 0)
+      std::cout << "  " << reran << " attempt(s) lost to infrastructure were run again (rule: "
+                << c["rerun_rule"].get<std::string>() << ")\n";
     std::cout << "database " << a.db << "  (dh report --db " << a.db << ")\n";
   }
   return interrupted ? 1 : 0;

@@ -18,14 +18,10 @@
 
 namespace dh::cli {
 
-int cmd_gate(const GateArgs& a) {
+nlohmann::json gate_decision(const GateArgs& a) {
   const std::filesystem::path config_file =
       a.config.empty() ? paths::config_dir() / "attribution.yaml" : std::filesystem::path(a.config);
   const evo::AttributionConfig config = evo::load_attribution(config_file);
-  if (a.register_decision && (a.regression_parent.empty() || a.regression_candidate.empty()))
-    throw std::invalid_argument(
-        "--register records a decision, and admission needs the broader round: give "
-        "--regression-parent and --regression-candidate too");
   const std::string version = cap::load_library_theta(a.library).version;
   // What `dh revise` wrote beside the candidate: κ, the probes, and the parent's version, against which
   // the parent campaign is checked (two databases swapped or of another library are refused).
@@ -78,6 +74,11 @@ int cmd_gate(const GateArgs& a) {
         episodes(evo::gate_rows(arm_rows(a.regression_parent, a.arm), config, "")),
         episodes(evo::gate_rows(arm_rows(a.regression_candidate, a.arm), config, version)), cells);
   }
+  // A candidate that fails the gate is rejected without the broader round; one that passes needs it.
+  if (a.register_decision && g.pass && !regression)
+    throw std::invalid_argument(
+        "--register records a decision, and admitting a candidate that passes the gate needs the broader "
+        "round: give --regression-parent and --regression-candidate too");
   const bool admit = g.pass && regression && regression->pass;
   nlohmann::json regression_json = nullptr;
   if (regression)
@@ -122,7 +123,7 @@ int cmd_gate(const GateArgs& a) {
                   std::to_string(c.parent);
     if (!g.unpaired.empty())
       reason += (reason.empty() ? "" : "; ") + std::to_string(g.unpaired.size()) + " unpaired";
-    if (!regression->pass) {  // --register needs the broader round (checked above)
+    if (regression && !regression->pass) {
       reason += (reason.empty() ? "" : "; ") + fmt::format("broader round {} vs {} successes, {} lost",
                                                            regression->candidate, regression->parent,
                                                            regression->lost.size());
@@ -145,50 +146,61 @@ int cmd_gate(const GateArgs& a) {
         a.registry.empty() ? paths::runs_dir() / "registry" : std::filesystem::path(a.registry);
     registered = evo::Registry(dir).append(entry, a.library, admit);
   }
+  return {{"pass", g.pass},
+          {"capability", a.capability},
+          {"candidate_library", version},
+          {"conditions", conditions},
+          {"pi_vacuous", g.pi_vacuous},
+          {"pairs", pairs},
+          {"unpaired", g.unpaired},
+          {"contaminated", contaminated},
+          {"regression", regression_json},
+          {"admit", admit},
+          {"registered", registered}};
+}
+
+int cmd_gate(const GateArgs& a) {
+  const nlohmann::json g = gate_decision(a);
+  const nlohmann::json& regression = g["regression"];
+  const bool pass = g["pass"].get<bool>() && (regression.is_null() || regression["pass"].get<bool>());
   if (a.json) {
-    std::cout << nlohmann::json{{"pass", g.pass},
-                                {"capability", a.capability},
-                                {"candidate_library", version},
-                                {"conditions", conditions},
-                                {"pi_vacuous", g.pi_vacuous},
-                                {"pairs", pairs},
-                                {"unpaired", g.unpaired},
-                                {"contaminated", contaminated},
-                                {"regression", regression_json},
-                                {"admit", admit},
-                                {"registered", registered}}
-                     .dump()
-              << "\n";
-    return g.pass && (!regression || regression->pass) ? 0 : 3;
+    std::cout << g.dump() << "\n";
+    return pass ? 0 : 3;
   }
-  std::cout << fmt::format("D: {} (cell, task) pair(s) where {}'s failures were attributed\n", g.pairs.size(),
+  std::cout << fmt::format("D: {} (cell, task) pair(s) where {}'s failures were attributed\n", g["pairs"].size(),
                            a.capability);
-  for (const auto& [d, n] : g.pairs)
+  for (const auto& n : g["pairs"])
     std::cout << fmt::format("  {}/{}  {} episodes  successes {} -> {}  harness failures {} -> {}{}\n",
-                             d.first, d.second, n.n, n.parent_s, n.candidate_s, n.parent_u, n.candidate_u,
-                             n.in_pi ? "  (the bare arm wins it)" : "");
-  for (const auto& c : g.conditions)
-    std::cout << fmt::format("{:<18} {}  candidate {} / parent {}{}\n", c.name, c.pass ? "pass" : "FAIL",
-                             c.candidate, c.parent, c.detail.empty() ? "" : "  (" + c.detail + ")");
-  for (const auto& u : g.unpaired) std::cout << "unpaired: the candidate lacks " << u << "\n";
-  for (const auto& c : contaminated)
+                             n["cell"].get<std::string>(), n["task"].get<unsigned>(), n["episodes"].get<unsigned>(),
+                             n["parent_s"].get<unsigned>(), n["candidate_s"].get<unsigned>(),
+                             n["parent_u"].get<unsigned>(), n["candidate_u"].get<unsigned>(),
+                             n["bare_wins"].get<bool>() ? "  (the bare arm wins it)" : "");
+  for (const auto& c : g["conditions"]) {
+    const std::string detail = c["detail"].get<std::string>();
+    std::cout << fmt::format("{:<18} {}  candidate {} / parent {}{}\n", c["name"].get<std::string>(),
+                             c["pass"].get<bool>() ? "pass" : "FAIL", c["candidate"].dump(), c["parent"].dump(),
+                             detail.empty() ? "" : "  (" + detail + ")");
+  }
+  for (const auto& u : g["unpaired"]) std::cout << "unpaired: the candidate lacks " << u.get<std::string>() << "\n";
+  for (const auto& c : g["contaminated"])
     std::cout << "contaminated: " << c["cell"].get<std::string>() << "/" << c["task"] << " seed " << c["seed"]
               << ": " << c["why"].get<std::string>() << "\n";
-  std::cout << (g.pass ? "the candidate passes the paired gate\n"
-                       : "the candidate fails the paired gate: not admitted\n");
-  if (regression) {
+  std::cout << (g["pass"].get<bool>() ? "the candidate passes the paired gate\n"
+                                      : "the candidate fails the paired gate: not admitted\n");
+  if (!regression.is_null()) {
     std::cout << fmt::format(
         "broader round: {}  candidate {} / parent {} successes over {} paired episodes ({} lost, "
         "{} gained)\n",
-        regression->pass ? "pass" : "FAIL", regression->candidate, regression->parent, regression->paired,
-        regression->lost.size(), regression->gained.size());
-    for (const auto& l : regression->lost) std::cout << "  lost: " << l << "\n";
-    for (const auto& c : regression->missing_cells) std::cout << "  cell not run: " << c << "\n";
-    for (const auto& u : regression->unpaired) std::cout << "  unpaired: " << u << "\n";
+        regression["pass"].get<bool>() ? "pass" : "FAIL", regression["candidate"].dump(), regression["parent"].dump(),
+        regression["paired"].dump(), regression["lost"].size(), regression["gained"].size());
+    for (const auto& l : regression["lost"]) std::cout << "  lost: " << l.get<std::string>() << "\n";
+    for (const auto& c : regression["missing_cells"]) std::cout << "  cell not run: " << c.get<std::string>() << "\n";
+    for (const auto& u : regression["unpaired"]) std::cout << "  unpaired: " << u.get<std::string>() << "\n";
   } else {
     std::cout
         << "broader round: not given (admission needs --regression-parent and --regression-candidate)\n";
   }
+  const nlohmann::json& registered = g["registered"];
   if (!registered.is_null())
     std::cout << "registered " << registered["id"].get<std::string>() << ": "
               << registered["decision"].get<std::string>()
@@ -196,7 +208,7 @@ int cmd_gate(const GateArgs& a) {
                       ? " (snapshot " + registered["snapshot"].get<std::string>() + ")"
                       : "")
               << "\n";
-  return g.pass && (!regression || regression->pass) ? 0 : 3;
+  return pass ? 0 : 3;
 }
 
 int cmd_registry(const std::string& dir, const std::string& id, bool json) {

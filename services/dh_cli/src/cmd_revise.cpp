@@ -19,7 +19,7 @@
 
 namespace dh::cli {
 
-int cmd_revise(const ReviseArgs& a) {
+nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>& excluded) {
   const std::vector<EpisodeRecord> rows = arm_rows(a.db, a.arm);
   const unsigned jobs = probe_jobs(a.jobs);
   const std::filesystem::path parent =
@@ -33,12 +33,12 @@ int cmd_revise(const ReviseArgs& a) {
     // The capability the dominant attributed signature implicates, among those with θ this build runs.
     std::set<std::string> revisable;
     for (const auto& d : cap::all_capabilities())
-      if (lib.theta.count(d.name)) revisable.insert(d.name);
+      if (lib.theta.count(d.name) && !excluded.count(d.name)) revisable.insert(d.name);
     const auto config = evo::load_attribution(paths::config_dir() / "attribution.yaml");
     capability = evo::dominant_capability(evo::gate_rows(rows, config, ""), revisable);
     if (capability.empty())
-      throw std::invalid_argument(a.db + ": no harness-attributed failure of arm " + a.arm +
-                                  " names a capability with θ: nothing to revise");
+      throw NothingToRevise(a.db + ": no harness-attributed failure of arm " + a.arm + " names a capability with θ" +
+                            (excluded.empty() ? "" : " not tried already") + ": nothing to revise");
     if (!a.json)
       std::cout << "targeting " << capability << ", named by the most harness-attributed failures\n";
   }
@@ -49,6 +49,8 @@ int cmd_revise(const ReviseArgs& a) {
   report_skipped(set);
   const evo::Revision rev =
       evo::revise(set.states, {capability, paths::config_dir(), parent, a.max_evals, jobs, a.max_probes});
+  nlohmann::json kappa = nlohmann::json::object();
+  for (const auto& [name, v] : rev.kappa) kappa[name] = {{"parent", v.first}, {"revised", v.second}};
   std::string out, version;
   if (rev.improved()) {
     std::string note = "candidate of `dh revise --capability " + capability + "` over " + a.db + ":";
@@ -60,8 +62,6 @@ int cmd_revise(const ReviseArgs& a) {
     version = evo::write_library(parent, {{capability, rev.best}}, dir, note);
     out = dir.string();
     // What `dh gate --register` records of the revision: κ, the probe results before and after.
-    nlohmann::json kappa = nlohmann::json::object();
-    for (const auto& [name, v] : rev.kappa) kappa[name] = {{"parent", v.first}, {"revised", v.second}};
     std::ofstream(dir / "revision.json")
         << nlohmann::json{{"capability", capability},
                           {"db", a.db},
@@ -81,39 +81,36 @@ int cmd_revise(const ReviseArgs& a) {
                .dump(2)
         << "\n";
   }
+  return {{"capability", capability}, {"states", rev.states},       {"failing", rev.failing},
+          {"parent_held", rev.parent_held}, {"best_held", rev.best_held}, {"fixed", rev.fixed},
+          {"kept", rev.kept},             {"evals", rev.evals},         {"max_evals", rev.max_evals},
+          {"wall_s", rev.wall_s},         {"kappa", kappa},             {"out", out},
+          {"version", version},           {"improved", rev.improved()}};
+}
+
+int cmd_revise(const ReviseArgs& a) {
+  const nlohmann::json r = revise_candidate(a);
+  const bool improved = r["improved"].get<bool>();
   if (a.json) {
-    nlohmann::json kappa = nlohmann::json::object();
-    for (const auto& [name, v] : rev.kappa) kappa[name] = {{"parent", v.first}, {"revised", v.second}};
-    std::cout << nlohmann::json{{"capability", capability},
-                                {"states", rev.states},
-                                {"failing", rev.failing},
-                                {"parent_held", rev.parent_held},
-                                {"best_held", rev.best_held},
-                                {"fixed", rev.fixed},
-                                {"kept", rev.kept},
-                                {"evals", rev.evals},
-                                {"max_evals", rev.max_evals},
-                                {"wall_s", rev.wall_s},
-                                {"kappa", kappa},
-                                {"out", out},
-                                {"version", version}}
-                     .dump()
-              << "\n";
-    return rev.improved() ? 0 : 3;
+    std::cout << r.dump() << "\n";
+    return improved ? 0 : 3;
   }
   std::cout << fmt::format(
       "{}: probe set of {} states ({} failing); the parent holds {} effects; {} of at most {} "
       "candidate θ probed in {:.1f} s\n",
-      capability, rev.states, rev.failing, rev.parent_held, rev.evals, rev.max_evals, rev.wall_s);
-  if (!rev.improved()) {
+      r["capability"].get<std::string>(), r["states"].get<unsigned>(), r["failing"].get<unsigned>(),
+      r["parent_held"].get<unsigned>(), r["evals"].get<unsigned>(), r["max_evals"].get<unsigned>(),
+      r["wall_s"].get<double>());
+  if (!improved) {
     std::cout << "no θ within the ranges held more effects than the parent's: no candidate\n";
     return 3;
   }
   std::cout << fmt::format("best: {} effects held ({} failing states fixed, {} of {} successes kept); κ:\n",
-                           rev.best_held, rev.fixed, rev.kept, rev.states - rev.failing);
-  for (const auto& [name, v] : rev.kappa)
-    std::cout << fmt::format("  {} {:g} -> {:g}\n", name, v.first, v.second);
-  std::cout << "candidate library " << version << " written to " << out
+                           r["best_held"].get<unsigned>(), r["fixed"].get<unsigned>(), r["kept"].get<unsigned>(),
+                           r["states"].get<unsigned>() - r["failing"].get<unsigned>());
+  for (const auto& [name, v] : r["kappa"].items())
+    std::cout << fmt::format("  {} {:g} -> {:g}\n", name, v["parent"].get<double>(), v["revised"].get<double>());
+  std::cout << "candidate library " << r["version"].get<std::string>() << " written to " << r["out"].get<std::string>()
             << " (admission is the gate's: run its campaign on the same seeds)\n";
   return 0;
 }

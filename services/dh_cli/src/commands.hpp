@@ -4,7 +4,10 @@
 
 #include <chrono>
 #include <cstdint>
+#include <nlohmann/json.hpp>
 #include <optional>
+#include <set>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -44,6 +47,14 @@ struct ReviseArgs {
 };
 /// `dh revise`: exit 0 with a candidate written to --out, 3 when no θ did better than the parent's.
 int cmd_revise(const ReviseArgs& a);
+/// No failure left to revise: exit 2 from `dh revise`, the end of the climb for `dh evolve`.
+struct NothingToRevise : std::invalid_argument {
+  using std::invalid_argument::invalid_argument;
+};
+/// The revision search of `dh revise`: with no --capability, the one the dominant attributed signature
+/// names among those not in `excluded`. Returns what `dh revise --json` prints; with a candidate (exit 0)
+/// "out" names its library folder, beside which revision.json records κ and the probes.
+nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>& excluded = {});
 
 struct GateArgs {
   std::string parent, candidate, bare, capability, library, config, arm = "full", bare_arm = "bare";
@@ -54,7 +65,20 @@ struct GateArgs {
 /// `dh gate`: exit 0 the candidate passes Eq. 6's four conditions (and the broader regression, when
 /// given), 3 it does not. With --register the decision goes to the registry.
 int cmd_gate(const GateArgs& a);
+/// The decision of `dh gate`, registered when asked: what `dh gate --json` prints.
+nlohmann::json gate_decision(const GateArgs& a);
 /// `dh registry list` (id empty) or `dh registry show ID`.
+struct EvolveArgs {
+  std::string library, out, launch_file, arm = "full";
+  std::string cells = "goal-task,goal-swap,long-task,long-swap";  ///< the paper's four perturbed cells
+  std::string tasks, dev_seeds = "21-40", regression_seeds = "41-42";
+  unsigned rounds = 3, max_evals = 12, ready_ms = 20000;
+  std::size_t successes = 20;
+  bool bare = true, json = false;
+};
+/// The self-evolution loop, resumable: exit 1 when a campaign was interrupted or found no deployment.
+int cmd_evolve(const EvolveArgs& a);
+
 int cmd_registry(const std::string& dir, const std::string& id, bool json);
 
 /// `dh library perturb`: writes `out`, prints the drawn library's version (or a JSON object with it and θ).
@@ -91,6 +115,9 @@ struct CampaignArgs {
   bool json = false;
 };
 int cmd_campaign(const CampaignArgs& a);
+/// The campaign without its printed summary: the summary JSON with a "campaign" block (episodes, ran_now,
+/// interrupted, ...); nullopt when no deployment answered (already reported on stderr).
+std::optional<nlohmann::json> run_campaign(const CampaignArgs& a);
 
 struct ReportArgs {
   std::vector<std::string> dbs;

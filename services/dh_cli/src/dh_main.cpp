@@ -25,6 +25,9 @@
 //   dh gate --parent DB --candidate DB --library DIR --capability C [--bare DB]
 //                                            the paired gate (Eq. 6) of a candidate against its parent, on
 //                                            the pairs where C's failures were attributed (exit 3: fails)
+//   dh evolve --library DIR [--rounds K] [--cells ...] [--dev-seeds 21-40] [--regression-seeds 41-42] [--out DIR]
+//                                            the loop, automatic and resumable: campaign, revise, candidate
+//                                            campaign, gate, broader round, register; per round
 //   dh registry list | dh registry show ID   the candidates and the decisions on them
 //   dh library perturb --from DIR --seed S --out DIR
 //                                            every θ drawn uniformly within its range: an untuned library
@@ -239,6 +242,24 @@ int main(int argc, char** argv) {
                  "append the decision to the registry (admitted: passes the gate and the broader round)");
   gate->add_option("--registry", gate_args.registry, "registry folder (default $DH_RUNS_DIR/registry)");
   gate->add_flag("--json", gate_args.json, "one JSON object: pass, conditions, pairs, unpaired, contaminated");
+  EvolveArgs evolve_args;
+  auto* evolve = app.add_subcommand("evolve", "the self-evolution loop, round after round, resumable");
+  evolve->add_option("--library", evolve_args.library, "the library the climb starts from")->required();
+  evolve->add_option("--rounds", evolve_args.rounds, "rounds at most (default 3)");
+  evolve->add_option("--cells", evolve_args.cells, "development cells (default goal-task,goal-swap,long-task,long-swap)");
+  evolve->add_option("--tasks", evolve_args.tasks, "tasks (default all)");
+  evolve->add_option("--dev-seeds", evolve_args.dev_seeds, "development seeds of every round's campaigns (default 21-40)");
+  evolve->add_option("--regression-seeds", evolve_args.regression_seeds,
+                     "the broader round's seeds, over every cell (default 41-42)");
+  evolve->add_option("--arm", evolve_args.arm, "the arm that climbs (default full)");
+  evolve->add_flag("!--no-bare", evolve_args.bare,
+                   "skip the bare arm's campaign (the gate's third condition is then vacuous)");
+  evolve->add_option("--max-evals", evolve_args.max_evals, "candidate θ probed at most per round (default 12)");
+  evolve->add_option("--successes", evolve_args.successes, "successes in each probe set, at least (default 20)");
+  evolve->add_option("--out", evolve_args.out, "the climb's folder: state, campaigns, registry (default runs/evolve)");
+  evolve->add_option("--launch", evolve_args.launch_file, "launch file for a local deployment when none is running");
+  evolve->add_option("--ready-timeout-ms", evolve_args.ready_ms, "wait for a deployment (default 20000)");
+  evolve->add_flag("--json", evolve_args.json, "one JSON object: start_success, final_success, rounds");
   std::string registry_dir, registry_id;
   auto* registry = app.add_subcommand("registry", "the candidates and the decisions on them");
   registry->require_subcommand(1);
@@ -284,6 +305,7 @@ int main(int argc, char** argv) {
     if (*probe) return cmd_probe(probe_args);
     if (*revise) return cmd_revise(revise_args);
     if (*gate) return cmd_gate(gate_args);
+    if (*evolve) return cmd_evolve(evolve_args);
     if (*registry_list) return cmd_registry(registry_dir, "", json);
     if (*registry_show) return cmd_registry(registry_dir, registry_id, true);
     if (*perturb) return cmd_library_perturb(perturb_from, perturb_seed, perturb_out, json);

@@ -54,6 +54,14 @@ bool completed_then_again(const EpisodeFacts& f) {
   return false;
 }
 
+/// Command i was refused and a later command ran (a substitute, a replanned step): the harness went round
+/// the refusal (Figure 3's refused push), so the failure does not sit there.
+bool refusal_gone_round(const EpisodeFacts& f, std::size_t i) {
+  return f.commands[i].state == "refused" &&
+         std::any_of(f.commands.begin() + static_cast<std::ptrdiff_t>(i) + 1, f.commands.end(),
+                     [](const CommandFacts& c) { return c.state != "refused"; });
+}
+
 struct NamedCheck {
   const char* name;
   const char* what;
@@ -90,8 +98,12 @@ const std::vector<NamedCheck>& checks() {
        [](const EpisodeFacts& f) { return any_refusal(f, {"budget"}); }},
       {"dispatch_failed", "no live instance, or no acknowledgement of a dispatched command",
        [](const EpisodeFacts& f) { return any_wait(f, {"acknowledgement"}) || any_refusal(f, {"capability_not_alive"}); }},
-      {"capability_refused", "a capability refused a command at its check",
-       [](const EpisodeFacts& f) { return any_command(f, [](const CommandFacts& c) { return c.state == "refused"; }); }},
+      {"capability_refused", "a capability refused a command at its check, and no command ran after it",
+       [](const EpisodeFacts& f) {
+         for (std::size_t i = 0; i < f.commands.size(); ++i)
+           if (f.commands[i].state == "refused" && !refusal_gone_round(f, i)) return true;
+         return false;
+       }},
       {"execution_failed", "a step's command failed with a typed failure, or spent its command budget unfinished",
        [](const EpisodeFacts& f) {
          return any_command(f, [](const CommandFacts& c) {
@@ -118,13 +130,16 @@ const NamedCheck* find_check(const std::string& name) {
   return nullptr;
 }
 
-/// The command the failure sits on: the first that failed, else the last one dispatched.
+/// The command the failure sits on: the first that failed (a refusal the harness went round aside), else
+/// the last one dispatched.
 Signature signature_of(const EpisodeFacts& f) {
   Signature s;
-  const auto first_failed =
-      std::find_if(f.commands.begin(), f.commands.end(), [](const CommandFacts& c) { return failed(c); });
-  const CommandFacts* c =
-      first_failed != f.commands.end() ? &*first_failed : (f.commands.empty() ? nullptr : &f.commands.back());
+  const CommandFacts* c = f.commands.empty() ? nullptr : &f.commands.back();
+  for (std::size_t i = 0; i < f.commands.size(); ++i)
+    if (failed(f.commands[i]) && !refusal_gone_round(f, i)) {
+      c = &f.commands[i];
+      break;
+    }
   if (c) {
     s.capability = c->capability;
     s.failure = c->failure != "none" ? c->failure : c->state;

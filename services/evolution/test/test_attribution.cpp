@@ -164,6 +164,27 @@ TEST(Attribution, OfTwoMatchingLayersTheUpstreamOneWins) {
   EXPECT_EQ(a->signature.step, 40u);
 }
 
+// Figure 3: push refused (the object is wider than its contact allows), pick_place substituted and missed.
+// The harness went round the refusal, so the failure sits on the substitute, the capability to revise.
+TEST(Attribution, ARefusalTheHarnessWentRoundIsNotWhereTheFailureSits) {
+  Evidence e;
+  e.command("c0", "push", "refused").command("c1", "pick_place", "failed", "grasp_missed").end();
+  const EpisodeFacts f = read_facts(e.records);
+  EXPECT_FALSE(check("capability_refused", f));
+  const auto a = attribute(f, config());
+  ASSERT_TRUE(a);
+  EXPECT_EQ(a->name, "capability_execution");
+  EXPECT_EQ(a->signature.capability, "pick_place");
+  EXPECT_EQ(a->signature.failure, "grasp_missed");
+  // Refusals after which nothing ran are where it sits: the first of them.
+  Evidence last;
+  last.command("c0", "push", "refused").command("c1", "pick_place", "refused").end();
+  const auto b = attribute(read_facts(last.records), config());
+  ASSERT_TRUE(b);
+  EXPECT_EQ(b->name, "capability_refusal");
+  EXPECT_EQ(b->signature.capability, "push");
+}
+
 TEST(Attribution, ACommandTheGovernorStoppedIsPreemptedNotFailed) {
   Evidence e;
   e.command("c0", "regrasp", "running", "none", {{"object", "bowl"}}, true)
