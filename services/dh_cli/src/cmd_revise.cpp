@@ -47,8 +47,14 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
   const evo::ProbeSet set =
       evo::probe_set(rows, {capability, a.successes, a.draw_seed}, paths::config_dir(), jobs);
   report_skipped(set);
-  const evo::Revision rev =
-      evo::revise(set.states, {capability, paths::config_dir(), parent, a.max_evals, jobs, a.max_probes});
+  // Progress on stderr: a search over a large set runs for minutes.
+  const auto on_eval = [&](unsigned eval, unsigned max_evals, unsigned held, unsigned best) {
+    std::cerr << fmt::format("{}: candidate θ {} of at most {} (the first is the parent's): {} of {} effects "
+                             "held, best {}\n",
+                             capability, eval, max_evals, held, set.states.size(), best);
+  };
+  const evo::Revision rev = evo::revise(
+      set.states, {capability, paths::config_dir(), parent, a.max_evals, jobs, a.max_probes, on_eval});
   nlohmann::json kappa = nlohmann::json::object();
   for (const auto& [name, v] : rev.kappa) kappa[name] = {{"parent", v.first}, {"revised", v.second}};
   std::string out, version;

@@ -77,6 +77,7 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
       rev.fixed = fixed;
       rev.kept = kept;
     }
+    if (o.on_eval) o.on_eval(rev.evals, rev.max_evals, held, rev.best_held);
     return static_cast<double>(held);
   }};
   rev.kept = rev.parent_held;

@@ -202,7 +202,7 @@ TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParents
   const auto set = evo::probe_set({row("ep"), row("missed")}, {"pick_place", 1, 0}, paths::config_dir(), 2).states;
   ASSERT_EQ(set.size(), 3u);
   const auto parent = paths::config_dir() / "library";
-  const evo::Revision rev = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 0});
+  const evo::Revision rev = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 0, {}});
   EXPECT_LE(rev.evals, 4u);
   EXPECT_GE(rev.evals, 1u);
   EXPECT_EQ(rev.states, 3u);
@@ -218,10 +218,10 @@ TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParents
   }
   // A set recorded under other θ than the parent library's is refused.
   const auto other = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
-  EXPECT_THROW(evo::revise(set, {"pick_place", paths::config_dir(), other, 4, 2, 0}), std::invalid_argument);
-  EXPECT_THROW(evo::revise({}, {"pick_place", paths::config_dir(), parent, 4, 2, 0}), std::invalid_argument);
+  EXPECT_THROW(evo::revise(set, {"pick_place", paths::config_dir(), other, 4, 2, 0, {}}), std::invalid_argument);
+  EXPECT_THROW(evo::revise({}, {"pick_place", paths::config_dir(), parent, 4, 2, 0, {}}), std::invalid_argument);
   // --max-probes bounds the round: three states per candidate, three probes at most, so one candidate.
-  const evo::Revision bounded = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 3});
+  const evo::Revision bounded = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 3, {}});
   EXPECT_EQ(bounded.max_evals, 1u);
   EXPECT_EQ(bounded.evals, 1u);
 }
@@ -246,7 +246,7 @@ TEST_F(Probe, TheRevisionSearchFindsAThetaThatMakesAFailedEffectHold) {
   EXPECT_TRUE(set.skipped.empty());
   ASSERT_EQ(set.states.size(), 3u);
   const evo::Revision rev =
-      evo::revise(set.states, {"pick_place", paths::config_dir(), paths::config_dir() / "library", 4, 2, 0});
+      evo::revise(set.states, {"pick_place", paths::config_dir(), paths::config_dir() / "library", 4, 2, 0, {}});
   EXPECT_EQ(rev.failing, 2u);
   EXPECT_EQ(rev.parent_held, 1u);
   EXPECT_TRUE(rev.improved()) << rev.best_held << " held, the parent " << rev.parent_held;

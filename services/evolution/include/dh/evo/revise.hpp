@@ -6,6 +6,7 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <utility>
@@ -23,6 +24,8 @@ struct ReviseOptions {
   unsigned max_evals = 40;            ///< candidate θ probed at most (the parent's included)
   unsigned jobs = 1;                  ///< probes at once
   unsigned max_probes = 0;            ///< probes at most over the search (0: max_evals × the set's size)
+  /// Called after each candidate is probed: its number, the bound, the effects it held, the best so far.
+  std::function<void(unsigned eval, unsigned max_evals, unsigned held, unsigned best_held)> on_eval;
 };
 
 struct Revision {
