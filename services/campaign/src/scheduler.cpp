@@ -22,7 +22,11 @@ void Scheduler::channel_status(std::uint32_t channel, const std::string& worker,
     reports_[last_episode] = {last_physics_s, last_error.empty() ? std::optional(verdict) : std::nullopt};
     c.last_episode = last_episode;
     const auto it = running_.find(last_episode);
-    if (idle && !last_error.empty() && it != running_.end()) lose(it, "simulator: " + last_error, now);
+    if (idle && !last_error.empty() && it != running_.end()) {
+      lose(it, "simulator: " + last_error, now);
+      c.governor_episode = last_episode;
+      c.governor_until = now + options_.governor_release;
+    }
   }
   // Our episode on it is over only once its result came: an idle announcement that crosses our request
   // (sent before the channel saw it) must not free the channel.
@@ -38,7 +42,7 @@ std::vector<Dispatch> Scheduler::assign(Clock::time_point now, const std::functi
   for (auto& [id, c] : channels_) {
     while (skip && !pending_.empty() && skip(pending_.front())) pending_.pop_front();
     if (pending_.empty()) break;
-    if (!c.idle || c.ours) continue;
+    if (!c.idle || c.ours || (!c.governor_episode.empty() && now < c.governor_until)) continue;
     Dispatch d{pending_.front(), id, ""};
     pending_.pop_front();
     d.episode_id = d.key.arm + "-" + d.key.cell + "-t" + std::to_string(d.key.task) + "-s" +
@@ -68,6 +72,8 @@ EpisodeRecord Scheduler::record_of(const Running& r, Clock::time_point now) cons
 }
 
 void Scheduler::result(const ResultInfo& r, Clock::time_point now) {
+  for (auto& [id, c] : channels_)
+    if (c.governor_episode == r.episode_id) c.governor_episode.clear();
   const auto it = running_.find(r.episode_id);
   if (it == running_.end()) return;
   EpisodeRecord rec = record_of(it->second, now);

@@ -135,7 +135,36 @@ TEST(Scheduler, AnEpisodeTheSimulatorCannotStartEndsAtOnceWithItsReason) {
   EXPECT_TRUE(recs[0].infrastructure);
   EXPECT_EQ(recs[0].reason, "simulator: cannot place 'bowl' without overlap for seed 1");
   EXPECT_FALSE(recs[0].sim_success.has_value()) << "a channel that could not run it has no verdict on it";
-  EXPECT_EQ(s.assign(t0 + 1s).size(), 1u) << "the channel serves the next episode";
+  // The governor still runs it until it misses the observation; it would reject a request for the channel.
+  EXPECT_TRUE(s.assign(t0 + 2s).empty()) << "the governor has not ended it yet";
+  s.result({d[0].episode_id, false, 0, Outcome::Infrastructure, "no first observation", ""}, t0 + 16s);
+  EXPECT_EQ(s.assign(t0 + 16s).size(), 1u) << "the governor's result frees the channel";
+}
+
+// The simulator's physics failed mid-episode (seen with a perturbed library: MuJoCo's contact buffer
+// overflowed): 32 of 200 episodes were lost as "channel 0 is busy" while the governor waited 10 s for
+// the next observation. The channel now waits for the governor, or governor_release at most.
+TEST(Scheduler, AChannelWhoseEpisodeTheSimulatorEndedWaitsForTheGovernorsResult) {
+  auto s = make(3, 1);
+  const auto t0 = Clock::now();
+  s.channel_status(0, "w", true, "", 0, "", t0);
+  const auto d = s.assign(t0);
+  ASSERT_EQ(d.size(), 1u);
+  s.channel_status(0, "w", true, d[0].episode_id, 0, "physics failed at step 242: contact buffer overflowed", t0 + 5s);
+  ASSERT_EQ(s.take_losses().size(), 1u) << "the attempt is lost and runs again";
+  for (auto t = t0 + 5s; t < t0 + 15s; t += 1s) EXPECT_TRUE(s.assign(t).empty()) << "no request the governor rejects";
+  s.result({d[0].episode_id, false, 242, Outcome::Infrastructure, "no next observation", ""}, t0 + 15s);
+  const auto again = s.assign(t0 + 15s);
+  ASSERT_EQ(again.size(), 1u);
+  EXPECT_EQ(to_string(again[0].key), to_string(d[0].key)) << "the lost episode runs again first";
+  // Without the governor's result the channel serves again after governor_release (30 s).
+  s.result({again[0].episode_id, true, 100, Outcome::Success, "", ""}, t0 + 20s);
+  s.channel_status(0, "w", true, again[0].episode_id, 1.0, "", t0 + 20s);
+  const auto third = s.assign(t0 + 20s);
+  ASSERT_EQ(third.size(), 1u);
+  s.channel_status(0, "w", true, third[0].episode_id, 0, "physics failed at step 3", t0 + 21s);
+  EXPECT_TRUE(s.assign(t0 + 50s).empty());
+  EXPECT_EQ(s.assign(t0 + 51s).size(), 1u);
 }
 
 TEST(Scheduler, ARejectedRequestIsFlaggedAndRecordedElsewhereEpisodesAreSkipped) {

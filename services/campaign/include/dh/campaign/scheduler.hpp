@@ -53,6 +53,10 @@ struct SchedulerOptions {
   /// the simulator or the governor) is run again up to this many times; each lost attempt is handed out
   /// by take_losses(), and the last attempt is the episode's record.
   unsigned reruns = 0;
+  /// After the simulator ended an episode itself (its physics failed), the governor still runs it until it
+  /// misses its next observation (step_stall_timeout_ms) and rejects requests for that channel meanwhile:
+  /// the channel is not used until the governor's result for it comes, or this long at most.
+  std::chrono::milliseconds governor_release{30000};
 };
 
 class Scheduler {
@@ -69,7 +73,8 @@ class Scheduler {
   /// Pairs pending episodes with free channels (lowest channel first); the caller sends the requests.
   /// Pending episodes for which `skip` holds (recorded meanwhile by another process) are dropped.
   std::vector<Dispatch> assign(Clock::time_point now, const std::function<bool(const EpisodeKey&)>& skip = {});
-  /// A result for one of this campaign's running episodes; others are ignored.
+  /// A result for one of this campaign's running episodes (others are ignored), or the governor's result
+  /// for an episode the simulator had ended already, which frees its channel.
   void result(const ResultInfo& r, Clock::time_point now);
   /// Episodes whose deadline passed become infrastructure losses; their channels are not used again
   /// until they announce themselves idle after that.
@@ -94,6 +99,8 @@ class Scheduler {
     bool idle = false;
     bool ours = false;  ///< we dispatched to it and it has not announced itself idle since
     std::string last_episode;  ///< the last episode it announced as finished
+    std::string governor_episode;  ///< the simulator ended it, the governor has not yet (governor_release)
+    Clock::time_point governor_until{};
   };
   struct Running {
     EpisodeKey key;
