@@ -227,9 +227,11 @@ class Climb {
       state_.save();
     }
     if (r["stage"] == "candidate") {
+      json summary;
       if (!run_to_end(campaign(a_.arm, a_.cells, a_.dev_seeds, str(r["candidate"]), str(r["candidate_db"])),
-                      "the candidate's campaign on the same episodes"))
+                      "the candidate's campaign on the same episodes", &summary))
         return false;
+      r["candidate_success"] = success_of(summary, a_.arm);
       r["stage"] = "gate";
       spent();
       state_.save();
@@ -290,15 +292,12 @@ class Climb {
     return true;
   }
 
-  /// The success of the last library: the candidate's campaign when the last round admitted it.
+  /// The success of the last library: the candidate's campaign's when the last round admitted it.
   std::optional<double> final_success() const {
     const auto& rounds = (*state_)["rounds"];
     if (rounds.empty() || !rounds.back().contains("success")) return std::nullopt;
     const json& last = rounds.back();
-    if (last["decision"] != "admitted") return last["success"].get<double>();
-    CampaignArgs c = campaign(a_.arm, a_.cells, a_.dev_seeds, str(last["snapshot"]), str(last["candidate_db"]));
-    const auto out = run_campaign(c);  // recorded already: reads the database, runs nothing
-    return out ? std::optional<double>(success_of(*out, a_.arm)) : std::nullopt;
+    return (last["decision"] == "admitted" ? last["candidate_success"] : last["success"]).get<double>();
   }
 
   void write_report() {

@@ -52,7 +52,6 @@ AssetSpec scaled(AssetSpec asset, double width, double height) {
 }
 
 SceneSpec vary_objects(SceneSpec scene, const ObjectSpec& object, std::uint64_t seed) {
-  const auto assets_dir = scene.file.parent_path() / ".." / "assets";
   for (EntitySpec& e : scene.entities) {
     if (e.fixture()) continue;
     std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ULL ^ fnv1a64(e.name.data(), e.name.size()));
@@ -68,10 +67,12 @@ SceneSpec vary_objects(SceneSpec scene, const ObjectSpec& object, std::uint64_t 
     if (const auto it = object.instances.find(e.asset.name); it != object.instances.end() && take < object.instance_share) {
       const auto& others = it->second;
       instance = others[std::min(others.size() - 1, static_cast<std::size_t>(which * static_cast<double>(others.size())))];
-      AssetSpec other = load_asset(assets_dir / (instance + ".yaml"));
+      // Beside the asset it replaces (configs/assets/).
+      const auto file = e.asset.file.parent_path() / (instance + ".yaml");
+      AssetSpec other = load_asset(file);
       if (other.kind != e.asset.kind || other.fixture)
-        throw ConfigError((assets_dir / (instance + ".yaml")).string() + ": instance of '" + e.asset.name +
-                          "' must be a free object of kind '" + e.asset.kind + "', not '" + other.kind + "'");
+        throw ConfigError(file.string() + ": instance of '" + e.asset.name + "' must be a free object of kind '" +
+                          e.asset.kind + "', not '" + other.kind + "'");
       e.asset = std::move(other);
     }
     e.asset = scaled(std::move(e.asset), width, height);
