@@ -21,7 +21,14 @@ EvidenceWriter::~EvidenceWriter() {
 
 void EvidenceWriter::append(const std::string& component, const std::string& kind,
                             nlohmann::json fields) {
-  std::lock_guard lock(mutex_);
+  {
+    std::lock_guard lock(mutex_);
+    write(component, kind, fields);
+  }
+  if (tap_) tap_(kind, fields);
+}
+
+void EvidenceWriter::write(const std::string& component, const std::string& kind, nlohmann::json& fields) {
   fields["seq"] = seq_++;
   fields["component"] = component;
   fields["kind"] = kind;

@@ -16,8 +16,8 @@ using namespace std::chrono_literals;
 
 namespace {
 
-constexpr const char* kPlan = " campaign --arms full --cells goal,goal-task --seeds 1-5 --ready-timeout-ms 20000";
-constexpr std::size_t kEpisodes = 2 * 10 * 5;
+constexpr const char* kPlan = " campaign --arms full --cells goal,goal-task --seeds 1-3 --ready-timeout-ms 20000";
+constexpr std::size_t kEpisodes = 2 * 10 * 3;
 
 }  // namespace
 
@@ -139,7 +139,7 @@ TEST(Campaign, AKilledSimulatorWorkerLosesOnlyItsEpisodesWhichRunAgainOnTheOther
   const auto db = env.runs / "c.db";
   cli::Deployment deployment(cli::load_launch_file(paths::home() / "deploy" / "campaign_local.yaml"), paths::bin_dir(),
                              env.runs / "logs");
-  const pid_t run = itest::spawn_shell("exec " + dh + " campaign --arms full --cells goal --seeds 1-4 --reruns 1 " +
+  const pid_t run = itest::spawn_shell("exec " + dh + " campaign --arms full --cells goal --seeds 1-3 --reruns 1 " +
                                        "--ready-timeout-ms 20000 --db " + db.string() + " > " +
                                        (env.runs / "campaign.log").string() + " 2>&1");
   ASSERT_GT(run, 0);
@@ -153,7 +153,7 @@ TEST(Campaign, AKilledSimulatorWorkerLosesOnlyItsEpisodesWhichRunAgainOnTheOther
 
   auto store = campaign::CampaignDb::open(db);
   const auto rows = store.rows();
-  ASSERT_EQ(rows.size(), 40u) << "every episode recorded once";
+  ASSERT_EQ(rows.size(), 30u) << "every episode recorded once";
   for (const auto& r : rows) EXPECT_FALSE(r.infrastructure) << r.episode_id << ": " << r.reason;
   const auto losses = store.losses();
   ASSERT_GE(losses.size(), 1u) << "local_b had episodes running when it was killed";
@@ -163,7 +163,7 @@ TEST(Campaign, AKilledSimulatorWorkerLosesOnlyItsEpisodesWhichRunAgainOnTheOther
     EXPECT_NE(l.reason.find("worker local_b lost"), std::string::npos) << l.reason;
   }
   // The plan declares the rule, so a resume under another rule is refused.
-  auto [out, code] = itest::run_command(dh + " campaign --arms full --cells goal --seeds 1-4 --reruns 0 --db " +
+  auto [out, code] = itest::run_command(dh + " campaign --arms full --cells goal --seeds 1-3 --reruns 0 --db " +
                                         db.string() + " 2>&1");
   EXPECT_EQ(code, 2);
   EXPECT_NE(out.find("rerun rule"), std::string::npos) << out;

@@ -52,13 +52,23 @@ std::string Progress::line(Clock::time_point now, unsigned bar_width) const {
   out += "  success " + (done_ ? fixed(100.0 * successes_ / done_, 1) + "%" : std::string("--"));
   out += "  infra " + std::to_string(infrastructure_);
 
-  const double elapsed = std::chrono::duration<double>(now - start_).count();
-  if (done_this_run_ == 0 || elapsed <= 0) return out + "  -- ep/s  ETA --";
-  const double rate = done_this_run_ / elapsed;
+  const auto rate = rate_per_s(now);
+  if (!rate) return out + "  -- ep/s  ETA --";
   // Two significant figures at most, so slow campaigns (one episode a minute) do not show "0.0 ep/s".
-  out += "  " + fixed(rate, rate >= 10 ? 0 : rate >= 1 ? 1 : 2) + " ep/s";
-  const std::size_t left = total_ > done_ ? total_ - done_ : 0;
-  return out + "  ETA " + format_duration(left / rate);
+  out += "  " + fixed(*rate, *rate >= 10 ? 0 : *rate >= 1 ? 1 : 2) + " ep/s";
+  return out + "  ETA " + format_duration(*eta_s(now));
+}
+
+std::optional<double> Progress::rate_per_s(Clock::time_point now) const {
+  const double elapsed = std::chrono::duration<double>(now - start_).count();
+  if (done_this_run_ == 0 || elapsed <= 0) return std::nullopt;
+  return done_this_run_ / elapsed;
+}
+
+std::optional<double> Progress::eta_s(Clock::time_point now) const {
+  const auto rate = rate_per_s(now);
+  if (!rate) return std::nullopt;
+  return static_cast<double>(total_ > done_ ? total_ - done_ : 0) / *rate;
 }
 
 std::string Progress::render(Clock::time_point now, bool terminal, unsigned bar_width) const {

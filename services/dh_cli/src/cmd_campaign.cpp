@@ -4,6 +4,7 @@
 
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <thread>
@@ -19,6 +20,7 @@
 #include "dh/common/paths.hpp"
 #include "dh/common/shutdown.hpp"
 #include "dh/common/suite.hpp"
+#include "dh/common/topics.hpp"
 #include "dh/report/report.hpp"
 
 namespace dh::cli {
@@ -134,6 +136,38 @@ std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
       return find_task(suites, k.cell, k.task).budget_steps;
     }, options);
     campaign::Progress progress(all.size(), done_before, done_ok, done_infra, Clock::now());
+    // Live views (dh view) follow the campaign on rt/dh/campaign/progress, tallied by arm and cell.
+    dds::Writer<msg::CampaignProgressPubSubType> progress_topic(participant, topics::kCampaignProgress, dds::Qos::Episode);
+    std::map<std::pair<std::string, std::string>, std::pair<unsigned, unsigned>> tally;  // -> (successes, episodes)
+    for (const auto& arm : plan.arms)
+      for (const auto& cell : plan.cells) tally[{arm, cell}];
+    for (const auto& r : db.rows())
+      if (planned.count(campaign::key_of(r))) {
+        tally[{r.arm, r.cell}].first += r.success && !r.infrastructure;
+        ++tally[{r.arm, r.cell}].second;
+      }
+    const auto publish = [&](Clock::time_point now, bool finished) {
+      msg::CampaignProgress m;
+      m.campaign(a.db);
+      m.total(static_cast<std::uint32_t>(all.size()));
+      m.done(static_cast<std::uint32_t>(progress.done()));
+      m.successes(static_cast<std::uint32_t>(progress.successes()));
+      m.infrastructure(static_cast<std::uint32_t>(progress.infrastructure()));
+      m.reran(static_cast<std::uint32_t>(reran));
+      m.rate_per_s(progress.rate_per_s(now).value_or(-1));
+      m.eta_s(progress.eta_s(now).value_or(-1));
+      m.finished(finished);
+      for (const auto& [key, n] : tally) {
+        msg::CellTally t;
+        t.arm(key.first);
+        t.cell(key.second);
+        t.successes(n.first);
+        t.episodes(n.second);
+        m.cells().push_back(std::move(t));
+      }
+      progress_topic.write(m);
+    };
+    publish(Clock::now(), false);
     const bool terminal = isatty(STDERR_FILENO);
     auto last_print = Clock::now(), last_activity = Clock::now();
     std::optional<Clock::time_point> first_dispatch;
@@ -142,6 +176,8 @@ std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
       for (const auto& rec : records)
         if (db.record(rec)) {
           progress.finished(rec.success && !rec.infrastructure, rec.infrastructure);
+          tally[{rec.arm, rec.cell}].first += rec.success && !rec.infrastructure;
+          ++tally[{rec.arm, rec.cell}].second;
           ++ran_now;
           any = true;
         }
@@ -203,6 +239,7 @@ std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
         client.request(r);
       }
       const bool changed = record(scheduler.take_finished(now));
+      if (changed || scheduler.done()) publish(now, scheduler.done());
       const bool due = terminal ? now - last_print > std::chrono::milliseconds(250)
                                 : changed && (progress.done() % 10 == 0 || now - last_print > std::chrono::seconds(10));
       if (!a.json && (due || scheduler.done())) {

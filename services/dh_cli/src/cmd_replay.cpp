@@ -7,7 +7,7 @@
 namespace dh::cli {
 
 int cmd_replay(const ReplayArgs& a) {
-  inproc::ReplayOptions o{paths::config_dir(), a.library, a.from_command, a.allow_drift};
+  inproc::ReplayOptions o{paths::config_dir(), a.library, a.from_command, a.allow_drift, {}};
   inproc::ReplayReport r;
   try {
     r = inproc::replay(a.evidence, o);

@@ -23,6 +23,24 @@ struct ReplayArgs {
 /// Exit codes of its own: 0 identical, 3 diverged, 4 refused (a fingerprint differs), 2 bad input.
 int cmd_replay(const ReplayArgs& a);
 
+struct ViewArgs {
+  std::string bind = "127.0.0.1", token, port_file;
+  std::uint16_t port = 8642;
+  std::vector<std::string> evidence_roots;
+};
+/// Serves the live view until Ctrl-C: 0 stopped, 2 it cannot serve (the port is taken, a bad address).
+int cmd_view(const ViewArgs& a);
+
+struct FilmArgs {
+  std::string evidence, steps = "auto", camera = "agentview", out, video, library;
+  std::size_t max_frames = 8;
+  int width = 320, height = 240;
+  bool allow_drift = false, json = false;
+};
+/// 0 written, 2 bad input (a missing or corrupt recording, a step past the episode, an unknown camera),
+/// 4 refused (the recording is of another build or θ; --allow-drift films it anyway), 1 nothing renders.
+int cmd_film(const FilmArgs& a);
+
 struct ProbeArgs {
   std::string evidence, library;
   std::optional<std::uint32_t> command;

@@ -13,6 +13,12 @@
 //   dh replay EVIDENCE [--from-command K] [--library DIR] [--json] [--allow-drift]
 //                                            re-runs a recorded episode in process and compares it step by
 //                                            step (exit 0 identical, 3 diverged, 4 a fingerprint differs)
+//   dh view [--port 8642] [--bind 127.0.0.1 --token T]
+//                                            a web page: every channel live, campaigns' progress, episodes'
+//                                            timelines and filmstrips (reads DDS; read-only)
+//   dh film EVIDENCE --out F.png [--steps auto|S1,S2,..] [--camera agentview|wrist|workcell] [--video F.webm]
+//                                            re-runs a recorded episode and renders the chosen steps into a
+//                                            labelled strip (auto: refusals, recoveries, commands, verdict)
 //   dh probe --evidence E --command K [--library DIR] [--json]
 //                                            re-runs command K from the state recorded at its start under the
 //                                            recorded θ or DIR's (exit 0 its effect held, 3 it did not)
@@ -187,6 +193,33 @@ int main(int argc, char** argv) {
                    "replay even when the model, MuJoCo or θ differs from the recording, and say what differs");
   replay->add_flag("--json", replay_args.json,
                    "one JSON object: identical, steps, first_divergence {step, body, quantity} or null, ...");
+  ViewArgs view_args;
+  auto* view = app.add_subcommand("view", "a web page of every channel and campaign on the domain, live, and each "
+                                          "episode's timeline and filmstrip");
+  view->add_option("--port", view_args.port, "TCP port (default 8642; 0: any free one)");
+  view->add_option("--bind", view_args.bind, "address to serve on (default 127.0.0.1: this host only)");
+  view->add_option("--token", view_args.token, "a token every request must carry (?token=T): give one with --bind");
+  view->add_option("--evidence-root", view_args.evidence_roots,
+                   "another folder whose evidence files episode pages may read (the runs folder always)");
+  view->add_option("--port-file", view_args.port_file, "write the port served on into this file");
+  FilmArgs film_args;
+  auto* film = app.add_subcommand("film", "re-run a recorded episode in process and render chosen steps into a "
+                                          "labelled strip (PNG), or every step into a video");
+  film->add_option("evidence", film_args.evidence, "the episode's evidence file (<episode>.jsonl; the seam's "
+                                                   "<episode>.steps and .states beside it)")->required();
+  film->add_option("--out", film_args.out, "the strip to write (.png)");
+  film->add_option("--steps", film_args.steps,
+                   "auto (refusals, recoveries, each command's start, middle and end, the verdict) or steps "
+                   "S1,S2,... (default auto)");
+  film->add_option("--max-frames", film_args.max_frames, "auto's limit (default 8)")->check(CLI::Range(1, 40));
+  film->add_option("--camera", film_args.camera, "agentview, wrist or workcell (default agentview)");
+  film->add_option("--width", film_args.width, "each frame's width in pixels (default 320)")->check(CLI::Range(16, 640));
+  film->add_option("--height", film_args.height, "each frame's height in pixels (default 240)")->check(CLI::Range(16, 480));
+  film->add_option("--video", film_args.video, "also every step as a video at 20 frames/s (.webm VP8 or .mp4)");
+  film->add_option("--library", film_args.library,
+                   "the capability descriptors whose θ must match the recording (default configs/library)");
+  film->add_flag("--allow-drift", film_args.allow_drift, "film a recording of another build or θ, and say so");
+  film->add_flag("--json", film_args.json, "one JSON object: the frames with their labels, the replay's identity");
   ProbeArgs probe_args;
   auto* probe = app.add_subcommand("probe", "re-run recorded commands from the state at their start: one (--evidence, "
                                             "--command) or a capability's probe set (--db, --capability)");
@@ -301,6 +334,14 @@ int main(int argc, char** argv) {
     if (*profile) return cmd_dds_profile(deploy, host);
     if (*train) return cmd_train_policy(train_args);
     if (*replay) return cmd_replay(replay_args);
+    if (*film) return cmd_film(film_args);
+    if (*view) {
+      if (view_args.bind != "127.0.0.1" && view_args.token.empty()) {
+        std::cerr << "error: --bind " << view_args.bind << " opens the view to other hosts: give a --token too\n";
+        return 2;
+      }
+      return cmd_view(view_args);
+    }
     if (*attribute) return cmd_attribute(attr);
     if (*probe) return cmd_probe(probe_args);
     if (*revise) return cmd_revise(revise_args);

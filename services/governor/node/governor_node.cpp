@@ -11,7 +11,8 @@
 //         rt/dh/perception/scene (Observation) scene estimates, for arms that ground from perception
 // Writes  rt/dh/planner/request (Planner), rt/dh/command (Command), rt/dh/lease (Lease, deadline 1 s;
 //         the running episode's lease is written again every 250 ms, so the seam hears a live governor),
-//         rt/dh/episode/result  (Episode)
+//         rt/dh/episode/result  (Episode), rt/dh/evidence (Episode: each channel's episode as its evidence
+//         stands, for live views)
 // Evidence: one JSON-lines file per episode under --runs-dir/evidence/.
 // Parameters: --config FILE (default configs/governor.yaml), --runs-dir DIR (default DH_RUNS_DIR or ./runs),
 // --planner-timeout-ms N (overrides the YAML's planner_timeout_ms).
@@ -85,7 +86,7 @@ class Shell {
   Shell(dds::Participant& p, gov::GovernorCore& core, std::shared_ptr<spdlog::logger> log)
       : core_(core), log_(std::move(log)), plan_(p, topics::kPlanRequest, dds::Qos::Planner),
         command_(p, topics::kCommand, dds::Qos::Command), lease_(p, topics::kLease, dds::Qos::Lease),
-        result_(p, topics::kEpisodeResult, dds::Qos::Episode) {}
+        result_(p, topics::kEpisodeResult, dds::Qos::Episode), live_(p, topics::kEvidence, dds::Qos::Episode) {}
 
   void handle(const msg::EpisodeRequest& r) {
     log_->info("channel={} episode={} requested (arm {})", r.channel(), r.episode_id(), r.arm());
@@ -136,6 +137,27 @@ class Shell {
                core_.on_foreign_command(c.channel(), c.episode_id(), c.command_id(), c.capability()));
   }
   void tick() { carry_out(core_.on_tick(gov::Clock::now())); }
+  /// The channels whose episode state is news, for live views.
+  void write_live() {
+    for (const auto& s : core_.take_live()) {
+      msg::EpisodeLive m;
+      m.channel(s.channel);
+      m.episode_id(s.episode_id);
+      m.arm(s.arm);
+      m.cell(s.cell);
+      m.task(s.task);
+      m.seed(s.seed);
+      m.step(s.step);
+      m.budget_steps(s.budget_steps);
+      m.capability(s.capability);
+      m.decision(s.decision);
+      m.reason(s.reason);
+      m.ended(s.ended);
+      m.outcome(s.outcome);
+      m.evidence_path(s.evidence.string());
+      live_.write(m);
+    }
+  }
   dds::fdds::InstanceHandle_t command_writer() const { return command_.handle(); }
 
  private:
@@ -225,6 +247,7 @@ class Shell {
   dds::Writer<msg::CommandPubSubType> command_;
   dds::Writer<msg::LeasePubSubType> lease_;
   dds::Writer<msg::EpisodeResultPubSubType> result_;
+  dds::Writer<msg::EpisodeLivePubSubType> live_;
   std::map<dds::fdds::InstanceHandle_t, std::string> writers_;  ///< announcing writer -> instance
 };
 
@@ -323,6 +346,7 @@ int run(int argc, char** argv) {
       shell->tick();
       next_tick = gov::Clock::now() + std::chrono::milliseconds(50);
     }
+    shell->write_live();
   };
   return run_managed(*log, std::move(service));
 }

@@ -105,6 +105,8 @@ CoreEffects GovernorCore::on_request(const EpisodeRequest& r, Clock::time_point 
   ch.lease.reset();
   ch.instance_of.clear();
   ch.evidence = std::make_unique<EvidenceWriter>(path);
+  LiveTracker& live = live_[r.channel] = LiveTracker(r.channel, r.episode_id, path);
+  ch.evidence->set_tap([&live](const std::string& kind, const nlohmann::json& record) { live.record(kind, record); });
   record_request(*ch.evidence, r.suite, r.task, r.seed, r.cell, r.arm, r.planner_errors);
   if (!episode_config) {
     // Answered at once, so the client and the simulator channel do not wait for a deadline.
@@ -213,6 +215,13 @@ CoreEffects GovernorCore::on_tick(Clock::time_point now) {
     out.push_back({id, ch.machine->spec().episode_id, std::move(fx), {}, {}});
     ch.lease_written = now;
   }
+  return out;
+}
+
+std::vector<LiveState> GovernorCore::take_live() {
+  std::vector<LiveState> out;
+  for (auto& [channel, tracker] : live_)
+    if (auto s = tracker.take()) out.push_back(std::move(*s));
   return out;
 }
 

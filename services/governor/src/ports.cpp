@@ -23,6 +23,8 @@ const Ports& ports() {
       {Out, topics::kCommand, "dh::msg::Command", dds::Qos::Command, "START and CANCEL to one instance"},
       {Out, topics::kLease, "dh::msg::Lease", dds::Qos::Lease, "the running command's lease, rewritten every 250 ms"},
       {Out, topics::kEpisodeResult, "dh::msg::EpisodeResult", dds::Qos::Episode, "the outcome, typed"},
+      {Out, topics::kEvidence, "dh::msg::EpisodeLive", dds::Qos::Episode,
+       "each channel's episode as its evidence stands: step, capability, last decision (live views)"},
   };
   return p;
 }

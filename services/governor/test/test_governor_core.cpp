@@ -191,3 +191,39 @@ TEST_F(Core, AForgottenChannelTakesTheNextEpisode) {
 }
 
 }  // namespace
+
+TEST_F(Core, ALiveViewGetsEachEpisodeAsItsEvidenceStandsAtMostOncePerDecisionPeriod) {
+  core->on_announce(test::pick_place_info());
+  dispatched();
+  auto live = core->take_live();
+  ASSERT_EQ(live.size(), 1u);
+  EXPECT_EQ(live[0].episode_id, "ep");
+  EXPECT_EQ(live[0].cell, "goal");
+  EXPECT_EQ(live[0].budget_steps, 300u);
+  EXPECT_EQ(live[0].capability, "pick_place");
+  EXPECT_EQ(live[0].evidence, runs / "evidence" / "ep.jsonl");
+  EXPECT_FALSE(live[0].ended);
+  EXPECT_TRUE(core->take_live().empty()) << "nothing new since";
+  // Steps between decisions are not news; the decision at step 10 is.
+  for (std::uint32_t step = 1; step <= 10; ++step) {
+    Observation o = first("ep");
+    o.step = step;
+    core->on_observation(o, t0 + step * 50ms);
+    if (step < 10) EXPECT_TRUE(core->take_live().empty()) << "step " << step;
+  }
+  live = core->take_live();
+  ASSERT_EQ(live.size(), 1u);
+  EXPECT_EQ(live[0].step, 10u);
+  EXPECT_EQ(live[0].decision, "continue");
+  // A rejected request on another channel is news with its end.
+  EpisodeRequest r = request("bad", 1);
+  r.arm = "nonesuch";
+  core->on_request(r, t0 + 1s);
+  live = core->take_live();
+  ASSERT_EQ(live.size(), 1u);
+  EXPECT_EQ(live[0].channel, 1u);
+  EXPECT_EQ(live[0].episode_id, "bad");
+  EXPECT_TRUE(live[0].ended);
+  EXPECT_EQ(live[0].outcome, "rejected");
+  EXPECT_NE(live[0].reason.find("nonesuch"), std::string::npos) << live[0].reason;
+}

@@ -179,6 +179,7 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
       }
   };
   check_states(first, !resume_from);
+  if (o.on_step) o.on_step(first, cell);
 
   std::map<std::uint32_t, bool> verdicts;
   std::optional<cap::ActionOut> action;  // the skills' answer to the current step
@@ -222,6 +223,7 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
     obs = *sx.observation;
     report.steps = i;
     check_states(i, true);
+    if (o.on_step) o.on_step(i, cell);
     take(host.on_observation(obs, step_time(i)));
   }
   if (!o.from_command) report.verdicts_identical = verdicts == rec.verdicts;

@@ -49,7 +49,7 @@ TEST(PlannerErrorsEpisode, ErrorsAreDrawnAlikeRecordedAndTheEpisodeReplays) {
     EXPECT_EQ(a.success, b.success);
     EXPECT_EQ(a.steps, b.steps);
     made += errors.size();
-    const auto r = inproc::replay(one, {paths::config_dir(), {}, std::nullopt, false});
+    const auto r = inproc::replay(one, {paths::config_dir(), {}, std::nullopt, false, {}});
     EXPECT_TRUE(r.identical) << "seed " << seed << " does not replay";
   }
   EXPECT_GT(made, 0u) << "at 40 % per request, four episodes made no error";

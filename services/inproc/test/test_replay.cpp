@@ -33,7 +33,7 @@ struct Replay : ::testing::Test {
     delete outcome;
     delete dir;
   }
-  static inproc::ReplayOptions options() { return {paths::config_dir(), {}, std::nullopt, false}; }
+  static inproc::ReplayOptions options() { return {paths::config_dir(), {}, std::nullopt, false, {}}; }
   /// A copy of the recording to alter.
   static fs::path copy(const std::string& name) {
     fs::copy_file(*dir / "ep.jsonl", *dir / (name + ".jsonl"), fs::copy_options::overwrite_existing);
@@ -174,7 +174,7 @@ TEST(ReplayMidEpisode, AStateRecordedWhileCarryingRestoresBitForBit) {
   inproc::Stack stack(paths::config_dir());
   const auto out = stack.run(find_task(load_suites(paths::config_dir()), "long-task", 0), 21, "full", dir / "ep.jsonl");
   ASSERT_TRUE(out.success) << out.reason;
-  inproc::ReplayOptions o{paths::config_dir(), {}, 1u, false};
+  inproc::ReplayOptions o{paths::config_dir(), {}, 1u, false, {}};
   const auto r = inproc::replay(dir / "ep.jsonl", o);
   EXPECT_GT(r.from_step, 100u) << "the second command starts mid-episode";
   EXPECT_TRUE(r.identical) << (r.first_divergence ? r.first_divergence->body + " " + r.first_divergence->quantity : "");

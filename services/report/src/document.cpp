@@ -304,6 +304,52 @@ void attribution(const json& s, Document& doc) {
   doc.push_back(std::move(t));
 }
 
+// p50 [p10, p90] of a quantiles object, scaled (100 for a fraction shown in %).
+std::string spread(const json& q, double scale, int decimals) {
+  if (!q["p50"].is_number()) return kNone;
+  const auto v = [&](const char* k) { return fmt::format("{:.{}f}", scale * q[k].get<double>(), decimals); };
+  return v("p50") + " [" + v("p10") + ", " + v("p90") + "] (" + count(q["count"]) + ")";
+}
+
+void execution(const json& s, const PlotResult& plots, Document& doc) {
+  doc.push_back(Heading{2, "Execution figures"});
+  doc.push_back(Paragraph{
+      "How episodes end (the outcome composition; a loss to infrastructure is a failure in every rate) and "
+      "what their budget went on. Figures are p50 [p10, p90] (episodes)."});
+  std::vector<std::string> outcomes{"success", "budget_exhausted", "gave_up", "infrastructure"};
+  for (const json& e : s["execution"])
+    for (const auto& [o, n] : e["outcomes"].items())
+      if (std::find(outcomes.begin(), outcomes.end(), o) == outcomes.end()) outcomes.push_back(o);
+  Table c{{"Arm"}, {}};
+  for (const auto& o : outcomes) c.header.push_back(o);
+  for (const json& e : s["execution"]) {
+    std::vector<std::string> row{e["arm"]};
+    for (const auto& o : outcomes) row.push_back(count(e["outcomes"].value(o, 0u)));
+    c.rows.push_back(std::move(row));
+  }
+  doc.push_back(std::move(c));
+  Table b{{"Arm", "Budget used, successes (%)", "Budget used, failures (%)", "Failures: steps after the last progress",
+           "Episodes never under vla_act"},
+          {}};
+  for (const json& e : s["execution"])
+    b.rows.push_back({e["arm"], spread(e["budget_used"]["success"], 100, 0), spread(e["budget_used"]["failure"], 100, 0),
+                      spread(e["steps_after_progress"], 1, 0),
+                      count(e["zero_policy_steps"]) + " of " + count(e["traced"])});
+  doc.push_back(std::move(b));
+  if (drawn(plots, "budget.png"))
+    doc.push_back(Image{"budget.png", "Budget used at the episode's end, by arm and outcome"});
+  Table t{{"Arm", "Time to success (steps)", "Time to success (s, wall)", "Wall clock, successes (s)",
+           "Wall clock, failures (s)"},
+          {}};
+  for (const json& e : s["execution"])
+    t.rows.push_back({e["arm"], spread(e["time_to_success"]["steps"], 1, 0), spread(e["time_to_success"]["wall_s"], 1, 1),
+                      spread(e["wall_s"]["success"], 1, 1), spread(e["wall_s"]["failure"], 1, 1)});
+  doc.push_back(std::move(t));
+  doc.push_back(Paragraph{
+      "A step of progress is one at which a command's progress rose above its best so far, or a command "
+      "completed. Time to success in steps is the simulator's first step with the goal holding."});
+}
+
 }  // namespace
 
 Document build_document(const json& summary, const PlotResult& plots) {
@@ -318,6 +364,7 @@ Document build_document(const json& summary, const PlotResult& plots) {
   wall_clock(summary, plots, doc);
   latency(summary, doc);
   mechanisms(summary, doc);
+  execution(summary, plots, doc);
   policy(summary, doc);
   return doc;
 }

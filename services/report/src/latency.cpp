@@ -3,6 +3,7 @@
 #include "dh/common/evidence.hpp"
 #include "dh/common/seam_event.hpp"
 
+#include <algorithm>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -42,7 +43,7 @@ void Mechanisms::merge(const Mechanisms& other) {
   episodes_held += other.episodes_held;
 }
 
-EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechanisms& mech) {
+EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechanisms& mech, EpisodeTrace& trace) {
   if (path.empty()) return EvidenceStatus::NotRecorded;
   std::vector<nlohmann::json> records;
   std::error_code ec;
@@ -55,7 +56,9 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
   std::map<std::string, std::int64_t> open_requests;  // request_id (dumped) → t_wall_ns of the request
   std::map<std::string, std::string> capability_of;   // command_id → capability
   std::optional<std::pair<std::string, long>> under;  // the capability in control and since which step
-  ++mech.episodes;
+  std::map<std::string, double> progress;              // command_id → its highest progress so far
+  Mechanisms episode;  // this file's, merged into `mech` once it is read whole
+  ++episode.episodes;
   unsigned long holds = 0;
   auto text = [](const nlohmann::json& r, const char* key) {
     const auto it = r.find(key);
@@ -64,29 +67,43 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
   for (const nlohmann::json& r : records) {
     if (!r.is_object()) continue;
     const std::string kind = text(r, "kind");
+    const long step = has_number(r, "step") ? r["step"].get<long>() : -1;
     if (kind == "decision") {
+      // A command's progress restarts at its dispatch; a rise over its best so far is progress.
+      const std::string id = text(r, "command_id");
+      if (has_number(r, "progress") && !id.empty()) {
+        const double p = r["progress"].get<double>();
+        const auto best = progress.emplace(id, 0.0).first;
+        if (p > best->second) {
+          best->second = p;
+          trace.last_progress_step = step;
+        }
+      }
       std::string d = text(r, "decision");
       if (d == "request_replan" && text(r, "phase") == "completed") d = "next_step";
-      if (!d.empty() && d != "continue") ++mech.decisions[d];
+      if (!d.empty() && d != "continue") ++episode.decisions[d];
     } else if (kind == "refusal" && text(r, "refusal") != "planner_refused") {
-      ++mech.refusals;  // the planner's own refusals and timeouts are the slow brain's, not execution's
+      ++episode.refusals;  // the planner's own refusals and timeouts are the slow brain's, not execution's
     } else if (kind == "grounding" && text(r, "result") == "grounded") {
       capability_of[text(r, "command_id")] = text(r, "capability");
-      ++mech.commands[text(r, "capability")].first;
-    } else if ((kind == "dispatch" || kind == "episode_end") && r.contains("step") && r["step"].is_number()) {
-      const long step = r["step"].get<long>();
-      if (under && step > under->second) mech.steps[under->first] += static_cast<unsigned long>(step - under->second);
+      ++episode.commands[text(r, "capability")].first;
+    } else if ((kind == "dispatch" || kind == "episode_end") && step >= 0) {
+      if (kind == "episode_end") trace.end_step = step;
+      if (under && step > under->second) episode.steps[under->first] += static_cast<unsigned long>(step - under->second);
       under.reset();
       const auto c = capability_of.find(text(r, "command_id"));
       if (kind == "dispatch" && c != capability_of.end()) under = {{c->second, step}};
     } else if (kind == "command_status") {
       const auto c = capability_of.find(text(r, "command_id"));
       const std::string state = text(r, "state");
-      if (c != capability_of.end() && state == "completed") ++mech.commands[c->second].second;
-      if (state == "refused") ++mech.refusals;
+      if (c != capability_of.end() && state == "completed") {
+        ++episode.commands[c->second].second;
+        trace.last_progress_step = std::max(trace.last_progress_step, step);
+      }
+      if (state == "refused") ++episode.refusals;
     }
     if (kind == to_string(SeamEventKind::SafetyHold)) ++holds;
-    if (kind == to_string(SeamEventKind::SpeedLimited)) ++mech.speed_limited;
+    if (kind == to_string(SeamEventKind::SpeedLimited)) ++episode.speed_limited;
     if (kind == "decision" && has_number(r, "latency_ns")) {
       into.decision_ms.push_back(r["latency_ns"].get<double>() / kNsPerMs);
     } else if ((kind == "plan_request" || kind == "advice") && r.contains("request_id") &&
@@ -102,8 +119,10 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
     }
   }
   into.unanswered += open_requests.size();
-  mech.safety_holds += holds;
-  mech.episodes_held += holds > 0;
+  episode.safety_holds += holds;
+  episode.episodes_held += holds > 0;
+  if (const auto v = episode.steps.find("vla_act"); v != episode.steps.end()) trace.policy_steps = v->second;
+  mech.merge(episode);
   return EvidenceStatus::Read;
 }
 

@@ -1,5 +1,6 @@
 // What one episode's evidence file says beyond its outcome: decision and planner latencies, and the
-// execution mechanisms the fast brain used (decisions by kind, refusals, commands per capability).
+// execution mechanisms the fast brain used (decisions by kind, refusals, commands per capability), and
+// how the episode ended (its trace).
 #pragma once
 
 #include <map>
@@ -31,10 +32,19 @@ struct Mechanisms {
   void merge(const Mechanisms& other);
 };
 
+/// One episode as its evidence ends it, for the execution figures.
+struct EpisodeTrace {
+  long end_step = -1;            ///< the episode_end record's step; -1 when there is none
+  long last_progress_step = 0;   ///< the last step a command's progress rose, or a command completed
+  unsigned long policy_steps = 0;  ///< control steps under vla_act
+};
+
 enum class EvidenceStatus { Read, Missing, NotRecorded };
 
-/// Adds what the evidence file at `path` records to `latencies` and `mechanisms`. "" is NotRecorded; a
-/// file that cannot be read is Missing and adds nothing; records with absent or mistyped fields are skipped.
-EvidenceStatus collect_evidence(const std::string& path, Latencies& latencies, Mechanisms& mechanisms);
+/// Adds what the evidence file at `path` records to `latencies` and `mechanisms`, and fills `trace`. "" is
+/// NotRecorded; a file that cannot be read is Missing and adds nothing; records with absent or mistyped
+/// fields are skipped.
+EvidenceStatus collect_evidence(const std::string& path, Latencies& latencies, Mechanisms& mechanisms,
+                                EpisodeTrace& trace);
 
 }  // namespace dh::report

@@ -20,8 +20,9 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-// Every plot a report may draw; positions.png only when it has -pos cells.
-const std::vector<std::string> kPlotFiles{"success.png", "wall_clock.png", "positions.png"};
+// Every plot a report may draw; budget.png only when an episode ended with a budget, positions.png only
+// when the report has -pos cells.
+const std::vector<std::string> kPlotFiles{"success.png", "wall_clock.png", "budget.png", "positions.png"};
 
 fs::path find_on_path(const std::string& program) {
   const char* path = std::getenv("PATH");
@@ -83,6 +84,23 @@ std::string wall_clock_data(const json& summary, const std::vector<Source>& sour
   return out.str();
 }
 
+// The paper's fig:mech: one line per episode, the budget it had used at its end (%), by arm and outcome.
+bool has_budget(const json& summary) {
+  for (const json& e : summary["execution"])
+    if (!e["budget_used_values"]["success"].empty() || !e["budget_used_values"]["failure"].empty()) return true;
+  return false;
+}
+
+std::string budget_data(const json& summary) {
+  std::ostringstream out;
+  out << "# arm/outcome, budget used at the episode's end (%)\n";
+  for (const json& e : summary["execution"])
+    for (const char* outcome : {"success", "failure"})
+      for (const json& v : e["budget_used_values"][outcome])
+        out << data_label(e["arm"].get<std::string>() + "/" + outcome) << ' ' << 100 * v.get<double>() << '\n';
+  return out.str();
+}
+
 /// A "-pos" row's line in the displacement plot: its arm and cell.
 std::string series_name(const json& row) { return row["arm"].get<std::string>() + "/" + row["cell"].get<std::string>(); }
 
@@ -106,6 +124,16 @@ std::vector<std::string> series_of(const json& summary) {
   for (const json& p : summary["positions"])
     if (out.empty() || out.back() != series_name(p)) out.push_back(series_name(p));
   return out;
+}
+
+// One box per label of `data` (lines "label value"), in the order the labels come.
+std::string boxes(const std::string& png, const std::string& title, const std::string& ylabel,
+                  const std::string& extra, const std::string& data) {
+  return "reset\nset output " + png + "\nset title " + gp_quote(title) + "\nset ylabel " + gp_quote(ylabel) + "\n" +
+         extra +
+         "set grid ytics\nunset key\nset xtics rotate by -30\nset style data boxplot\n"
+         "set style fill solid 0.3 border -1\nset boxwidth 0.5\nset pointsize 0.5\nplot " +
+         data + " using (1):2:(0.5):1\n";
 }
 
 std::string script(const json& summary, const fs::path& dir) {
@@ -133,20 +161,11 @@ plot )";
     gp << (i ? ", '' " : file("success.dat") + " ") << "using " << col << ':' << col + 1 << ':' << col + 2
        << (i ? "" : ":xtic(1)") << " title " << gp_quote(arms[i]);
   }
-  gp << R"(
-reset
-set output )" << file("wall_clock.png") << R"(
-set title 'Episode wall clock per arm and cell'
-set ylabel 'wall clock (s)'
-set grid ytics
-unset key
-set xtics rotate by -30
-set style data boxplot
-set style fill solid 0.3 border -1
-set boxwidth 0.5
-set pointsize 0.5
-plot )" << file("wall_clock.dat") << R"( using (1):2:(0.5):1
-)";
+  gp << "\n" << boxes(file("wall_clock.png"), "Episode wall clock per arm and cell", "wall clock (s)", "",
+                      file("wall_clock.dat"));
+  if (has_budget(summary))
+    gp << boxes(file("budget.png"), "Budget used at the episode's end, by arm and outcome", "budget used (%)",
+                "set yrange [0:105]\n", file("budget.dat"));
   if (const auto series = series_of(summary); !series.empty()) {
     gp << R"(reset
 set output )" << file("positions.png") << R"(
@@ -211,10 +230,12 @@ PlotResult draw_plots(const json& summary, const std::vector<Source>& sources, c
   }
   const fs::path script_path = dir / "plots.gp";
   std::vector<std::string> expected{kPlotFiles[0], kPlotFiles[1]};
-  if (!summary["positions"].empty()) expected.push_back(kPlotFiles[2]);
+  if (has_budget(summary)) expected.push_back(kPlotFiles[2]);
+  if (!summary["positions"].empty()) expected.push_back(kPlotFiles[3]);
   if (!write_file(dir / "success.dat", success_data(summary)) ||
       !write_file(dir / "positions.dat", positions_data(summary)) ||
       !write_file(dir / "wall_clock.dat", wall_clock_data(summary, sources)) ||
+      !write_file(dir / "budget.dat", budget_data(summary)) ||
       !write_file(script_path, script(summary, dir))) {
     result.note = "could not write the plot data into " + dir.string() + ".";
     return result;

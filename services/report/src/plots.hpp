@@ -1,5 +1,6 @@
 // PNG plots drawn by gnuplot: success rate per arm and cell with Wilson error bars (success.png) and the
-// episode wall clock per arm and cell as box plots (wall_clock.png).
+// episode wall clock per arm and cell as box plots (wall_clock.png), the budget used at the episode's end
+// by arm and outcome (budget.png), and success against displacement for "-pos" cells (positions.png).
 #pragma once
 
 #include "document.hpp"

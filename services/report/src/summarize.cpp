@@ -178,6 +178,46 @@ json attribution_json(const std::vector<Source>& sources, const std::set<FailedK
   return {{"config", options.attribution_config}, {"cells", out}};
 }
 
+// The paper's execution figures for one arm: how episodes end and what their budget went on.
+struct Execution {
+  std::map<std::string, unsigned> outcomes;  // outcome → episodes ("infrastructure" for a loss)
+  std::vector<double> budget_success, budget_failure;  // steps / budget at the end
+  std::vector<double> after_progress;       // failures: steps from the last progress to the end
+  std::vector<double> success_step, success_wall_s, failure_wall_s;
+  unsigned traced = 0, zero_policy = 0;     // episodes with an end in their evidence; none under vla_act
+  void add(const EpisodeRecord& r, const EpisodeTrace& t) {
+    const bool success = r.success && !r.infrastructure;
+    ++outcomes[r.infrastructure ? "infrastructure" : r.outcome.empty() ? "unknown" : r.outcome];
+    if (r.budget > 0 && !r.infrastructure)
+      (success ? budget_success : budget_failure).push_back(static_cast<double>(r.steps) / r.budget);
+    (success ? success_wall_s : failure_wall_s).push_back(r.wall_s);
+    if (success && r.sim_goal_step >= 0) success_step.push_back(r.sim_goal_step);
+    if (t.end_step < 0) return;
+    ++traced;
+    zero_policy += t.policy_steps == 0;
+    if (!success && !r.infrastructure) after_progress.push_back(static_cast<double>(t.end_step - t.last_progress_step));
+  }
+};
+
+json quantiles_json(const std::vector<double>& x) {
+  const auto q = [&](double at) { return x.empty() ? json(nullptr) : json(stats::percentile(x, at)); };
+  const double mean = x.empty() ? NAN : std::accumulate(x.begin(), x.end(), 0.0) / static_cast<double>(x.size());
+  return {{"count", x.size()}, {"p10", q(0.1)}, {"p50", q(0.5)}, {"p90", q(0.9)}, {"mean", number_or_null(mean)}};
+}
+
+json execution_json(const std::string& arm, const Execution& e) {
+  return {{"arm", arm},
+          {"outcomes", e.outcomes},
+          {"budget_used", {{"success", quantiles_json(e.budget_success)}, {"failure", quantiles_json(e.budget_failure)}}},
+          {"steps_after_progress", quantiles_json(e.after_progress)},
+          {"traced", e.traced},
+          {"zero_policy_steps", e.zero_policy},
+          {"time_to_success", {{"steps", quantiles_json(e.success_step)}, {"wall_s", quantiles_json(e.success_wall_s)}}},
+          {"wall_s", {{"success", quantiles_json(e.success_wall_s)}, {"failure", quantiles_json(e.failure_wall_s)}}},
+          {"budget_used_values",
+           {{"success", e.budget_success}, {"failure", e.budget_failure}}}};
+}
+
 json wall_clock_json(const std::vector<double>& wall_s) {
   const double total = std::accumulate(wall_s.begin(), wall_s.end(), 0.0);
   return {{"episodes", wall_s.size()},
@@ -199,6 +239,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
   std::map<std::string, std::map<PairKey, bool>> success_by_key;
   std::map<std::string, Latencies> latency_by_arm;
   std::map<std::string, Mechanisms> mechanisms_by_arm;
+  std::map<std::string, Execution> execution_by_arm;
   std::set<FailedKey> failed;  // the counted rows that failed
   unsigned rows = 0, duplicates = 0, infrastructure = 0, sim_reported = 0;
   json disagreements = json::array();  // the simulator's own verdict against the governor's
@@ -233,13 +274,15 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
         disagreements.push_back({{"arm", r.arm}, {"cell", r.cell}, {"task", r.task}, {"seed", r.seed},
                                  {"governor", r.success}, {"simulator", *r.sim_success},
                                  {"sim_goal_step", r.sim_goal_step}, {"episode_id", r.episode_id}});
-      ++evidence[collect_evidence(r.evidence_path, latency_by_arm[r.arm], mechanisms_by_arm[r.arm])];
+      EpisodeTrace trace;
+      ++evidence[collect_evidence(r.evidence_path, latency_by_arm[r.arm], mechanisms_by_arm[r.arm], trace)];
+      execution_by_arm[r.arm].add(r, trace);
     }
   }
 
   json summary = json::array(), totals = json::array(), tasks = json::array(), wall = json::array();
   json positions = json::array();
-  json latency_by = json::array(), mechanisms = json::array();
+  json latency_by = json::array(), mechanisms = json::array(), execution = json::array();
   Latencies all_latencies;
   for (const std::string& arm : arms.names) {
     for (const std::string& cell : cells.names) {
@@ -278,6 +321,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
                           {"decision", percentiles_json(l.decision_ms)},
                           {"planner", percentiles_json(l.planner_ms)}});
     all_latencies.merge(l);
+    execution.push_back(execution_json(arm, execution_by_arm.at(arm)));
     const Mechanisms& m = mechanisms_by_arm.at(arm);
     json commands = json::array();
     unsigned long all_steps = 0;
@@ -322,6 +366,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
             {"unanswered_plan_requests", all_latencies.unanswered},
             {"by_arm", latency_by}}},
           {"mechanisms", mechanisms},
+          {"execution", execution},
           {"evidence",
            {{"read", evidence[EvidenceStatus::Read]},
             {"missing", evidence[EvidenceStatus::Missing]},

@@ -44,6 +44,8 @@ EpisodeRecord row(const std::string& arm, const std::string& cell, unsigned task
   r.tick_limit = !success;
   r.outcome = success ? "success" : "budget_exhausted";
   r.wall_s = wall_s;
+  r.budget = 300;
+  r.steps = success ? 150 : 300;
   return r;
 }
 
@@ -76,7 +78,9 @@ void write_evidence(const fs::path& path) {
                         json{{"kind", "decision"}, {"decision", "substitute"}, {"phase", "refused"}},
                         json{{"kind", "grounding"}, {"result", "grounded"}, {"command_id", "e/c1"}, {"capability", "pick_place"}},
                         json{{"kind", "dispatch"}, {"command_id", "e/c1"}, {"step", 2}},
-                        json{{"kind", "command_status"}, {"command_id", "e/c1"}, {"state", "completed"}},
+                        json{{"kind", "decision"}, {"decision", "continue"}, {"command_id", "e/c1"}, {"step", 10}, {"progress", 0.5}},
+                        json{{"kind", "decision"}, {"decision", "continue"}, {"command_id", "e/c1"}, {"step", 20}, {"progress", 0.5}},
+                        json{{"kind", "command_status"}, {"command_id", "e/c1"}, {"state", "completed"}, {"step", 140}},
                         json{{"kind", "decision"}, {"decision", "request_replan"}, {"phase", "completed"}},
                         json{{"kind", "decision"}, {"decision", "request_replan"}, {"phase", "failed"}},
                         json{{"kind", "refusal"}, {"refusal", "budget"}},
@@ -295,6 +299,47 @@ TEST(Summarize, MechanismsFromEvidence) {
   EXPECT_TRUE(s["mechanisms"][1]["policy_step_share"].is_null());
 }
 
+// The paper's execution figures: the outcome composition, the budget used by outcome, steps after the last
+// progress, episodes never under the policy, time to success, and the wall clock by outcome.
+TEST(Summarize, ExecutionFiguresFromRowsAndEvidence) {
+  TempDir dir;
+  auto sources = campaign(dir.path());
+  for (auto& source : sources)
+    for (auto& r : source.rows)
+      if (r.success) r.sim_goal_step = 140;
+  // full goal/1/0 is a failure here, so its evidence's end counts: progress rose at step 10 and the pick
+  // and place completed at 140, the episode ended at 200 under vla_act.
+  EpisodeRecord& gave_up = sources[0].rows[0];
+  gave_up.success = false;
+  gave_up.outcome = "gave_up";
+  gave_up.steps = 200;
+  gave_up.sim_goal_step = -1;  // set above while it was a success
+  const json s = summarize(sources, options(dir.path()));
+  ASSERT_EQ(s["execution"].size(), 2u);
+  const json& full = s["execution"][0];
+  EXPECT_EQ(full["arm"], "full");
+  EXPECT_EQ(full["outcomes"], json::parse(R"({"success":3,"gave_up":1,"budget_exhausted":1,"infrastructure":1})"));
+  EXPECT_EQ(full["budget_used"]["success"]["count"], 3u);
+  EXPECT_DOUBLE_EQ(full["budget_used"]["success"]["p50"].get<double>(), 0.5);
+  EXPECT_EQ(full["budget_used"]["failure"]["count"], 2u) << "the loss to infrastructure used no budget of its own";
+  EXPECT_NEAR(full["budget_used"]["failure"]["mean"].get<double>(), (200.0 / 300 + 1.0) / 2, 1e-12);
+  EXPECT_EQ(full["steps_after_progress"]["count"], 1u);
+  EXPECT_DOUBLE_EQ(full["steps_after_progress"]["p50"].get<double>(), 60.0);
+  EXPECT_EQ(full["traced"], 1u);
+  EXPECT_EQ(full["zero_policy_steps"], 0u) << "50 steps were under vla_act";
+  EXPECT_EQ(full["time_to_success"]["steps"]["count"], 3u);
+  EXPECT_DOUBLE_EQ(full["time_to_success"]["steps"]["p50"].get<double>(), 140.0);
+  EXPECT_DOUBLE_EQ(full["wall_s"]["success"]["p50"].get<double>(), 12.0);  // 11, 12, 30
+  EXPECT_EQ(full["wall_s"]["failure"]["count"], 3u);
+  const json& fixed = s["execution"][1];
+  EXPECT_EQ(fixed["traced"], 0u) << "its one evidence file was never written";
+  EXPECT_TRUE(fixed["steps_after_progress"]["p50"].is_null());
+  const std::string md = read(render(sources, options(dir.path())).markdown);
+  EXPECT_NE(md.find("| full | 3 | 1 | 1 | 1 |"), std::string::npos) << md;
+  EXPECT_NE(md.find("| full | 50 [50, 50] (3) | "), std::string::npos) << md;
+  EXPECT_NE(md.find(" | 60 [60, 60] (1) | 0 of 1 |"), std::string::npos) << md;
+}
+
 TEST(Summarize, ARepeatedKeyIsCountedAsADuplicateAndNowhereElse) {
   TempDir dir;
   std::vector<Source> sources = campaign(dir.path());
@@ -397,7 +442,8 @@ TEST(Render, WritesMarkdownHtmlJsonAndPlotsWhenGnuplotIsThere) {
   EXPECT_EQ(files.plots_skipped, !gnuplot) << files.plots_note;
   EXPECT_EQ(fs::exists(o.out_dir / "success.png"), gnuplot);
   EXPECT_EQ(fs::exists(o.out_dir / "wall_clock.png"), gnuplot);
-  EXPECT_EQ(files.plots.size(), gnuplot ? 2u : 0u);
+  EXPECT_EQ(fs::exists(o.out_dir / "budget.png"), gnuplot);
+  EXPECT_EQ(files.plots.size(), gnuplot ? 3u : 0u);
   EXPECT_EQ(read(files.html).find("<img src=\"success.png\"") != std::string::npos, gnuplot);
 }
 
@@ -425,7 +471,7 @@ TEST(Render, PosCellsAreTalliedByTheSeedsMagnitudeAndPlotted) {
       << read(files.markdown);
   const bool gnuplot = gnuplot_on_path();
   EXPECT_EQ(fs::exists(o.out_dir / "positions.png"), gnuplot) << files.plots_note;
-  EXPECT_EQ(files.plots.size(), gnuplot ? 3u : 0u);
+  EXPECT_EQ(files.plots.size(), gnuplot ? 4u : 0u);
   // Without -pos rows there is no such table or plot, and an old plot of it is removed.
   const ReportFiles plain = render(campaign(dir.path()), o);
   EXPECT_EQ(read(plain.markdown).find("Success against displacement"), std::string::npos);

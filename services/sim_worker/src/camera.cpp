@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cstdlib>
+#include <cmath>
 #include <cstring>
 #include <mutex>
 #include <utility>
@@ -225,17 +226,43 @@ CameraRig::~CameraRig() {
   mjv_freeScene(&gpu_->scene);
 }
 
-void CameraRig::render(std::size_t index, Image& out) { render_to(index, out, nullptr); }
-
-void CameraRig::render(std::size_t index, Image& out, std::vector<std::uint16_t>& depth_mm) {
-  render_to(index, out, &depth_mm);
-}
-
-void CameraRig::render_to(std::size_t index, Image& out, std::vector<std::uint16_t>* depth_mm) {
+namespace {
+mjvCamera fixed_camera(int id) {
   mjvCamera cam;
   mjv_defaultCamera(&cam);
   cam.type = mjCAMERA_FIXED;
-  cam.fixedcamid = gpu_->camera_ids.at(index);
+  cam.fixedcamid = id;
+  return cam;
+}
+}  // namespace
+
+void CameraRig::render(std::size_t index, Image& out) {
+  const mjvCamera cam = fixed_camera(gpu_->camera_ids.at(index));
+  render_to(cam, out, nullptr);
+}
+
+void CameraRig::render(std::size_t index, Image& out, std::vector<std::uint16_t>& depth_mm) {
+  const mjvCamera cam = fixed_camera(gpu_->camera_ids.at(index));
+  render_to(cam, out, &depth_mm);
+}
+
+void CameraRig::render_from(const std::array<double, 3>& pos, const std::array<double, 3>& look_at, Image& out) {
+  // MuJoCo's free camera sits `distance` behind `lookat` along the direction given by azimuth and elevation.
+  const double dx = look_at[0] - pos[0], dy = look_at[1] - pos[1], dz = look_at[2] - pos[2];
+  const double distance = std::sqrt(dx * dx + dy * dy + dz * dz);
+  if (distance <= 0) throw RenderError("a view needs a point to look at other than where it stands");
+  mjvCamera cam;
+  mjv_defaultCamera(&cam);
+  cam.type = mjCAMERA_FREE;
+  for (int i = 0; i < 3; ++i) cam.lookat[i] = look_at[i];
+  cam.distance = distance;
+  cam.azimuth = std::atan2(dy, dx) * 180.0 / M_PI;
+  cam.elevation = std::asin(dz / distance) * 180.0 / M_PI;
+  render_to(cam, out, nullptr);
+}
+
+void CameraRig::render_to(const mjvCamera& camera, Image& out, std::vector<std::uint16_t>* depth_mm) {
+  mjvCamera cam = camera;
   mjv_updateScene(m_, d_, &gpu_->option, &gpu_->perturb, &cam, mjCAT_ALL, &gpu_->scene);
   const mjrRect viewport{0, 0, width_, height_};
   mjr_setBuffer(mjFB_OFFSCREEN, &gpu_->context);

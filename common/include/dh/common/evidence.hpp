@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <mutex>
 #include <string>
 #include <vector>
@@ -20,16 +21,21 @@ class EvidenceWriter {
   EvidenceWriter(const EvidenceWriter&) = delete;
   EvidenceWriter& operator=(const EvidenceWriter&) = delete;
 
-  /// Appends one record: adds "t_wall_ns", "seq" and the given fields, then flushes.
+  /// Appends one record: adds "t_wall_ns", "seq" and the given fields, then flushes, then shows it to the
+  /// tap, if one is set.
   void append(const std::string& component, const std::string& kind, nlohmann::json fields);
+  /// Sees every record appended from now on (its kind and whole record), on the appending thread.
+  void set_tap(std::function<void(const std::string& kind, const nlohmann::json& record)> tap) { tap_ = std::move(tap); }
   const std::filesystem::path& path() const { return path_; }
   std::size_t records() const { return seq_; }
 
  private:
+  void write(const std::string& component, const std::string& kind, nlohmann::json& fields);
   std::filesystem::path path_;
   std::FILE* file_ = nullptr;
   std::size_t seq_ = 0;
   std::mutex mutex_;
+  std::function<void(const std::string&, const nlohmann::json&)> tap_;
 };
 
 /// Reads every complete record of an evidence file (a torn last line is skipped).

@@ -18,6 +18,8 @@ inline constexpr const char* kEpisodeResult = "rt/dh/episode/result";
 inline constexpr const char* kChannelStatus = "rt/dh/sim/channel";
 inline constexpr const char* kCamera = "rt/dh/camera";
 inline constexpr const char* kSceneEstimate = "rt/dh/perception/scene";
+inline constexpr const char* kEvidence = "rt/dh/evidence";                   ///< EpisodeLive, for live views
+inline constexpr const char* kCampaignProgress = "rt/dh/campaign/progress";  ///< CampaignProgress
 
 }  // namespace dh::topics
 

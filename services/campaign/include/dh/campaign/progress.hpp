@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cstddef>
+#include <optional>
 #include <string>
 
 namespace dh::campaign {
@@ -24,6 +25,10 @@ class Progress {
   std::string line(Clock::time_point now, unsigned bar_width = 16) const;
   /// line() for a terminal (redrawn in place: carriage return, erase to end of line) or a log (own line).
   std::string render(Clock::time_point now, bool terminal, unsigned bar_width = 16) const;
+
+  /// This run's episodes per second, and the time the rest would take at that rate; none before the first.
+  std::optional<double> rate_per_s(Clock::time_point now) const;
+  std::optional<double> eta_s(Clock::time_point now) const;
 
   std::size_t total() const { return total_; }
   std::size_t done() const { return done_; }

@@ -14,6 +14,7 @@
 
 #include "dh/common/arms.hpp"
 #include "dh/gov/episode.hpp"
+#include "dh/gov/live.hpp"
 
 namespace dh::gov {
 
@@ -87,6 +88,10 @@ class GovernorCore {
   /// error cut the episode short (the in-process bus), so that the channel is not busy for the next one.
   void forget(std::uint32_t channel) { channels_.erase(channel); }
 
+  /// Each channel whose episode's state is news for a live view (live.hpp), once; the shell writes them
+  /// on rt/dh/evidence.
+  std::vector<LiveState> take_live();
+
   /// When the channel's running episode next acts on its own (on_tick at or after it); unset when none runs.
   std::optional<Clock::time_point> deadline(std::uint32_t channel) const;
   const Registry& registry() const { return registry_; }
@@ -119,6 +124,7 @@ class GovernorCore {
   std::map<std::uint32_t, Channel> channels_;
   std::vector<std::string> done_;                   ///< the last episodes ended, for redeliveries
   std::vector<EpisodeRequest> held_;                ///< requests waiting for readiness
+  std::map<std::uint32_t, LiveTracker> live_;       ///< per channel, fed by its episode's evidence
 };
 
 }  // namespace dh::gov

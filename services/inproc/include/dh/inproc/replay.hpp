@@ -17,6 +17,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -32,6 +33,9 @@ struct ReplayOptions {
   std::optional<std::uint32_t> from_command;  ///< K: restore the state at the K-th dispatched command's
                                              ///< start (0-based) and replay its actions, to its last one
   bool allow_drift = false;                  ///< run despite differing fingerprints, and say which
+  /// Sees the cell in each replayed step's state (the first one included), after it was compared: a
+  /// film renders it (dh film).
+  std::function<void(std::uint32_t step, const sim::Workcell& cell)> on_step;
 };
 
 struct ReplayReport {

@@ -93,6 +93,13 @@ struct ReportFiles {
 ///               vla_act's steps over all, null without steps); decision kinds are the fast brain's (substitute,
 ///               insert_recovery, resume, retry, hand_to_vla, request_replan after a failure, next_step
 ///               after a completion, next_in_sequence, stop_success, give_up)
+///   execution  [{arm, outcomes: {outcome: episodes}, budget_used: {success: Q, failure: Q} (steps / budget
+///               at the end; losses to infrastructure left out), steps_after_progress: Q (failures: from the
+///               last step a command's progress rose or one completed, to the end), traced (episodes whose
+///               evidence holds their end), zero_policy_steps (of those, episodes never under vla_act),
+///               time_to_success: {steps: Q (the simulator's first goal step), wall_s: Q}, wall_s: {success: Q,
+///               failure: Q}, budget_used_values: {success: [..], failure: [..]}}], Q = {count, p10, p50, p90,
+///               mean}: the paper's execution figures
 ///   evidence   {read, missing, not_recorded}, and evidence_missing (= evidence.missing)
 ///   policy     (with options.policy_dir) {version, sha256, weights, training, curve: [{epoch, train,
 ///               validation}]} or {error} when the folder holds no readable training record

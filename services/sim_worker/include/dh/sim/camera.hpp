@@ -11,6 +11,7 @@
 // Images are upright: row-major, top row first (not OpenGL's bottom-up order), no 180° rotation.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <stdexcept>
@@ -19,6 +20,7 @@
 
 struct mjModel_;
 struct mjData_;
+struct mjvCamera_;
 
 namespace dh::sim {
 
@@ -94,6 +96,10 @@ class CameraRig {
     render(index, out);
     return out;
   }
+  /// The view from `pos` (world frame, m) towards `look_at`, the world's z up in the image, with the
+  /// model's default vertical field of view (<visual><global fovy>): a viewpoint the model has no camera
+  /// for, such as an RGB-D camera of configs/cameras.yaml that sim_worker adds only to its own models.
+  void render_from(const std::array<double, 3>& pos, const std::array<double, 3>& look_at, Image& out);
   /// The same, with the depth image registered to it: `depth_mm` gets height x width values, top row
   /// first, millimetres along the optical axis, 0 where nothing was drawn (rgbd.hpp linearises MuJoCo's
   /// depth buffer with the model's clip planes).
@@ -106,7 +112,7 @@ class CameraRig {
   std::vector<std::string> cameras_;
   int width_ = 0, height_ = 0;
   std::unique_ptr<Gpu> gpu_;
-  void render_to(std::size_t index, Image& out, std::vector<std::uint16_t>* depth_mm);
+  void render_to(const mjvCamera_& camera, Image& out, std::vector<std::uint16_t>* depth_mm);
   std::vector<std::uint8_t> bottom_up_;  ///< glReadPixels' row order
   std::vector<float> depth_bottom_up_;
 };
