@@ -1,5 +1,6 @@
 // dh report (campaign databases → Markdown, HTML, PNG), dh stats (the same statistics by hand),
 // dh seeds (a fresh block of seeds for post-selection tests).
+#include <algorithm>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
@@ -10,10 +11,67 @@
 #include "dh/campaign/plan.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/common/stats.hpp"
+#include "dh/common/evidence.hpp"
 #include "dh/evo/attribution.hpp"
+#include "dh/film/film.hpp"
 #include "dh/report/report.hpp"
 
 namespace dh::cli {
+namespace {
+
+// Whether the episode's evidence dispatched `capability` (a door episode: swing_door).
+bool dispatched(const std::string& evidence, const std::string& capability) {
+  std::error_code ec;
+  if (evidence.empty() || !std::filesystem::is_regular_file(evidence, ec)) return false;
+  try {
+    for (const auto& r : read_evidence(evidence))
+      if (r.value("kind", "") == "grounding" && r.value("capability", "") == capability) return true;
+  } catch (const std::exception&) {
+  }
+  return false;
+}
+
+// The episodes to film. auto: the paper's cases where the campaign has them: Figure 3's refused push
+// (goal-swap 5, the lowest seed), a door episode (the first that dispatched swing_door), and a
+// long-horizon one (the first of a long cell), each of the full arm when it ran. Else ARM/CELL/TASK/SEED.
+std::vector<std::pair<const EpisodeRecord*, std::string>> films_to_make(const std::vector<report::Source>& sources,
+                                                                         const std::string& spec) {
+  std::vector<const EpisodeRecord*> rows;
+  for (const auto& s : sources)
+    for (const auto& r : s.rows) rows.push_back(&r);
+  std::stable_sort(rows.begin(), rows.end(), [](const EpisodeRecord* x, const EpisodeRecord* y) {
+    return (x->arm == "full") > (y->arm == "full");
+  });
+  std::vector<std::pair<const EpisodeRecord*, std::string>> out;
+  if (spec == "none") return out;
+  if (spec != "auto") {
+    for (const auto& key : campaign::parse_list(spec, "--films")) {
+      const auto it = std::find_if(rows.begin(), rows.end(), [&](const EpisodeRecord* r) {
+        return r->arm + "/" + r->cell + "/" + std::to_string(r->task) + "/" + std::to_string(r->seed) == key;
+      });
+      if (it == rows.end()) throw std::invalid_argument("--films " + key + ": no such episode (ARM/CELL/TASK/SEED) in the databases");
+      out.emplace_back(*it, key);
+    }
+    return out;
+  }
+  const EpisodeRecord* fig3 = nullptr;
+  for (const auto* r : rows)
+    if (r->cell == "goal-swap" && r->task == 5 && (!fig3 || (r->arm == fig3->arm && r->seed < fig3->seed))) fig3 = r;
+  if (fig3) out.emplace_back(fig3, "Figure 3's case: the refused push and the substituted pick and place");
+  for (const auto* r : rows)
+    if (dispatched(r->evidence_path, "swing_door")) {
+      out.emplace_back(r, "a door episode");
+      break;
+    }
+  for (const auto* r : rows)
+    if (r->cell.rfind("long", 0) == 0 && !r->evidence_path.empty()) {
+      out.emplace_back(r, "a long-horizon episode");
+      break;
+    }
+  return out;
+}
+
+}  // namespace
 
 int cmd_report(const ReportArgs& a) {
   // Failures by layer, when `dh attribute` labelled them under this attribution file (none: no section).
@@ -47,6 +105,28 @@ int cmd_report(const ReportArgs& a) {
   }
   const std::filesystem::path first(a.dbs.front());
   options.out_dir = a.out.empty() ? first.parent_path() / (first.stem().string() + "-report") : std::filesystem::path(a.out);
+  for (const auto& [row, why] : films_to_make(sources, a.films)) {
+    const std::string name = row->arm + "_" + row->cell + "_" + std::to_string(row->task) + "_" + std::to_string(row->seed);
+    report::ReportOptions::Film f{"films/" + name + ".png",
+                                  why + ": " + row->arm + " arm, " + row->cell + " task " + std::to_string(row->task) +
+                                      " seed " + std::to_string(row->seed) + " (" + row->outcome + ")",
+                                  ""};
+    try {
+      std::filesystem::create_directories(options.out_dir / "films");
+      film::FilmOptions o;
+      o.config_dir = paths::config_dir();
+      o.strip = options.out_dir / f.file;
+      o.allow_drift = true;
+      const auto made = film::film(row->evidence_path, o);
+      if (!made.replay_identical)
+        f.note = "recorded by another build or θ: the frames after step " +
+                 (made.diverged_at ? std::to_string(*made.diverged_at) : std::string("0")) + " show the replay";
+    } catch (const std::exception& e) {
+      f.file.clear();
+      f.note = std::string("no filmstrip: ") + e.what();
+    }
+    options.films.push_back(std::move(f));
+  }
   const auto files = report::render(sources, options);
   if (a.json) {
     std::cout << report::summarize(sources, options).dump() << "\n";

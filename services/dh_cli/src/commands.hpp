@@ -144,6 +144,7 @@ struct ReportArgs {
   unsigned resamples = 20000;
   std::uint64_t bootstrap_seed = 20260926;
   bool plots = true, json = false;
+  std::string films = "auto";  ///< auto, none, or ARM/CELL/TASK/SEED,...
 };
 int cmd_report(const ReportArgs& a);
 

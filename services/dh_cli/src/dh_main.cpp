@@ -122,6 +122,9 @@ int main(int argc, char** argv) {
   report->add_option("--attribution", rep.attribution,
                      "attribution file whose labels (dh attribute --config) the failures-by-layer table shows "
                      "(default configs/attribution.yaml)");
+  report->add_option("--films", rep.films,
+                     "filmstrips in the report: auto (the paper's cases where the campaign has them: goal-swap 5, "
+                     "a door episode, a long-horizon one), none, or ARM/CELL/TASK/SEED,... (default auto)");
   report->add_flag("--json", rep.json, "print the report's JSON object on stdout");
 
   auto* stats = app.add_subcommand("stats", "the report's statistics by hand");

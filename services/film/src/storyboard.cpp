@@ -4,6 +4,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <stdexcept>
+#include <tuple>
 
 #include "dh/common/evidence.hpp"
 #include "dh/sim/step_log.hpp"
@@ -24,6 +25,7 @@ struct Moment {
   std::uint32_t step;
   Kind kind;
   std::string capability, event;
+  std::size_t order = 0;  ///< as it happened: an end before the next start at the same step
 };
 
 std::vector<Moment> moments(const Storyboard& s) {
@@ -50,6 +52,7 @@ std::vector<Moment> moments(const Storyboard& s) {
   if (s.latched && s.verdict_step) end += " (held from step " + std::to_string(*s.verdict_step) + ")";
   else if (!s.end_reason.empty()) end += " (" + s.end_reason + ")";
   m.push_back({std::min(s.end_step, s.steps), Kind::End, "", end});
+  for (std::size_t i = 0; i < m.size(); ++i) m[i].order = i;
   return m;
 }
 
@@ -75,7 +78,8 @@ std::string decision_before(const Storyboard& s, std::uint32_t step) {
 
 // One frame per step: moments at the same step are joined, capabilities in the order they came.
 std::vector<Frame> to_frames(const Storyboard& s, std::vector<Moment> picked) {
-  std::stable_sort(picked.begin(), picked.end(), [](const Moment& a, const Moment& b) { return a.step < b.step; });
+  std::sort(picked.begin(), picked.end(),
+            [](const Moment& a, const Moment& b) { return std::tie(a.step, a.order) < std::tie(b.step, b.order); });
   std::vector<Frame> frames;
   for (const auto& m : picked) {
     if (frames.empty() || frames.back().step != m.step) {

@@ -338,16 +338,26 @@ void execution(const json& s, const PlotResult& plots, Document& doc) {
   doc.push_back(std::move(b));
   if (drawn(plots, "budget.png"))
     doc.push_back(Image{"budget.png", "Budget used at the episode's end, by arm and outcome"});
-  Table t{{"Arm", "Time to success (steps)", "Time to success (s, wall)", "Wall clock, successes (s)",
-           "Wall clock, failures (s)"},
-          {}};
+  Table t{{"Arm", "Time to success (steps)", "Wall clock, successes (s)", "Wall clock, failures (s)"}, {}};
   for (const json& e : s["execution"])
-    t.rows.push_back({e["arm"], spread(e["time_to_success"]["steps"], 1, 0), spread(e["time_to_success"]["wall_s"], 1, 1),
-                      spread(e["wall_s"]["success"], 1, 1), spread(e["wall_s"]["failure"], 1, 1)});
+    t.rows.push_back({e["arm"], spread(e["time_to_success"]["steps"], 1, 0), spread(e["wall_s"]["success"], 1, 1),
+                      spread(e["wall_s"]["failure"], 1, 1)});
   doc.push_back(std::move(t));
   doc.push_back(Paragraph{
       "A step of progress is one at which a command's progress rose above its best so far, or a command "
       "completed. Time to success in steps is the simulator's first step with the goal holding."});
+}
+
+void films(const json& s, Document& doc) {
+  if (s["films"].empty()) return;
+  doc.push_back(Heading{2, "Filmstrips"});
+  doc.push_back(Paragraph{"Episodes re-run from their evidence and rendered at the steps `dh film` picks: refusals, "
+                          "recoveries, each command's start, motion and end, and the verdict."});
+  for (const json& f : s["films"]) {
+    doc.push_back(Paragraph{f["caption"].get<std::string>() +
+                            (f["note"].get<std::string>().empty() ? "" : " (" + f["note"].get<std::string>() + ")")});
+    if (!f["file"].get<std::string>().empty()) doc.push_back(Image{f["file"], f["caption"]});
+  }
 }
 
 }  // namespace
@@ -365,6 +375,7 @@ Document build_document(const json& summary, const PlotResult& plots) {
   latency(summary, doc);
   mechanisms(summary, doc);
   execution(summary, plots, doc);
+  films(summary, doc);
   policy(summary, doc);
   return doc;
 }

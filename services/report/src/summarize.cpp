@@ -212,7 +212,7 @@ json execution_json(const std::string& arm, const Execution& e) {
           {"steps_after_progress", quantiles_json(e.after_progress)},
           {"traced", e.traced},
           {"zero_policy_steps", e.zero_policy},
-          {"time_to_success", {{"steps", quantiles_json(e.success_step)}, {"wall_s", quantiles_json(e.success_wall_s)}}},
+          {"time_to_success", {{"steps", quantiles_json(e.success_step)}}},
           {"wall_s", {{"success", quantiles_json(e.success_wall_s)}, {"failure", quantiles_json(e.failure_wall_s)}}},
           {"budget_used_values",
            {{"success", e.budget_success}, {"failure", e.budget_failure}}}};
@@ -367,6 +367,11 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
             {"by_arm", latency_by}}},
           {"mechanisms", mechanisms},
           {"execution", execution},
+          {"films", [&] {
+             json films = json::array();
+             for (const auto& f : options.films) films.push_back({{"file", f.file}, {"caption", f.caption}, {"note", f.note}});
+             return films;
+           }()},
           {"evidence",
            {{"read", evidence[EvidenceStatus::Read]},
             {"missing", evidence[EvidenceStatus::Missing]},

@@ -478,6 +478,21 @@ TEST(Render, PosCellsAreTalliedByTheSeedsMagnitudeAndPlotted) {
   EXPECT_FALSE(fs::exists(o.out_dir / "positions.png"));
 }
 
+TEST(Render, FilmstripsAreShownWithTheirCaptionsAndAMissingOneSaysWhy) {
+  TempDir dir;
+  ReportOptions o = options(dir.path());
+  o.films = {{"films/full_goal-swap_5_21.png", "Figure 3's case: full arm, goal-swap task 5 seed 21 (success)", ""},
+             {"", "a door episode: full arm, long task 5 seed 21 (gave_up)", "no filmstrip: ep.jsonl: no such file"}};
+  const std::string md = read(render(campaign(dir.path()), o).markdown);
+  EXPECT_NE(md.find("## Filmstrips"), std::string::npos);
+  EXPECT_NE(md.find("](films/full_goal-swap_5_21.png)"), std::string::npos) << md;
+  EXPECT_NE(md.find("a door episode: full arm, long task 5 seed 21 (gave_up) (no filmstrip: ep.jsonl: no such file)"),
+            std::string::npos)
+      << md;
+  EXPECT_EQ(read(render(campaign(dir.path()), options(dir.path())).markdown).find("## Filmstrips"), std::string::npos)
+      << "no films, no section";
+}
+
 TEST(Render, WithoutGnuplotTheReportStillRendersAndSaysSo) {
   TempDir dir;
   const std::string saved = std::getenv("PATH") ? std::getenv("PATH") : "";

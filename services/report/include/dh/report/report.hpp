@@ -58,6 +58,12 @@ struct ReportOptions {
   /// The "-pos" cells' position perturbations, by cell (load_suites): their episodes are also tallied by
   /// the magnitude their seed picked, for success against displacement. Empty: no such table.
   std::map<std::string, PosSpec> positions;
+  /// Filmstrips of chosen episodes (dh film), already written under out_dir: shown with their captions.
+  struct Film {
+    std::string file;  ///< relative to out_dir; empty when it could not be made
+    std::string caption, note;  ///< note: why it could not be made, or what the strip does not show
+  };
+  std::vector<Film> films;
 };
 
 struct ReportFiles {
@@ -97,9 +103,10 @@ struct ReportFiles {
 ///               at the end; losses to infrastructure left out), steps_after_progress: Q (failures: from the
 ///               last step a command's progress rose or one completed, to the end), traced (episodes whose
 ///               evidence holds their end), zero_policy_steps (of those, episodes never under vla_act),
-///               time_to_success: {steps: Q (the simulator's first goal step), wall_s: Q}, wall_s: {success: Q,
+///               time_to_success: {steps: Q (the simulator's first goal step)}, wall_s: {success: Q,
 ///               failure: Q}, budget_used_values: {success: [..], failure: [..]}}], Q = {count, p10, p50, p90,
 ///               mean}: the paper's execution figures
+///   films      [{file, caption, note}] (options.films)
 ///   evidence   {read, missing, not_recorded}, and evidence_missing (= evidence.missing)
 ///   policy     (with options.policy_dir) {version, sha256, weights, training, curve: [{epoch, train,
 ///               validation}]} or {error} when the folder holds no readable training record
