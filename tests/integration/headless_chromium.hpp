@@ -34,7 +34,8 @@ class HeadlessChromium {
   explicit HeadlessChromium(const std::filesystem::path& dir) : dir_(dir) {
     std::filesystem::create_directories(dir_ / "profile");
     const std::vector<std::string> args{
-        "chromium", "--headless=new", "--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-sync",
+        "chromium", "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-dev-shm-usage", "--no-first-run",
+        "--disable-sync",
         "--disable-background-networking", "--disable-component-update", "--disable-default-apps",
         "--disable-domain-reliability", "--disable-features=MediaRouter,OptimizationHints",
         "--host-resolver-rules=MAP * ~NOTFOUND, EXCLUDE 127.0.0.1", "--proxy-server=http://127.0.0.1:9",

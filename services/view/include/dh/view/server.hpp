@@ -27,7 +27,7 @@ struct ServerOptions {
   std::uint16_t port = 8642;  ///< 0: any free port (port() says which)
   std::string token;          ///< empty: no token asked for
   std::filesystem::path web_dir;
-  std::chrono::milliseconds push_period{500};
+  std::chrono::milliseconds push_period{250};
 };
 
 struct Handlers {
