@@ -1,6 +1,7 @@
 #include "dh/view/server.hpp"
 
 #include <atomic>
+#include <condition_variable>
 #include <cctype>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/steady_timer.hpp>
@@ -133,6 +134,9 @@ struct Server::Impl {
   std::atomic<std::size_t> clients{0};
   std::atomic<std::uint64_t> skipped{0};
   std::thread thread;
+  std::mutex work_mutex;
+  std::condition_variable work_done;
+  int working = 0;  ///< API calls running on threads of their own (work_mutex)
 
   bool authorised(const http::request<http::string_body>& req) const {
     if (o.token.empty()) return true;
@@ -184,22 +188,43 @@ struct Server::Impl {
         ws->accept(req, [self] { --self->clients; });
         return;
       }
-      const Response r = self->route(*req);
-      auto res = std::make_shared<http::response<http::string_body>>(static_cast<http::status>(r.status), req->version());
-      res->set(http::field::content_type, r.content_type);
-      res->set(http::field::cache_control, "no-store");
-      if (r.status == 401) res->set(http::field::www_authenticate, "Bearer");
-      res->body() = req->method() == http::verb::head ? std::string() : r.body;
-      res->keep_alive(req->keep_alive());
-      res->prepare_payload();
-      http::async_write(*stream, *res, [self, stream, res](beast::error_code ec2, std::size_t) {
-        if (ec2 || !res->keep_alive()) {
-          beast::error_code ignored;
-          stream->socket().shutdown(tcp::socket::shutdown_send, ignored);
-          return;
+      // An API call may take seconds (a film re-runs its episode): it runs on a thread of its own, so the
+      // pushes go on meanwhile; its answer is written back on the server's thread.
+      if (path.rfind("/api/", 0) == 0 && path != "/api/snapshot" && self->authorised(*req)) {
+        {
+          std::lock_guard l(self->work_mutex);
+          ++self->working;
         }
-        self->serve(stream->release_socket());
-      });
+        std::thread([self, stream, req] {
+          Response r = self->route(*req);
+          asio::post(self->ioc, [self, stream, req, r = std::move(r)] { self->respond(stream, req, r); });
+          std::lock_guard l(self->work_mutex);
+          --self->working;
+          self->work_done.notify_all();
+        }).detach();
+        return;
+      }
+      self->respond(stream, req, self->route(*req));
+    });
+  }
+
+  void respond(const std::shared_ptr<beast::tcp_stream>& stream,
+               const std::shared_ptr<http::request<http::string_body>>& req, const Response& r) {
+    auto res = std::make_shared<http::response<http::string_body>>(static_cast<http::status>(r.status), req->version());
+    res->set(http::field::content_type, r.content_type);
+    res->set(http::field::cache_control, "no-store");
+    if (r.status == 401) res->set(http::field::www_authenticate, "Bearer");
+    res->body() = req->method() == http::verb::head ? std::string() : r.body;
+    res->keep_alive(req->keep_alive());
+    res->prepare_payload();
+    stream->expires_after(std::chrono::seconds(30));  // counted from the answer, however long it took
+    http::async_write(*stream, *res, [self = this, stream, res](beast::error_code ec, std::size_t) {
+      if (ec || !res->keep_alive()) {
+        beast::error_code ignored;
+        stream->socket().shutdown(tcp::socket::shutdown_send, ignored);
+        return;
+      }
+      self->serve(stream->release_socket());
     });
   }
 
@@ -257,6 +282,9 @@ Server::Server(ServerOptions options, Handlers handlers) : impl_(std::make_uniqu
 Server::~Server() {
   impl_->ioc.stop();
   if (impl_->thread.joinable()) impl_->thread.join();
+  // API calls still running reach the Impl when they end; their answers are never written.
+  std::unique_lock l(impl_->work_mutex);
+  impl_->work_done.wait(l, [&] { return impl_->working == 0; });
 }
 
 std::uint16_t Server::port() const { return impl_->acceptor.local_endpoint().port(); }

@@ -8,6 +8,7 @@
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
 #include <atomic>
+#include <thread>
 #include <fstream>
 
 #include <unistd.h>
@@ -41,6 +42,10 @@ struct Web : ::testing::Test {
     h.snapshot = [this] { return nlohmann::json{{"n", ++snapshots}, {"pad", pad}}; };
     h.api = [](const std::string& name, const std::map<std::string, std::string>& q) {
       if (name == "echo") return Response{200, "application/json", nlohmann::json(q).dump()};
+      if (name == "slow") {
+        std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+        return Response{200, "application/json", "{}"};
+      }
       throw std::runtime_error("no such API: " + name);
     };
     return h;
@@ -93,6 +98,28 @@ TEST_F(Web, ServesItsPagesAndApiReadOnlyAndNothingElse) {
   EXPECT_EQ(get(port, "/%2e%2e/secret.txt").result_int(), 404);
   EXPECT_EQ(get(port, "/missing.html").result_int(), 404);
   EXPECT_EQ(get(port, "/api/snapshot", "", http::verb::post).result_int(), 405);
+}
+
+TEST_F(Web, ASlowApiCallDoesNotHoldUpThePushes) {
+  auto server = start("", std::chrono::milliseconds(50));
+  const auto port = server->port();
+  asio::io_context ioc;
+  websocket::stream<tcp::socket> ws(ioc);
+  ws.next_layer().connect(tcp::endpoint(asio::ip::make_address("127.0.0.1"), port));
+  ws.handshake("127.0.0.1", "/ws");
+  std::atomic<bool> answered{false};
+  std::thread slow([&] {
+    EXPECT_EQ(get(port, "/api/slow").result_int(), 200);
+    answered = true;
+  });
+  int during = 0;
+  while (!answered) {
+    beast::flat_buffer b;
+    ws.read(b);
+    during += !answered;
+  }
+  slow.join();
+  EXPECT_GT(during, 10) << "pushes every 50 ms went on through the 1.5 s call";
 }
 
 TEST_F(Web, AWrongOrMissingTokenIs401) {

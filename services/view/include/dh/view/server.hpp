@@ -3,6 +3,8 @@
 // client at a fixed period. Read-only: every route is a GET. With a token, every request must carry it
 // (`?token=T`, or `Authorization: Bearer T`), else 401. A client that reads nothing is never waited for:
 // while its last push is still being written, newer ones are skipped for it, so memory stays bounded.
+// An API call other than the snapshot runs on a thread of its own (the handler must allow that), so a
+// slow one (a film) does not hold up the pushes.
 #pragma once
 
 #include <chrono>
