@@ -127,6 +127,30 @@ TEST(Suites, ABadPositionsFileIsNamed) {
   EXPECT_EQ(find_task(load_suites(t.dir), "x-pos", 0).pos.magnitude_for(3), 0.2);
 }
 
+TEST(Suites, ABadObjectsFileIsNamed) {
+  TempDir t;
+  write_one_task_suite(t);
+  t.write("assets/bowl.yaml", "name: bowl\n");
+  t.write("assets/bowl_deep.yaml", "name: bowl_deep\n");
+  const std::string good = "height: [0.8, 1.2]\nmass: [0.6, 1.6]\nshade: 0.15\ninstance_share: 0.5\nsuites: [x]\n";
+  t.write("suites/object/objects.yaml", "width: [1.2, 0.8]\n" + good + "instances: {bowl: [bowl_deep]}\n");
+  auto e = error_of([&] { load_suites(t.dir); });
+  EXPECT_NE(e.find("objects.yaml: key 'width': give [low, high] factors"), std::string::npos) << e;
+  t.write("suites/object/objects.yaml", "width: [0.8, 1.2]\n" + good + "instances: {bowl: [bowl_huge]}\n");
+  e = error_of([&] { load_suites(t.dir); });
+  EXPECT_NE(e.find("no asset 'bowl_huge'"), std::string::npos) << e;
+  t.write("suites/object/objects.yaml", "width: [0.8, 1.2]\n" + good + "instances: {bowl: []}\n");
+  e = error_of([&] { load_suites(t.dir); });
+  EXPECT_NE(e.find("list at least one other instance"), std::string::npos) << e;
+  t.write("suites/object/objects.yaml", "width: [0.8, 1.2\n");
+  e = error_of([&] { load_suites(t.dir); });
+  EXPECT_NE(e.find("objects.yaml"), std::string::npos) << e;
+  EXPECT_NE(e.find("malformed YAML"), std::string::npos) << e;
+  t.write("suites/object/objects.yaml", "width: [0.8, 1.2]\n" + good + "instances: {bowl: [bowl_deep]}\n");
+  EXPECT_EQ(find_task(load_suites(t.dir), "x-object", 0).object.instances.at("bowl"),
+            std::vector<std::string>{"bowl_deep"});
+}
+
 TEST(Evidence, AppendsFlushedRecordsAndSkipsATornLine) {
   TempDir t;
   const auto f = t.dir / "e.jsonl";
