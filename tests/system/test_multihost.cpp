@@ -1,7 +1,8 @@
 // Three hosts (network namespaces): `control` runs governor, planner and capabilities, `sim1` and `sim2`
 // run 11 simulator channels each (deploy/multihost.yaml). A campaign on `control` finds all 22 channels
 // over DDS without naming them; discovery by multicast or by a discovery server; a simulator host's link
-// cut mid-campaign loses only its episodes, which run again on the remaining channels.
+// cut mid-campaign loses only its episodes, which run again on the remaining channels. `dh view` on
+// `control`, bound to the link with a token, shows every host's channels to `sim1` and refuses it without.
 #include <nlohmann/json.hpp>
 #include <map>
 #include <set>
@@ -81,10 +82,37 @@ TEST(MultiHost, UnderADiscoveryServerNoMulticastCrossesTheLink) {
   ASSERT_TRUE(hosts.up());
   systest::MulticastCounter multicast(hosts, env.runs / "multicast.txt");
   hosts.start();
+  // dh view on control, open to the link with a token; read from sim1 below.
+  const auto port_file = env.runs / "view.port";
+  const pid_t view = itest::spawn_shell("exec " + hosts.dh_on("control", "view --bind 10.77.0.1 --token s3cret --port 0 "
+                                                                      "--port-file " + port_file.string()) +
+                                        " > " + (env.runs / "view.log").string() + " 2>&1");
   const auto db = env.runs / "c.db";
   run_campaign(hosts, "--arms full --cells goal --tasks 8 --seeds 1-22", db);
   const auto rows = campaign::CampaignDb::read_rows(db);
   ASSERT_EQ(rows.size(), 22u);
+  std::string port;
+  std::ifstream(port_file) >> port;
+  ASSERT_FALSE(port.empty()) << "dh view never said its port; see " << (env.runs / "view.log");
+  const auto from_sim1 = [&](const std::string& query) {
+    return itest::run_command(hosts.script().string() + " run " + hosts.prefix() + " sim1 /usr/bin/python3 -c \"" +
+                              "import sys, urllib.request, urllib.error\n"
+                              "try: print(urllib.request.urlopen('http://10.77.0.1:" + port + "/api/snapshot" + query +
+                              "', timeout=10).read().decode())\n"
+                              "except urllib.error.HTTPError as e: print(e.code)\" 2>&1");
+  };
+  EXPECT_EQ(from_sim1("").first, "401\n") << "no token";
+  EXPECT_EQ(from_sim1("?token=wrong").first, "401\n");
+  const auto [snapshot, status] = from_sim1("?token=s3cret");
+  ASSERT_EQ(status, 0) << snapshot;
+  const auto seen = nlohmann::json::parse(snapshot);
+  std::set<std::string> view_hosts;
+  for (const auto& c : seen["channels"]) view_hosts.insert(c["host"]);
+  EXPECT_EQ(view_hosts, (std::set<std::string>{"sim1", "sim2"})) << "every host's channels, seen from another host";
+  ASSERT_EQ(seen["campaigns"].size(), 1u);
+  EXPECT_EQ(seen["campaigns"][0]["done"], 22);
+  kill(view, SIGINT);
+  waitpid(view, nullptr, 0);
   std::set<std::string> workers;
   for (const auto& r : rows) {
     workers.insert(r.worker);
