@@ -3,13 +3,13 @@
 // progress (rt/dh/campaign/progress), on any host of the domain. The episode page reads an evidence file
 // of this host, by path, when it lies under the runs folder or an --evidence-root.
 #include <chrono>
-#include <csignal>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
 #include <mutex>
 #include <sstream>
 #include <thread>
+#include <stdlib.h>
 #include <unistd.h>
 
 #include "commands.hpp"
@@ -59,8 +59,13 @@ int cmd_view(const ViewArgs& a) {
   std::vector<fs::path> roots{paths::runs_dir()};
   for (const auto& r : a.evidence_roots) roots.emplace_back(r);
   const fs::path attribution = paths::config_dir() / "attribution.yaml";
-  const fs::path films = fs::temp_directory_path() / ("dh_view_" + std::to_string(::getpid()));
-  fs::create_directories(films);
+  // The films made for episode pages: a folder of this process's own (mkdtemp: nobody else's files in it).
+  std::string pattern = (fs::temp_directory_path() / "dh_view_XXXXXX").string();
+  if (!::mkdtemp(pattern.data())) {
+    std::cerr << "error: cannot make a folder for films under " << fs::temp_directory_path() << "\n";
+    return 1;
+  }
+  const fs::path films = pattern;
 
   std::mutex m;
   view::Board board;
@@ -115,14 +120,17 @@ int cmd_view(const ViewArgs& a) {
     if (!file) return error(403, why);
     try {
       if (name == "episode") return {200, "application/json", view::episode_timeline(*file, attribution).dump()};
-      // A film is made once per file and kept while the view runs.
+      // A film is made once per file and kept while the view runs. Calls run side by side: each writes
+      // its own file and renames it into place, so a reader never sees half a strip.
       const fs::path png = films / (std::to_string(std::hash<std::string>{}(file->string())) + ".png");
       if (!fs::exists(png)) {
         film::FilmOptions o;
         o.config_dir = paths::config_dir();
-        o.strip = png;
+        o.strip = films / (png.stem().string() + "." +
+                           std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id())) + ".png");
         o.allow_drift = true;  // an older build's episode is still worth seeing; the strip says it departs
         film::film(*file, o);
+        fs::rename(o.strip, png);
       }
       std::ifstream in(png, std::ios::binary);
       std::stringstream body;

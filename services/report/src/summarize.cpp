@@ -183,14 +183,14 @@ struct Execution {
   std::map<std::string, unsigned> outcomes;  // outcome → episodes ("infrastructure" for a loss)
   std::vector<double> budget_success, budget_failure;  // steps / budget at the end
   std::vector<double> after_progress;       // failures: steps from the last progress to the end
-  std::vector<double> success_step, success_wall_s, failure_wall_s;
+  std::vector<double> success_step, success_wall_s, failure_wall_s;  // wall: losses to infrastructure left out
   unsigned traced = 0, zero_policy = 0;     // episodes with an end in their evidence; none under vla_act
   void add(const EpisodeRecord& r, const EpisodeTrace& t) {
     const bool success = r.success && !r.infrastructure;
     ++outcomes[r.infrastructure ? "infrastructure" : r.outcome.empty() ? "unknown" : r.outcome];
     if (r.budget > 0 && !r.infrastructure)
       (success ? budget_success : budget_failure).push_back(static_cast<double>(r.steps) / r.budget);
-    (success ? success_wall_s : failure_wall_s).push_back(r.wall_s);
+    if (!r.infrastructure) (success ? success_wall_s : failure_wall_s).push_back(r.wall_s);
     if (success && r.sim_goal_step >= 0) success_step.push_back(r.sim_goal_step);
     if (t.end_step < 0) return;
     ++traced;

@@ -67,6 +67,9 @@ std::string content_type(const std::filesystem::path& file) {
 
 std::string json_error(const std::string& what) { return nlohmann::json{{"error", what}}.dump(); }
 
+/// API calls running at once at most (a film re-runs an episode and renders it).
+constexpr int kMaxWorking = 4;
+
 // A pushed client: one write in flight at most; what comes meanwhile is skipped.
 class Socket : public std::enable_shared_from_this<Socket> {
  public:
@@ -134,6 +137,7 @@ struct Server::Impl {
   std::atomic<std::size_t> clients{0};
   std::atomic<std::uint64_t> skipped{0};
   std::thread thread;
+  std::uint16_t port = 0;  ///< bound, read before the thread starts
   std::mutex work_mutex;
   std::condition_variable work_done;
   int working = 0;  ///< API calls running on threads of their own (work_mutex)
@@ -152,7 +156,13 @@ struct Server::Impl {
     if (!authorised(req)) return {401, "application/json", json_error("a token is needed (?token=...)")};
     std::string path(req.target());
     path = path.substr(0, path.find('?'));
-    if (path == "/api/snapshot") return {200, "application/json", h.snapshot().dump()};
+    if (path == "/api/snapshot") {
+      try {
+        return {200, "application/json", h.snapshot().dump()};
+      } catch (const std::exception& e) {
+        return {500, "application/json", json_error(e.what())};
+      }
+    }
     if (path.rfind("/api/", 0) == 0) {
       try {
         return h.api(path.substr(5), query_of(std::string(req.target())));
@@ -193,11 +203,19 @@ struct Server::Impl {
       if (path.rfind("/api/", 0) == 0 && path != "/api/snapshot" && self->authorised(*req)) {
         {
           std::lock_guard l(self->work_mutex);
+          if (self->working >= kMaxWorking)
+            return self->respond(stream, req, {503, "application/json",
+                                               json_error("busy with " + std::to_string(kMaxWorking) +
+                                                          " calls; try again in a moment")});
           ++self->working;
         }
-        std::thread([self, stream, req] {
+        std::thread([self, stream = std::move(stream), req = std::move(req)]() mutable {
           Response r = self->route(*req);
-          asio::post(self->ioc, [self, stream, req, r = std::move(r)] { self->respond(stream, req, r); });
+          // The answer takes the stream and the request along: this thread holds nothing of the
+          // server's once it says it is done.
+          asio::post(self->ioc, [self, stream = std::move(stream), req = std::move(req), r = std::move(r)] {
+            self->respond(stream, req, r);
+          });
           std::lock_guard l(self->work_mutex);
           --self->working;
           self->work_done.notify_all();
@@ -274,6 +292,7 @@ Server::Server(ServerOptions options, Handlers handlers) : impl_(std::make_uniqu
   if (ec)
     throw std::runtime_error("cannot serve on " + impl_->o.bind + ":" + std::to_string(impl_->o.port) + ": " +
                              ec.message() + " (another dh view? --port chooses another)");
+  impl_->port = a.local_endpoint().port();
   impl_->accept();
   impl_->tick();
   impl_->thread = std::thread([impl = impl_.get()] { impl->ioc.run(); });
@@ -287,7 +306,7 @@ Server::~Server() {
   impl_->work_done.wait(l, [&] { return impl_->working == 0; });
 }
 
-std::uint16_t Server::port() const { return impl_->acceptor.local_endpoint().port(); }
+std::uint16_t Server::port() const { return impl_->port; }
 std::size_t Server::clients() const { return impl_->clients; }
 std::uint64_t Server::skipped_pushes() const { return impl_->skipped; }
 

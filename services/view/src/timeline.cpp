@@ -85,7 +85,7 @@ json episode_timeline(const std::filesystem::path& evidence, const std::filesyst
   if (!started) throw std::runtime_error(evidence.string() + ": no episode_start record (not a governor's evidence?)");
   page["events"] = std::move(events);
   page["safety_holds"] = holds;
-  if (page.contains("success") && !page["success"].get<bool>() && !attribution_config.empty()) {
+  if (page.contains("success") && page["success"] == false && !attribution_config.empty()) {
     try {
       const auto label = evo::attribute(evo::read_facts(records), evo::load_attribution(attribution_config));
       if (label)

@@ -122,6 +122,24 @@ TEST_F(Web, ASlowApiCallDoesNotHoldUpThePushes) {
   EXPECT_GT(during, 10) << "pushes every 50 ms went on through the 1.5 s call";
 }
 
+TEST_F(Web, AtMostFourApiCallsRunAtOnceAndTheFifthIsTold) {
+  auto server = start();
+  const auto port = server->port();
+  std::vector<std::thread> calls;
+  std::atomic<int> ok{0}, busy{0};
+  for (int i = 0; i < 5; ++i) {
+    calls.emplace_back([&] {
+      const auto r = get(port, "/api/slow");
+      (r.result_int() == 200 ? ok : busy) += 1;
+      if (r.result_int() == 503) EXPECT_NE(r.body().find("try again"), std::string::npos) << r.body();
+    });
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));  // in order, all within the first call
+  }
+  for (auto& c : calls) c.join();
+  EXPECT_EQ(ok, 4);
+  EXPECT_EQ(busy, 1);
+}
+
 TEST_F(Web, AWrongOrMissingTokenIs401) {
   auto server = start("s3cret");
   const auto port = server->port();

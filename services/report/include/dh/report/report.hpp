@@ -104,7 +104,7 @@ struct ReportFiles {
 ///               last step a command's progress rose or one completed, to the end), traced (episodes whose
 ///               evidence holds their end), zero_policy_steps (of those, episodes never under vla_act),
 ///               time_to_success: {steps: Q (the simulator's first goal step)}, wall_s: {success: Q,
-///               failure: Q}, budget_used_values: {success: [..], failure: [..]}}], Q = {count, p10, p50, p90,
+///               failure: Q} (losses to infrastructure left out), budget_used_values: {success: [..], failure: [..]}}], Q = {count, p10, p50, p90,
 ///               mean}: the paper's execution figures
 ///   films      [{file, caption, note}] (options.films)
 ///   evidence   {read, missing, not_recorded}, and evidence_missing (= evidence.missing)
