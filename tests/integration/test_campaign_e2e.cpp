@@ -96,6 +96,18 @@ TEST(Campaign, KilledHalfWayResumesWithoutRerunningAndReports) {
   EXPECT_NE(text.find("NOT LIBERO"), std::string::npos);
   EXPECT_NE(text.find("| full | goal | "), std::string::npos) << text.substr(0, 2000);
   EXPECT_TRUE(std::filesystem::exists(report_dir / "report.html"));
+  // A chosen episode's filmstrip in the report, re-run from its evidence; an episode it lacks is named.
+  std::tie(out, status) = itest::run_command(dh + " report --db " + db.string() + " --out " + report_dir.string() +
+                                             " --films full/goal/8/1 2>&1");
+  ASSERT_EQ(status, 0) << out;
+  EXPECT_TRUE(std::filesystem::exists(report_dir / "films" / "full_goal_8_1.png"));
+  std::ifstream md2(report_dir / "report.md");
+  const std::string with_film((std::istreambuf_iterator<char>(md2)), std::istreambuf_iterator<char>());
+  EXPECT_NE(with_film.find("](films/full_goal_8_1.png)"), std::string::npos) << with_film.substr(with_film.find("## Filmstrips"));
+  std::tie(out, status) = itest::run_command(dh + " report --db " + db.string() + " --out " + report_dir.string() +
+                                             " --films full/goal/8/99 2>&1");
+  EXPECT_EQ(status, 2) << out;
+  EXPECT_NE(out.find("--films full/goal/8/99: no such episode"), std::string::npos) << out;
 
   // Every failed episode gets an attribution layer from its evidence, and the labels are stored.
   const auto experience = env.runs / "experience.jsonl";
