@@ -31,7 +31,7 @@ using nlohmann::json;
 
 view::Response error(unsigned status, const std::string& what) { return {status, "application/json", json{{"error", what}}.dump()}; }
 
-// The evidence file a page asks for, when it may be read: an existing .jsonl under one of `roots`.
+// The evidence file a page asks for, when it may be read: a .jsonl under one of `roots` (canonical).
 std::optional<fs::path> allowed(const std::string& asked, const std::vector<fs::path>& roots, std::string& why) {
   if (asked.empty()) {
     why = "no evidence file was named (?evidence=PATH)";
@@ -44,9 +44,7 @@ std::optional<fs::path> allowed(const std::string& asked, const std::vector<fs::
     return std::nullopt;
   }
   for (const auto& root : roots) {
-    const fs::path r = fs::weakly_canonical(root, ec);
-    if (ec) continue;
-    const auto rel = p.lexically_relative(r);
+    const auto rel = p.lexically_relative(root);
     if (!rel.empty() && *rel.begin() != "..") return p;
   }
   why = asked + ": outside the folders this view serves (the runs folder; --evidence-root adds one)";
@@ -56,8 +54,14 @@ std::optional<fs::path> allowed(const std::string& asked, const std::vector<fs::
 }  // namespace
 
 int cmd_view(const ViewArgs& a) {
-  std::vector<fs::path> roots{paths::runs_dir()};
-  for (const auto& r : a.evidence_roots) roots.emplace_back(r);
+  // Made canonical once; every page's request is checked against them.
+  std::vector<fs::path> roots;
+  const auto add_root = [&](const fs::path& r) {
+    std::error_code ec;
+    if (auto c = fs::weakly_canonical(r, ec); !ec) roots.push_back(std::move(c));
+  };
+  add_root(paths::runs_dir());
+  for (const auto& r : a.evidence_roots) add_root(r);
   const fs::path attribution = paths::config_dir() / "attribution.yaml";
   // The films made for episode pages: a folder of this process's own (mkdtemp: nobody else's files in it).
   std::string pattern = (fs::temp_directory_path() / "dh_view_XXXXXX").string();

@@ -90,8 +90,7 @@ std::vector<Frame> to_frames(const Storyboard& s, std::vector<Moment> picked) {
     Frame& f = frames.back();
     f.event += "; " + m.event;
     const std::string arrow = " -> " + m.capability;
-    const bool named = f.capability == m.capability ||
-                       (f.capability.size() >= arrow.size() && f.capability.ends_with(arrow));
+    const bool named = f.capability == m.capability || f.capability.ends_with(arrow);
     if (!m.capability.empty() && !named) f.capability += arrow;
   }
   return frames;

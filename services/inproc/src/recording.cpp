@@ -97,7 +97,7 @@ Recording read_recording(const std::filesystem::path& evidence) {
         if (it == dispatched.end() || state == "accepted" || state == "running") continue;
         r.commands[it->second].end =
             RecordedEnd{state, e.value("failure", "none"), e.value("stage", ""),
-                        e.at("step").get<std::uint32_t>(), e.value("steps_used", 0u), e.value("reason", "")};
+                        e.at("step").get<std::uint32_t>(), e.value("steps_used", 0u)};
       } else if (kind == "verdict_event") {
         r.verdicts[e.at("step").get<std::uint32_t>()] = e.at("value").get<bool>();
         r.predicates.insert(e.value("predicate", ""));

@@ -44,7 +44,6 @@ struct RecordedEnd {
   std::string state, failure, stage;  ///< to_string of CommandState and FailureCode
   std::uint32_t step = 0;             ///< the step the end was reported at
   std::uint32_t steps_used = 0;
-  std::string reason;  ///< the host's words (a refusal's or failure's cause)
 };
 
 /// A command as the evidence recorded it: its grounding (capability, arguments, θ) and its dispatch.
