@@ -116,9 +116,9 @@ CoreEffects GovernorCore::on_request(const EpisodeRequest& r, Clock::time_point 
   }
   ch.machine = std::make_unique<EpisodeMachine>(std::move(spec), *episode_config, registry_, *ch.evidence, now);
   if (ch.early && ch.early->episode_id == r.episode_id) {
-    const Observation first = std::move(*ch.early);
+    Observation first = std::move(*ch.early);
     ch.early.reset();
-    for (auto& e : on_observation(first, now)) out.push_back(std::move(e));
+    for (auto& e : on_observation(std::move(first), now)) out.push_back(std::move(e));
   }
   if (ch.early_scene && ch.early_scene->episode_id == r.episode_id) {
     const SceneEstimate scene = std::move(*ch.early_scene);
@@ -128,14 +128,15 @@ CoreEffects GovernorCore::on_request(const EpisodeRequest& r, Clock::time_point 
   return out;
 }
 
-CoreEffects GovernorCore::on_observation(const Observation& obs, Clock::time_point now) {
+CoreEffects GovernorCore::on_observation(Observation obs, Clock::time_point now) {
   CoreEffects out;
-  if (auto* m = running(obs.channel, obs.episode_id)) {
-    emit(obs.channel, m->on_observation(obs, now), now, out);
+  const std::uint32_t channel = obs.channel;
+  if (auto* m = running(channel, obs.episode_id)) {
+    emit(channel, m->on_observation(std::move(obs), now), now, out);
     return out;
   }
-  Channel& ch = channels_[obs.channel];
-  if (!known(ch, obs.episode_id)) ch.early = obs;
+  Channel& ch = channels_[channel];
+  if (!known(ch, obs.episode_id)) ch.early = std::move(obs);
   return out;
 }
 

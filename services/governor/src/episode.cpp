@@ -45,42 +45,41 @@ nlohmann::json EpisodeMachine::obs_summary(const Observation& o) const {
           {"predicate", o.goal_holds}};
 }
 
-Effects EpisodeMachine::on_observation(const Observation& obs, Clock::time_point now) {
+Effects EpisodeMachine::on_observation(Observation obs, Clock::time_point now) {
   arrived_ = std::chrono::steady_clock::now();
   if (phase_ == Phase::Ended) return {};
   latch_.record(obs.step, obs.goal_holds);
-  last_obs_ = obs;
+  // Swapped, not copied: the previous observation's entities are freed with `obs`, after the decision.
+  std::swap(last_obs_, obs);
   have_obs_ = true;
-  take_progress(obs.step, false);
+  take_progress(last_obs_.step, false);
   if (phase_ == Phase::WaitingFirstObservation) {
-    evidence_.append("governor", "observation", obs_summary(obs));
+    evidence_.append("governor", "observation", obs_summary(last_obs_));
     if (config_.mode == ExecutorMode::Bare) {
       Advice a;
       a.capability = "vla_act";
       a.args = {{"instruction", spec_.instruction}};
       a.rationale = "bare arm: the policy owns the episode";
       a.backend = "none";
-      last_advice_ = a;
+      set_step(a);
       return ground_and_dispatch(a, now);
     }
     return request_plan("episode start", now);
   }
   if (phase_ != Phase::Running) return {};
   std::optional<CommandStatus> ended;
-  if (deferred_end_ && obs.step >= deferred_end_->step) {
+  if (deferred_end_ && last_obs_.step >= deferred_end_->step) {
     ended = deferred_end_;
     deferred_end_.reset();
   }
-  deadline_ = now + config_.step_stall_timeout;
-  deadline_what_ = "next observation while '" + running_->command_id + "' runs";
-  deadline_wait_ = "observation";
+  await_observation(now);
   Effects fx;
-  if (obs.step % config_.decision_period == 0 && obs.step > running_->start_step)
-    fx = decide_now(CommandPhase::Running, "decision step", now, &obs);
+  if (last_obs_.step % config_.decision_period == 0 && last_obs_.step > running_->start_step)
+    fx = decide_now(CommandPhase::Running, "decision step", now, {&last_obs_});
   // A command that ended at this step is finished after the step's decision, as in process, where its
   // report comes after the governor has seen the observation (over DDS it may come first and wait).
   if (!ended || phase_ != Phase::Running || !running_ || running_->command_id != ended->command_id) return fx;
-  return then(fx, finish_command(*ended, now));
+  return then(fx, finish_command(*ended, now, false));
 }
 
 Observation EpisodeMachine::perceived_scene() {
@@ -145,7 +144,7 @@ Effects EpisodeMachine::on_advice(const Advice& advice, Clock::time_point now) {
     return end(false, Outcome::GaveUp, "planner: every step of the plan completed, yet the task verdict is false");
   }
   if (config_.mode == ExecutorMode::Seq && sequence_.empty() && commands_ == 0) sequence_ = advice.rest;
-  last_advice_ = advice;
+  set_step(advice);
   return ground_and_dispatch(advice, now);
 }
 
@@ -260,25 +259,13 @@ Effects EpisodeMachine::on_status(const CommandStatus& st, Clock::time_point now
   arrived_ = std::chrono::steady_clock::now();
   if (phase_ != Phase::Running || !running_ || st.command_id != running_->command_id) return {};
   const bool terminal = st.state != CommandState::Accepted && st.state != CommandState::Running;
-  if (!acknowledged_ || terminal) {
-    auto record = [this, st] {
-      evidence_.append(st.instance.empty() ? "capability" : st.instance, "command_status",
-                       {{"step", st.step}, {"command_id", st.command_id}, {"state", to_string(st.state)},
-                        {"reason", st.reason}, {"failure", to_string(st.failure)}, {"stage", st.stage},
-                        {"steps_used", st.steps_used}, {"progress", st.progress}});
-    };
-    // An end decided on now is recorded after the decision is made, in the same order.
-    if (terminal && st.step <= last_obs_.step)
-      unrecorded_status_ = std::move(record);
-    else
-      record();
-  }
+  // An end decided on now (its step observed) is recorded after the decision is made, by finish_command.
+  const bool decided_now = terminal && st.step <= last_obs_.step;
+  if ((!acknowledged_ || terminal) && !decided_now) record_status(st);
   acknowledged_ = true;
   progress_reports_.emplace_back(st.step, st.progress);
   if (!terminal) {
-    deadline_ = now + config_.step_stall_timeout;
-    deadline_what_ = "next observation while '" + running_->command_id + "' runs";
-    deadline_wait_ = "observation";
+    await_observation(now);
     return {};
   }
   // Decide on the observation of the step the command ended at (DDS does not order two topics).
@@ -286,12 +273,18 @@ Effects EpisodeMachine::on_status(const CommandStatus& st, Clock::time_point now
     deferred_end_ = st;
     return {};
   }
-  return finish_command(st, now);
+  return finish_command(st, now, true);
 }
 
-Effects EpisodeMachine::finish_command(const CommandStatus& st, Clock::time_point now) {
+void EpisodeMachine::record_status(const CommandStatus& st) {
+  evidence_.append(st.instance.empty() ? "capability" : st.instance, "command_status",
+                   {{"step", st.step}, {"command_id", st.command_id}, {"state", to_string(st.state)},
+                    {"reason", st.reason}, {"failure", to_string(st.failure)}, {"stage", st.stage},
+                    {"steps_used", st.steps_used}, {"progress", st.progress}});
+}
+
+Effects EpisodeMachine::finish_command(const CommandStatus& st, Clock::time_point now, bool unrecorded) {
   take_progress(st.step, true);
-  history_.push_back(history::outcome_line(st.step, running_->capability, to_string(st.state), running_->args, st.reason));
   CommandPhase phase = CommandPhase::Failed;
   if (st.state == CommandState::Completed) phase = CommandPhase::Completed;
   else if (st.state == CommandState::Refused) {
@@ -301,7 +294,7 @@ Effects EpisodeMachine::finish_command(const CommandStatus& st, Clock::time_poin
   else if (st.state == CommandState::Expired) phase = CommandPhase::Expired;
   if (phase != CommandPhase::Completed && !recovering_) count_failure();
   if (phase != CommandPhase::Completed) last_failure_ = st.failure;
-  return decide_now(phase, std::string("command ") + to_string(st.state), now);
+  return decide_now(phase, std::string("command ") + to_string(st.state), now, {nullptr, &st, unrecorded});
 }
 
 Effects EpisodeMachine::on_capability_lost(const std::string& instance, Clock::time_point now) {
@@ -332,11 +325,22 @@ void EpisodeMachine::take_progress(std::uint32_t step, bool through) {
   });
 }
 
-std::string EpisodeMachine::step_key() const {
-  return last_advice_ ? last_advice_->capability + " " + history::signature(last_advice_->args) : "";
+void EpisodeMachine::set_step(Advice advice) {
+  step_signature_ = history::signature(advice.args);
+  step_key_ = advice.capability + " " + step_signature_;
+  last_advice_ = std::move(advice);
 }
 
-void EpisodeMachine::count_failure() { ++failures_[step_key()]; }
+void EpisodeMachine::await_observation(Clock::time_point now) {
+  deadline_ = now + config_.step_stall_timeout;
+  // The text is made once per command: each dispatch waits for its acknowledgement first, so an
+  // observation wait already set is this command's.
+  if (deadline_wait_ == "observation") return;
+  deadline_what_ = "next observation while '" + running_->command_id + "' runs";
+  deadline_wait_ = "observation";
+}
+
+void EpisodeMachine::count_failure() { ++failures_[step_key_]; }
 
 bool EpisodeMachine::eligible(const std::string& capability) const {
   return !config_.masked.count(capability) && registry_.newest_alive(capability);
@@ -346,7 +350,7 @@ std::optional<std::string> EpisodeMachine::substitute() const {
   if (!last_advice_) return std::nullopt;
   const auto subs = config_.substitutes.find(last_advice_->capability);
   if (subs == config_.substitutes.end()) return std::nullopt;
-  const auto tried = tried_.find(history::signature(last_advice_->args));
+  const auto tried = tried_.find(step_signature_);
   for (const auto& c : subs->second)
     if (eligible(c) && (tried == tried_.end() || !tried->second.count(c))) return c;
   return std::nullopt;
@@ -373,7 +377,7 @@ std::string EpisodeMachine::recovery_object() const {
 }
 
 Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now,
-                                   const Observation* observed) {
+                                   DecidedOn on) {
   const std::uint32_t k = decisions_++;
   DecisionState s;
   s.mode = config_.mode;
@@ -389,22 +393,30 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
   }
   s.progress = last_progress_;
   s.stagnant_decisions = stagnant_;
-  const std::string cap = running_ ? running_->capability : last_advice_ ? last_advice_->capability : "";
-  const std::string sig = last_advice_ ? history::signature(last_advice_->args) : "";
-  s.failures_of_step = failures_.count(step_key()) ? failures_.at(step_key()) : 0;
+  static const std::string kNone;
+  const std::string& cap = running_ ? running_->capability : last_advice_ ? last_advice_->capability : kNone;
+  const std::string& sig = step_signature_;
+  const auto failures = failures_.find(step_key_);
+  s.failures_of_step = failures == failures_.end() ? 0 : failures->second;
   s.replans_used = replans_;
   s.was_recovery = recovering_;
-  s.recoveries_left = (recoveries_.count(sig) ? recoveries_.at(sig) : 0) < config_.max_recoveries;
+  const auto recoveries = recoveries_.find(sig);
+  s.recoveries_left = (recoveries == recoveries_.end() ? 0 : recoveries->second) < config_.max_recoveries;
   s.other_instance_alive = running_ && registry_.newest_alive(cap);
   s.substitute_available = substitute().has_value();
   s.recovery_available = eligible(recovery_for());
-  s.vla_available = eligible("vla_act") && cap != "vla_act" && !(tried_.count(sig) && tried_.at(sig).count("vla_act"));
+  const auto tried = tried_.find(sig);
+  s.vla_available = eligible("vla_act") && cap != "vla_act" && !(tried != tried_.end() && tried->second.count("vla_act"));
   s.sequence_left = !sequence_.empty();
   const Decision d = decide(s, config_.limits);
   // The decision is made; what follows records it (and the observation it was made on, before it).
   const auto decided = std::chrono::steady_clock::now();
-  if (unrecorded_status_) std::exchange(unrecorded_status_, nullptr)();
-  if (observed) evidence_.append("governor", "observation", obs_summary(*observed));
+  if (on.ended) {
+    if (on.ended_unrecorded) record_status(*on.ended);
+    history_.push_back(history::outcome_line(on.ended->step, running_->capability, to_string(on.ended->state),
+                                             running_->args, on.ended->reason));
+  }
+  if (on.observed) evidence_.append("governor", "observation", obs_summary(*on.observed));
   evidence_.append("governor", "decision",
                    {{"k", k}, {"step", s.step}, {"cause", cause}, {"phase", to_string(phase)},
                     {"decision", to_string(d.kind)}, {"reason", d.reason}, {"latched", s.latched},
@@ -440,7 +452,7 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
     case DecisionKind::Resume: {
       const Effects stop = stop_command();
       recovering_ = false;
-      if (resume_) last_advice_ = fast(*resume_);
+      if (resume_) set_step(fast(*resume_));
       resume_.reset();
       return then(stop, last_advice_ ? ground_and_dispatch(*last_advice_, now) : request_plan(d.reason, now));
     }
@@ -448,7 +460,7 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
       const Effects stop = stop_command();
       Advice a = fast(*last_advice_);
       a.capability = *substitute();
-      last_advice_ = a;
+      set_step(a);
       return then(stop, ground_and_dispatch(a, now));
     }
     case DecisionKind::HandToVla: {
@@ -457,7 +469,7 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
       tried_[sig].insert("vla_act");  // this step is handed over once
       a.capability = "vla_act";
       a.args = {{"instruction", spec_.instruction}};  // the policy was trained on whole instructions
-      last_advice_ = a;
+      set_step(a);
       return then(stop, ground_and_dispatch(a, now));
     }
     case DecisionKind::InsertRecovery: {
@@ -476,7 +488,7 @@ Effects EpisodeMachine::decide_now(CommandPhase phase, const std::string& cause,
       a.capability = sequence_.front().capability;
       a.args = sequence_.front().args;
       sequence_.erase(sequence_.begin());
-      last_advice_ = a;
+      set_step(a);
       return then(stop, ground_and_dispatch(a, now));
     }
     case DecisionKind::RequestReplan: {

@@ -6,6 +6,17 @@
 
 namespace dh::test {
 
+/// An object named and of kind `name`, upright, at `p` (its bottom centre).
+inline EntityState entity(const std::string& name, std::array<double, 3> p, std::array<double, 3> half_extents,
+                          std::array<double, 4> q = {1, 0, 0, 0}) {
+  EntityState e;
+  e.name = e.kind = name;
+  e.p = p;
+  e.q = q;
+  e.half_extents = half_extents;
+  return e;
+}
+
 inline Observation scene_observation(std::uint32_t step = 0) {
   Observation o;
   o.step = step;
@@ -13,9 +24,7 @@ inline Observation scene_observation(std::uint32_t step = 0) {
   o.ee_p = {-0.1, 0, 0.25};
   o.ee_q = {0, 1, 0, 0};
   o.gripper_opening = 0.08;
-  EntityState bowl{"bowl", "bowl", {0, -0.15, 0}, {1, 0, 0, 0}, {0.065, 0.065, 0.025}};
-  EntityState plate{"plate", "plate", {0, 0.15, 0}, {1, 0, 0, 0}, {0.09, 0.09, 0.006}};
-  o.entities = {bowl, plate};
+  o.entities = {entity("bowl", {0, -0.15, 0}, {0.065, 0.065, 0.025}), entity("plate", {0, 0.15, 0}, {0.09, 0.09, 0.006})};
   return o;
 }
 

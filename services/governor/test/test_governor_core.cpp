@@ -209,7 +209,9 @@ TEST_F(Core, ALiveViewGetsEachEpisodeAsItsEvidenceStandsAtMostOncePerDecisionPer
     Observation o = first("ep");
     o.step = step;
     core->on_observation(o, t0 + step * 50ms);
-    if (step < 10) EXPECT_TRUE(core->take_live().empty()) << "step " << step;
+    if (step < 10) {
+      EXPECT_TRUE(core->take_live().empty()) << "step " << step;
+    }
   }
   live = core->take_live();
   ASSERT_EQ(live.size(), 1u);

@@ -39,8 +39,8 @@ void expect_at(const Observation& o, const std::string& name, std::array<double,
 TEST(PerceivedWorld, SeenEntitiesTakeTheirEstimatedPlaceAndTheRestStay) {
   PerceivedWorld w{PerceptionLimits{}};
   Observation obs = test::scene_observation(5);
-  obs.entities.push_back({"stove", "stove", {0.3, 0.2, 0}, {1, 0, 0, 0}, {0.1, 0.1, 0.05}});
-  obs.entities.push_back({"mug", "mug", {0.2, 0, 0}, {0.7, 0, 0, 0.7}, {0.04, 0.04, 0.05}});
+  obs.entities.push_back(test::entity("stove", {0.3, 0.2, 0}, {0.1, 0.1, 0.05}));
+  obs.entities.push_back(test::entity("mug", {0.2, 0, 0}, {0.04, 0.04, 0.05}, {0.7, 0, 0, 0.7}));
   obs.entities[0].q = {0.9, 0.1, 0, 0};
   SceneEstimate e = estimate(5);
   e.looked_for.push_back("mug");  // looked for, not seen

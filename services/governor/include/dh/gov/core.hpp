@@ -63,7 +63,7 @@ class GovernorCore {
   GovernorCore(GovernorConfig config, std::map<std::string, ArmSpec> arms, CoreSettings settings);
 
   CoreEffects on_request(const EpisodeRequest& r, Clock::time_point now);
-  CoreEffects on_observation(const Observation& obs, Clock::time_point now);
+  CoreEffects on_observation(Observation obs, Clock::time_point now);
   CoreEffects on_advice(std::uint32_t channel, const std::string& episode, const Advice& a, Clock::time_point now);
   CoreEffects on_status(std::uint32_t channel, const std::string& episode, const CommandStatus& s,
                         Clock::time_point now);

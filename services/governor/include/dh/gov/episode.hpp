@@ -5,7 +5,6 @@
 #pragma once
 
 #include <chrono>
-#include <functional>
 #include <map>
 #include <optional>
 #include <set>
@@ -93,12 +92,21 @@ struct Effects {
 void record_request(EvidenceWriter& evidence, const std::string& suite, std::uint32_t task, std::uint64_t seed,
                     const std::string& cell, const std::string& arm, const PlannerErrorRates& planner_errors = {});
 
+/// What a decision was made on, recorded once it is made (so its latency holds no recording): the decision
+/// step's observation; the end of the running command, added to the history and, when `ended_unrecorded`,
+/// its status recorded.
+struct DecidedOn {
+  const Observation* observed = nullptr;
+  const CommandStatus* ended = nullptr;
+  bool ended_unrecorded = false;
+};
+
 class EpisodeMachine {
  public:
   EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, const Registry& registry,
                  EvidenceWriter& evidence, Clock::time_point now);
 
-  Effects on_observation(const Observation& obs, Clock::time_point now);
+  Effects on_observation(Observation obs, Clock::time_point now);
   Effects on_advice(const Advice& advice, Clock::time_point now);
   Effects on_status(const CommandStatus& status, Clock::time_point now);
   Effects on_capability_lost(const std::string& instance, Clock::time_point now);
@@ -125,13 +133,13 @@ class EpisodeMachine {
   Observation perceived_scene();  ///< the last observation as the planner may see it
   Effects ground_and_dispatch(const Advice& advice, Clock::time_point now);
   Effects refuse(Refusal r, const std::string& reason, Clock::time_point now);
-  /// `observed`: the decision step's observation, recorded before the decision once it is made, as is
-  /// unrecorded_status_.
-  Effects decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now,
-                     const Observation* observed = nullptr);
+  Effects decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now, DecidedOn on = {});
   /// Records a failure of the current step's command (by capability and arguments).
   void count_failure();
-  std::string step_key() const;  ///< current capability and arguments
+  /// The step being executed becomes `advice`; its signature and key are made here, once, not per decision.
+  void set_step(Advice advice);
+  /// While a command runs: the next observation is due within the step-stall timeout.
+  void await_observation(Clock::time_point now);
   bool eligible(const std::string& capability) const;
   std::optional<std::string> substitute() const;  ///< an eligible capability not yet tried for this step
   /// reseat after a one-finger contact, regrasp after a missed or lost grasp, release_retreat with
@@ -143,7 +151,9 @@ class EpisodeMachine {
   Effects stop_command();  ///< cancel + revoking lease for the running command, if any
   /// `next` after `first` (a stop, a step's decision): what `next` does not set itself, `first`'s rides along.
   static Effects then(const Effects& first, Effects next);
-  Effects finish_command(const CommandStatus& st, Clock::time_point now);
+  /// Decides on the running command's end; `unrecorded`: its status is recorded after the decision.
+  Effects finish_command(const CommandStatus& st, Clock::time_point now, bool unrecorded);
+  void record_status(const CommandStatus& st);
   /// Folds the progress reports of steps before `step` (through it, with `through`) into last_progress_.
   void take_progress(std::uint32_t step, bool through);
   nlohmann::json obs_summary(const Observation& o) const;
@@ -155,7 +165,6 @@ class EpisodeMachine {
   Phase phase_ = Phase::WaitingFirstObservation;
   Clock::time_point deadline_;
   std::chrono::steady_clock::time_point arrived_;  ///< when the event being handled reached the core
-  std::function<void()> unrecorded_status_;  ///< the ending command's status, recorded after its decision
   Clock::time_point capability_wait_until_;  ///< the bare arm waits this long for vla_act's announcement
   std::string deadline_what_;
   /// What a missed wait was for, as a code its deadline_missed record carries beside the text (attribution
@@ -169,7 +178,9 @@ class EpisodeMachine {
   std::optional<Advice> awaiting_perception_;     ///< the step waiting for a fresh scene estimate
   Clock::time_point perception_wait_until_;
   VerdictLatch latch_;
-  std::optional<Advice> last_advice_;            ///< the step being executed (capability + arguments)
+  std::optional<Advice> last_advice_;            ///< the step being executed (capability + arguments); set_step
+  std::string step_signature_;                   ///< history::signature of its arguments
+  std::string step_key_;                         ///< its capability and signature: failures_'s key
   std::optional<Advice> resume_;                 ///< the step a recovery interrupted
   std::vector<PlanStep> sequence_;               ///< seq: the frozen plan's remaining steps
   std::map<std::string, std::set<std::string>> tried_;  ///< per argument signature: capabilities tried
