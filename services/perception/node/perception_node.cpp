@@ -15,17 +15,11 @@
 #include <map>
 #include <memory>
 #include <optional>
-#include <variant>
 
 #include "dh/common/config.hpp"
-#include "dh/common/dds.hpp"
-#include "dh/common/event_queue.hpp"
-#include "dh/common/log.hpp"
+#include "dh/common/dds_shell.hpp"
 #include "dh/common/paths.hpp"
-#include "dh/common/service.hpp"
-#include "dh/common/shutdown.hpp"
 #include "dh/common/suite.hpp"
-#include "dh/common/topics.hpp"
 #include "dh/msg/cameraPubSubTypes.h"
 #include "dh/msg/episodePubSubTypes.h"
 #include "dh/msg/perceptionPubSubTypes.h"
@@ -33,6 +27,7 @@
 #include "dh/perception/colour_segmenter.hpp"
 #include "dh/perception/estimate.hpp"
 #include "dh/perception/http_segmenter.hpp"
+#include "dh/perception/ports.hpp"
 #include "dh/perception/scene_entities.hpp"
 #include "dh/sim/scene.hpp"
 
@@ -40,7 +35,8 @@ namespace dh {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-using Event = std::variant<msg::EpisodeRequest, msg::EpisodeResult, msg::Observation, msg::RgbdFrame>;
+using dds::In;
+using dds::Sample;
 
 struct ChannelState {
   std::string episode_id;
@@ -64,18 +60,72 @@ perception::RgbdFrame to_frame(const msg::RgbdFrame& m) {
   return f;
 }
 
-class Perception {
+/// Run by the one DDS shell (dds_shell.hpp). The channel bookkeeping is still here, not in a DDS-free core.
+class PerceptionBinding {
  public:
-  Perception(dds::Participant& p, std::unique_ptr<perception::Segmenter> segmenter, perception::CloudParams cloud,
-             std::string camera, unsigned every, std::chrono::milliseconds frame_timeout,
-             std::shared_ptr<spdlog::logger> log)
-      : segmenter_(std::move(segmenter)), cloud_(std::move(cloud)), camera_(std::move(camera)), every_(every),
-        frame_timeout_(frame_timeout),
-        log_(std::move(log)), suites_(load_suites(paths::config_dir())),
-        request_(p, topics::kRgbdRequest, dds::Qos::RgbdRequest),
-        scene_(p, topics::kSceneEstimate, dds::Qos::Observation) {}
+  using Inputs = dds::Inputs<In<port::EpisodeRequest>, In<port::EpisodeResult>, In<port::Observation>, In<port::Rgbd>>;
+  using Outputs = dds::Outputs<port::RgbdRequest, port::SceneEstimate>;
+  using Context = dds::Context<PerceptionBinding>;
 
-  void handle(const msg::EpisodeRequest& r) {
+  std::string name() const { return "dh_perception"; }
+  std::string description() const { return "scene estimates from RGB-D frames (OpenCV masks, PCL boxes)"; }
+  const Ports& ports() const { return perception::ports(); }
+  void options(CLI::App& app) {
+    app.add_option("--camera", camera_, "camera to ask for (configs/cameras.yaml, or what frames_player plays as)");
+    app.add_option("--every-steps", every_, "ask for a frame every N control steps (and at step 0)")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--backend", backend_, "colour (from the scene description) | http (a SAM-style server)")
+        ->check(CLI::IsMember({"colour", "http"}));
+    app.add_option("--segment-url", url_, "http backend: the server's endpoint, e.g. http://127.0.0.1:8765/segment");
+    app.add_option("--segment-timeout-s", segment_timeout_s_, "http backend: whole-request timeout");
+    app.add_option("--frame-timeout-ms", frame_timeout_ms_, "a frame not answered this long is asked for again");
+    app.add_option("--table-z", table_z_, "height of the table top in the world (m; the workcell's is 0)");
+    app.add_flag("--search-support-plane", search_plane_,
+                 "the table height is not known: find it in each mask (RANSAC)");
+  }
+  void configure(Context&) {
+    if (backend_ == "http") {
+      if (url_.empty()) throw ConfigError("--backend http needs --segment-url (the segmentation server's endpoint)");
+      perception::HttpSegmenterConfig c;
+      c.url = url_;
+      c.timeout_s = segment_timeout_s_;
+      segmenter_ = std::make_unique<perception::HttpSegmenter>(c);
+    } else {
+      segmenter_ = std::make_unique<perception::ColourSegmenter>();
+    }
+    if (!search_plane_) cloud_.support_z = table_z_;
+    suites_ = load_suites(paths::config_dir());
+  }
+  void activate(Context& ctx) {
+    ctx.log.info("backend={} camera={} every {} steps; domain={} up", backend_, camera_, every_, dds::domain_id());
+  }
+  void on(const Sample<port::EpisodeRequest>& s, Context& ctx) { handle(s.msg, ctx); }
+  void on(const Sample<port::EpisodeResult>& s, Context&) {
+    const auto& r = s.msg;
+    auto it = channels_.find(r.channel());
+    if (it != channels_.end() && it->second.episode_id == r.episode_id()) channels_.erase(it);
+  }
+  void on(const Sample<port::Observation>& s, Context& ctx) {
+    const auto& o = s.msg;
+    last_seen_[o.channel()] = {o.episode_id(), o.step()};
+    auto it = channels_.find(o.channel());
+    if (it == channels_.end() || it->second.episode_id != o.episode_id()) return;
+    auto& ch = it->second;
+    if (!ch.pending.empty() || (ch.last_step && o.step() < *ch.last_step + every_)) return;
+    ask(ctx, o.channel(), ch, o.step());
+  }
+  void on(const Sample<port::Rgbd>& s, Context& ctx) { handle(s.msg, ctx); }
+  /// A request unanswered for the frame timeout is asked again (the robot may be waiting for it).
+  void tick(Context& ctx) {
+    for (auto& [id, ch] : channels_)
+      if (!ch.pending.empty() && Clock::now() - ch.asked_at >= std::chrono::milliseconds(frame_timeout_ms_)) {
+        ctx.log.warn("channel={} frame {} not answered in time; asking again", id, ch.pending);
+        ask(ctx, id, ch, ch.last_step.value_or(0));
+      }
+  }
+
+ private:
+  void handle(const msg::EpisodeRequest& r, Context& ctx) {
     // Rendering costs the simulator time: only episodes grounded in perception are looked at.
     if (r.grounding() != "perception") {
       channels_.erase(r.channel());
@@ -90,42 +140,22 @@ class Perception {
       ch.objects = perception::free_objects(sim::load_nominal_scene(task));
       ch.looked_for = perception::appearances(ch.objects);
       ch.episode_id = r.episode_id();
-      log_->info("channel={} episode={} looking for {} free objects", r.channel(), r.episode_id(), ch.looked_for.size());
+      ctx.log.info("channel={} episode={} looking for {} free objects", r.channel(), r.episode_id(), ch.looked_for.size());
     } catch (const std::exception& e) {
-      log_->error("channel={} episode={}: no scene to look for: {}", r.channel(), r.episode_id(), e.what());
+      ctx.log.error("channel={} episode={}: no scene to look for: {}", r.channel(), r.episode_id(), e.what());
       return;
     }
     // The simulator's first observation can come before the request does.
     const auto last = last_seen_.find(r.channel());
-    if (last != last_seen_.end() && last->second.first == r.episode_id()) ask(r.channel(), ch, last->second.second);
+    if (last != last_seen_.end() && last->second.first == r.episode_id()) ask(ctx, r.channel(), ch, last->second.second);
   }
-  void handle(const msg::EpisodeResult& r) {
-    auto it = channels_.find(r.channel());
-    if (it != channels_.end() && it->second.episode_id == r.episode_id()) channels_.erase(it);
-  }
-  void handle(const msg::Observation& o) {
-    last_seen_[o.channel()] = {o.episode_id(), o.step()};
-    auto it = channels_.find(o.channel());
-    if (it == channels_.end() || it->second.episode_id != o.episode_id()) return;
-    auto& ch = it->second;
-    if (!ch.pending.empty() || (ch.last_step && o.step() < *ch.last_step + every_)) return;
-    ask(o.channel(), ch, o.step());
-  }
-  /// A request unanswered for the frame timeout is asked again (the robot may be waiting for it).
-  void tick() {
-    for (auto& [id, ch] : channels_)
-      if (!ch.pending.empty() && Clock::now() - ch.asked_at >= frame_timeout_) {
-        log_->warn("channel={} frame {} not answered in time; asking again", id, ch.pending);
-        ask(id, ch, ch.last_step.value_or(0));
-      }
-  }
-  void handle(const msg::RgbdFrame& m) {
+  void handle(const msg::RgbdFrame& m, Context& ctx) {
     auto it = channels_.find(m.channel());
     if (it == channels_.end() || m.request_id() != it->second.pending) return;
     auto& ch = it->second;
     if (!m.error().empty() || (!m.episode_id().empty() && m.episode_id() != ch.episode_id)) {
       // Asked before the simulator started the episode, or it could not render: ask again after a while.
-      log_->warn("channel={} frame {}: {}", m.channel(), m.request_id(),
+      ctx.log.warn("channel={} frame {}: {}", m.channel(), m.request_id(),
                  m.error().empty() ? "shows episode '" + m.episode_id() + "', not this one" : m.error());
       return;
     }
@@ -156,115 +186,40 @@ class Perception {
         out.seen().push_back(p);
       }
     } catch (const std::exception& e) {
-      log_->error("channel={} frame {} not processed: {}", m.channel(), m.request_id(), e.what());
+      ctx.log.error("channel={} frame {} not processed: {}", m.channel(), m.request_id(), e.what());
     }
     for (const auto& a : ch.looked_for) out.looked_for().push_back(a.entity);
     out.latency_ms(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-    scene_.write(out);
-    log_->debug("channel={} step={} seen {}/{} in {:.1f} ms", m.channel(), m.step(), out.seen().size(),
+    ctx.write<port::SceneEstimate>(out);
+    ctx.log.debug("channel={} step={} seen {}/{} in {:.1f} ms", m.channel(), m.step(), out.seen().size(),
                 out.looked_for().size(), out.latency_ms());
   }
 
- private:
-  void ask(std::uint32_t channel, ChannelState& ch, std::uint32_t step) {
+  void ask(Context& ctx, std::uint32_t channel, ChannelState& ch, std::uint32_t step) {
     msg::RgbdRequest r;
     r.channel(channel);
     r.camera(camera_);
     r.request_id("perception-" + std::to_string(++requests_));
-    request_.write(r);
+    ctx.write<port::RgbdRequest>(r);
     ch.pending = r.request_id();
     ch.asked_at = Clock::now();
     ch.last_step = step;
   }
 
+  std::string camera_ = "workcell", backend_ = "colour", url_;
+  unsigned every_ = 10, frame_timeout_ms_ = 2000;
+  double segment_timeout_s_ = 5;
+  std::optional<double> table_z_ = 0.0;
+  bool search_plane_ = false;
   std::unique_ptr<perception::Segmenter> segmenter_;
   perception::CloudParams cloud_;
-  std::string camera_;
-  unsigned every_;
-  std::chrono::milliseconds frame_timeout_;
-  std::shared_ptr<spdlog::logger> log_;
   std::map<std::string, SuiteDef> suites_;
-  dds::Writer<msg::RgbdRequestPubSubType> request_;
-  dds::Writer<msg::SceneEstimatePubSubType> scene_;
   std::map<std::uint32_t, ChannelState> channels_;
   std::map<std::uint32_t, std::pair<std::string, std::uint32_t>> last_seen_;  ///< episode and step per channel
   std::uint64_t requests_ = 0;
 };
 
-/// The service's readers, made on activate and removed on deactivate; every message goes to `q`.
-struct Readers {
-  Readers(dds::Participant& p, EventQueue<Event>& q)
-      : requests(p, topics::kEpisodeRequest, dds::Qos::Episode,
-                 {[&q](const msg::EpisodeRequest& m, const auto&) { q.push(m); }, {}, {}}),
-        results(p, topics::kEpisodeResult, dds::Qos::Episode,
-                {[&q](const msg::EpisodeResult& m, const auto&) { q.push(m); }, {}, {}}),
-        observations(p, topics::kObservation, dds::Qos::Observation,
-                     {[&q](const msg::Observation& m, const auto&) { q.push(m); }, {}, {}}),
-        frames(p, topics::kRgbd, dds::Qos::Rgbd, {[&q](const msg::RgbdFrame& m, const auto&) { q.push(m); }, {}, {}}) {}
-  dds::Reader<msg::EpisodeRequestPubSubType> requests;
-  dds::Reader<msg::EpisodeResultPubSubType> results;
-  dds::Reader<msg::ObservationPubSubType> observations;
-  dds::Reader<msg::RgbdFramePubSubType> frames;
-};
-
-int run(int argc, char** argv) {
-  CLI::App app{"perception: scene estimates from RGB-D frames (OpenCV masks, PCL boxes)"};
-  std::string camera = "workcell", backend = "colour", url;
-  unsigned every = 10, frame_timeout_ms = 2000;
-  double segment_timeout_s = 5;
-  std::optional<double> table_z = 0.0;
-  app.add_option("--camera", camera, "camera to ask for (configs/cameras.yaml, or what frames_player plays as)");
-  app.add_option("--every-steps", every, "ask for a frame every N control steps (and at step 0)")->check(CLI::PositiveNumber);
-  app.add_option("--backend", backend, "colour (from the scene description) | http (a SAM-style server)")
-      ->check(CLI::IsMember({"colour", "http"}));
-  app.add_option("--segment-url", url, "http backend: the server's endpoint, e.g. http://127.0.0.1:8765/segment");
-  app.add_option("--segment-timeout-s", segment_timeout_s, "http backend: whole-request timeout");
-  app.add_option("--frame-timeout-ms", frame_timeout_ms, "a frame not answered this long is asked for again");
-  bool search_plane = false;
-  app.add_option("--table-z", table_z, "height of the table top in the world (m; the workcell's is 0)");
-  app.add_flag("--search-support-plane", search_plane, "the table height is not known: find it in each mask (RANSAC)");
-  CLI11_PARSE(app, argc, argv);
-  auto log = make_logger("dh_perception");
-  EventQueue<Event> q;  // declared first: the readers that push into it go before it
-  std::optional<dds::Participant> participant;
-  std::optional<Perception> node;
-  std::optional<Readers> readers;
-  ManagedService service;
-  service.transitions.configure = [&] {
-    std::unique_ptr<perception::Segmenter> segmenter;
-    if (backend == "http") {
-      if (url.empty()) throw ConfigError("--backend http needs --segment-url (the segmentation server's endpoint)");
-      perception::HttpSegmenterConfig c;
-      c.url = url;
-      c.timeout_s = segment_timeout_s;
-      segmenter = std::make_unique<perception::HttpSegmenter>(c);
-    } else {
-      segmenter = std::make_unique<perception::ColourSegmenter>();
-    }
-    perception::CloudParams cloud;
-    if (!search_plane) cloud.support_z = table_z;
-    participant.emplace("dh_perception");
-    node.emplace(*participant, std::move(segmenter), cloud, camera, every, std::chrono::milliseconds(frame_timeout_ms),
-                 log);
-  };
-  service.transitions.activate = [&] {
-    readers.emplace(*participant, q);
-    log->info("backend={} camera={} every {} steps; domain={} up", backend, camera, every, dds::domain_id());
-  };
-  service.transitions.deactivate = [&] { readers.reset(); };
-  service.transitions.shutdown = [&] {
-    readers.reset();
-    node.reset();
-    participant.reset();
-  };
-  service.step = [&] {
-    if (auto e = q.pop(std::chrono::milliseconds(50))) std::visit([&](auto& ev) { node->handle(ev); }, *e);
-    node->tick();
-  };
-  return run_managed(*log, std::move(service));
-}
-
 }  // namespace
 }  // namespace dh
 
-int main(int argc, char** argv) { return dh::run(argc, argv); }
+int main(int argc, char** argv) { return dh::dds::run_service(argc, argv, dh::PerceptionBinding{}); }

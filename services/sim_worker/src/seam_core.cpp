@@ -2,7 +2,6 @@
 
 #include <mujoco/mujoco.h>
 
-#include "dh/common/topics.hpp"
 #include "dh/sim/workcell.hpp"
 
 namespace dh::sim {
@@ -10,19 +9,14 @@ namespace dh::sim {
 SeamCore::SeamCore(std::uint32_t channel, SeamSettings settings) : channel_(channel), settings_(settings) {}
 
 const Ports& SeamCore::ports() {
-  using enum PortDirection;
   static const Ports p{
-      {In, topics::kEpisodeRequest, "dh::msg::EpisodeRequest", dds::Qos::Episode,
-       "reset the channel to suite/task/seed"},
-      {In, topics::kLease, "dh::msg::Lease", dds::Qos::Lease,
-       "the governor's grant for the running command; its deadline says the writer went silent"},
-      {In, topics::kAction, "dh::msg::Action", dds::Qos::Action, "one 7-d action per step, lock-step"},
-      {In, topics::kEpisodeResult, "dh::msg::EpisodeResult", dds::Qos::Episode, "the channel goes idle"},
-      {Out, topics::kObservation, "dh::msg::Observation", dds::Qos::Observation,
-       "after the reset (step 0) and after every applied action"},
-      {Out, topics::kVerdict, "dh::msg::Verdict", dds::Qos::Verdict, "every change of the task predicate"},
-      {Out, topics::kSeamEvent, "dh::msg::SeamEvent", dds::Qos::Status,
-       "refused actions and safety corrections, with reasons"},
+      in_port<port::EpisodeRequest>("reset the channel to suite/task/seed"),
+      in_port<port::Lease>("the governor's grant for the running command; its deadline says the writer went silent"),
+      in_port<port::Action>("one 7-d action per step, lock-step"),
+      in_port<port::EpisodeResult>("the channel goes idle"),
+      out_port<port::Observation>("after the reset (step 0) and after every applied action"),
+      out_port<port::Verdict>("every change of the task predicate"),
+      out_port<port::SeamEvent>("refused actions and safety corrections, with reasons"),
   };
   return p;
 }

@@ -48,6 +48,42 @@ struct Port {
 
 using Ports = std::vector<Port>;
 
+}  // namespace dh
+
+// The generated IDL classes, declared only: a core names its messages' types without including DDS.
+namespace dh::msg {
+#define DH_TOPIC(tag, name, type, qos) class type; class type##PubSubType;
+#include "dh/common/topic_table.def"
+#undef DH_TOPIC
+}  // namespace dh::msg
+
+/// One tag per topic of topic_table.def: its name, IDL type and QoS role. Cores declare their ports with
+/// them (in_port / out_port); the DDS shell (dds_shell.hpp) makes readers and writers from them.
+namespace dh::port {
+#define DH_TOPIC(tag, name, idl_type, qos_role)                    \
+  struct tag {                                                     \
+    static constexpr std::string_view topic = name;                \
+    static constexpr std::string_view type = "dh::msg::" #idl_type; \
+    static constexpr dds::Qos qos = dds::Qos::qos_role;            \
+    using Msg = msg::idl_type;                                     \
+    using PubSub = msg::idl_type##PubSubType;                      \
+  };
+#include "dh/common/topic_table.def"
+#undef DH_TOPIC
+}  // namespace dh::port
+
+namespace dh {
+
+/// A port row of `Tag`'s topic, in or out, with one line on what flows on it and when.
+template <class Tag>
+Port in_port(std::string_view what) {
+  return {PortDirection::In, Tag::topic, Tag::type, Tag::qos, what};
+}
+template <class Tag>
+Port out_port(std::string_view what) {
+  return {PortDirection::Out, Tag::topic, Tag::type, Tag::qos, what};
+}
+
 /// The rows of a service README's port table ("| in | rt/dh/... | dh::msg::... | Qos |"), as a core
 /// declares them and as a README lists them (lines starting "| in |" or "| out |"); a test compares the two.
 std::set<std::string> port_table(const Ports& ports);

@@ -2,7 +2,6 @@
 
 #include <stdexcept>
 
-#include "dh/common/topics.hpp"
 
 namespace dh::cap {
 namespace {
@@ -23,18 +22,14 @@ void HostEffects::append(HostEffects other) {
 HostCore::HostCore(const std::vector<ServedCapability>& served) : served_(served.begin(), served.end()) {}
 
 const Ports& HostCore::ports() {
-  using enum PortDirection;
   static const Ports p{
-      {In, topics::kCommand, "dh::msg::Command", dds::Qos::Command,
-       "START / CANCEL for one of its instances"},
-      {In, topics::kObservation, "dh::msg::Observation", dds::Qos::Observation, "one per step"},
-      {In, topics::kSceneEstimate, "dh::msg::SceneEstimate", dds::Qos::Observation,
-       "estimates for commands grounded in perception"},
-      {Out, topics::kAction, "dh::msg::Action", dds::Qos::Action, "the action answering an observation"},
-      {Out, topics::kCommandStatus, "dh::msg::CommandStatus", dds::Qos::Status,
-       "the command's state and reason"},
-      {Out, topics::kAnnounce, "dh::msg::CapabilityAnnounce", dds::Qos::Announce,
-       "one per capability served, again with `draining` set on drain; liveliness asserted from the loop"},
+      in_port<port::Command>("START / CANCEL for one of its instances"),
+      in_port<port::Observation>("one per step"),
+      in_port<port::SceneEstimate>("estimates for commands grounded in perception"),
+      out_port<port::Action>("the action answering an observation"),
+      out_port<port::CommandStatus>("the command's state and reason"),
+      out_port<port::Announce>(
+          "one per capability served, again with `draining` set on drain; liveliness asserted from the loop"),
   };
   return p;
 }
