@@ -2,7 +2,9 @@
 // their handler and the process's own samples of a kSkipOwn input do not; work posted from another thread
 // is written from the loop; a loop held longer than its allowance loses the liveliness of its announcement
 // and gets it back; a binding whose ports differ from its core's declaration is refused at configure, and
-// the reason names the topic.
+// the reason names the topic. With lanes: a sample reaches its lane's own thread, one that is no lane's the
+// binding's handler; a held lane costs the process its liveliness while the other lanes go on; a lane's
+// exception ends the process with it as the reason.
 #include <spdlog/sinks/ostream_sink.h>
 
 #include <sstream>
@@ -63,6 +65,58 @@ struct EchoBinding {
   bool declare_all = true;
 };
 
+struct LaneBinding;
+using LaneContext = dds::Context<LaneBinding>;
+
+/// Echoes a command as "lane<k>:<id>" from its own thread; "block" holds it 2.5 s, "throw" throws.
+struct EchoLane {
+  unsigned k;
+  void on(const dds::Sample<port::Command>& s, LaneContext& ctx);
+};
+
+/// Routes commands by channel: channels 0 and 1 to lanes 0 and 1, any other to its own handler ("loop:<id>").
+struct LaneBinding {
+  using Inputs = dds::Inputs<dds::In<port::Command>>;
+  using Outputs = dds::Outputs<port::CommandStatus, port::Announce>;
+  using Lane = EchoLane;
+
+  std::string name() const { return "dh_test_lanes"; }
+  std::string description() const { return "a test binding with two lanes"; }
+  const Ports& ports() const {
+    static const Ports p{in_port<port::Command>("commands"), out_port<port::CommandStatus>("the echo"),
+                         out_port<port::Announce>("liveliness")};
+    return p;
+  }
+  void options(CLI::App&) {}
+  void configure(LaneContext&) {}
+  void activate(LaneContext& ctx) {
+    msg::CapabilityAnnounce a;
+    a.capability("lanes");
+    a.instance("lanes@test");
+    ctx.write<port::Announce>(a);
+  }
+  unsigned lanes() const { return 2; }
+  EchoLane& lane(unsigned i) { return lanes_[i]; }
+  std::optional<unsigned> lane_of(const msg::Command& c) const {
+    return c.channel() < 2 ? std::optional<unsigned>(c.channel()) : std::nullopt;
+  }
+  void on(const dds::Sample<port::Command>& s, LaneContext& ctx) { echo(ctx, "loop:" + s.msg.command_id()); }
+  static void echo(LaneContext& ctx, const std::string& id) {
+    msg::CommandStatus st;
+    st.command_id(id);
+    ctx.write<port::CommandStatus>(st);
+  }
+
+  EchoLane lanes_[2]{{0}, {1}};
+};
+
+void EchoLane::on(const dds::Sample<port::Command>& s, LaneContext& ctx) {
+  const std::string id = s.msg.command_id();
+  if (id == "block") std::this_thread::sleep_for(2500ms);
+  if (id == "throw") throw std::runtime_error("lane " + std::to_string(k) + " was told to fail");
+  LaneBinding::echo(ctx, "lane" + std::to_string(k) + ":" + id);
+}
+
 struct DdsShell : ::testing::Test {
   itest::IsolatedEnv env;
   std::ostringstream log_text;
@@ -111,26 +165,35 @@ struct DdsShell : ::testing::Test {
   void start() {
     shell.emplace([this] { exit_code = dds::Shell<EchoBinding>(binding, *log).run(); });
   }
+  LaneBinding lanes;
+  void start_lanes() {
+    shell.emplace([this] { exit_code = dds::Shell<LaneBinding>(lanes, *log).run(); });
+  }
   void TearDown() override {
     request_shutdown();
     if (shell) shell->join();
   }
-  void send(const std::string& id) {
+  void send(const std::string& id, std::uint32_t channel = 0) {
     msg::Command c;
+    c.channel(channel);
     c.command_id(id);
     commands->write(c);
   }
   bool saw(const std::string& id, std::chrono::milliseconds within) {
     return itest::wait_until(m, cv, within, [&] { return std::count(echoed.begin(), echoed.end(), id) > 0; });
   }
+  /// Waits for the shell's announcement, then sends `id` until its echo `echo` comes back: the writers and
+  /// readers of the two participants match in their own time.
+  bool matched(const std::string& id, std::uint32_t channel, const std::string& echo) {
+    if (!itest::wait_until(m, cv, 10s, [&] { return announced > 0; })) return false;
+    for (int i = 0; i < 50 && !saw(echo, 200ms); ++i) send(id, channel);
+    return saw(echo, 0ms);
+  }
 };
 
 TEST_F(DdsShell, SamplesReachTheirHandlerOwnSamplesDoNotAndPostedWorkIsWrittenFromTheLoop) {
   start();
-  ASSERT_TRUE(itest::wait_until(m, cv, 10s, [&] { return announced > 0; })) << "the binding never activated";
-  // Writers and readers of the two participants match in their own time: send until one is echoed.
-  for (int i = 0; i < 50 && !saw("first", 200ms); ++i) send("first");
-  ASSERT_TRUE(saw("first", 0ms)) << log_text.str();
+  ASSERT_TRUE(matched("first", 0, "first")) << log_text.str();
   send("post");
   EXPECT_TRUE(saw("post (posted)", 5s));
   std::lock_guard l(m);
@@ -139,9 +202,7 @@ TEST_F(DdsShell, SamplesReachTheirHandlerOwnSamplesDoNotAndPostedWorkIsWrittenFr
 
 TEST_F(DdsShell, ALoopHeldLongerThanItsAllowanceLosesItsLivelinessAndGetsItBack) {
   start();
-  ASSERT_TRUE(itest::wait_until(m, cv, 10s, [&] { return announced > 0; }));
-  for (int i = 0; i < 50 && !saw("first", 200ms); ++i) send("first");
-  ASSERT_TRUE(saw("first", 0ms));
+  ASSERT_TRUE(matched("first", 0, "first")) << log_text.str();
   {
     std::lock_guard l(m);
     ASSERT_EQ(lost, 0) << "liveliness lost while the loop turned";
@@ -160,6 +221,42 @@ TEST_F(DdsShell, ABindingWhosePortsDifferFromItsCoresDeclarationIsRefusedAtConfi
   EXPECT_EQ(exit_code, 1);
   EXPECT_NE(log_text.str().find("wired, not declared: out rt/dh/command"), std::string::npos) << log_text.str();
   EXPECT_NE(log_text.str().find("configure failed"), std::string::npos) << log_text.str();
+}
+
+TEST_F(DdsShell, ASampleReachesItsLaneAndOneOfNoLaneTheBindingsOwnHandler) {
+  start_lanes();
+  ASSERT_TRUE(matched("first", 0, "lane0:first")) << log_text.str();
+  send("second", 1);
+  send("third", 7);
+  EXPECT_TRUE(saw("lane1:second", 5s));
+  EXPECT_TRUE(saw("loop:third", 5s));
+  std::lock_guard l(m);
+  EXPECT_EQ(std::count(echoed.begin(), echoed.end(), "lane0:second"), 0) << "a sample reached another lane";
+}
+
+TEST_F(DdsShell, AHeldLaneCostsTheProcessItsLivelinessWhileTheOtherLaneGoesOn) {
+  start_lanes();
+  ASSERT_TRUE(matched("first", 0, "lane0:first")) << log_text.str();
+  send("block", 1);
+  send("meanwhile", 0);
+  EXPECT_TRUE(saw("lane0:meanwhile", 1s)) << "lane 0 waited for lane 1";
+  {
+    std::lock_guard l(m);
+    EXPECT_EQ(std::count(echoed.begin(), echoed.end(), "lane1:block"), 0);
+  }
+  EXPECT_TRUE(itest::wait_until(m, cv, 5s, [&] { return lost > 0; })) << "a stuck lane kept the liveliness";
+  EXPECT_TRUE(saw("lane1:block", 5s));
+  EXPECT_TRUE(itest::wait_until(m, cv, 5s, [&] { return regained > 0; }));
+}
+
+TEST_F(DdsShell, ALanesExceptionEndsTheProcessWithItAsTheReason) {
+  start_lanes();
+  ASSERT_TRUE(matched("first", 0, "lane0:first")) << log_text.str();
+  send("throw", 1);
+  shell->join();
+  shell.reset();
+  EXPECT_EQ(exit_code, 1);
+  EXPECT_NE(log_text.str().find("lane 1 was told to fail"), std::string::npos) << log_text.str();
 }
 
 }  // namespace

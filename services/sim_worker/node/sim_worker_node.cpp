@@ -18,7 +18,9 @@
 //                                           steps, and answers with the request's id. Nothing is rendered,
 //                                           and no OpenGL context is made, until the first request.
 // The seam itself (admission, holds, abandonment) is sim::SeamCore (seam_core.hpp); this file carries its
-// events and effects over DDS and renders cameras.
+// events and effects over DDS, on the one DDS shell (dds_shell.hpp), and renders cameras. Each channel is
+// one of the shell's lanes: its own queue and thread (the OpenGL context is per thread); the loop keeps the
+// other workers' channels and refuses actions and leases for channels nobody serves.
 // Parameters: --channels K, --first-channel C, --lease-grace-ms (how long an action of a command without a
 // lease waits for one before it is refused), --abandon-after-s (a running episode that has had no applied
 // action, lease or request for this long is abandoned: its governor is gone; the channel goes idle and
@@ -28,32 +30,22 @@
 // thread with its own OpenGL context (EGL surfaceless); without one the worker does not start.
 // --rgbd-every N (steps, default 0 = only on request) also publishes every RGB-D camera's frame at
 // episode start and every N steps, before that step's observation.
-#include <CLI/CLI.hpp>
 #include <mujoco/mujoco.h>
 
 #include <algorithm>
-#include <atomic>
 #include <filesystem>
 #include <map>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <set>
-#include <thread>
-#include <variant>
 
 #include "dh/common/convert.hpp"
-#include "dh/common/dds.hpp"
-#include "dh/common/event_queue.hpp"
-#include "dh/common/log.hpp"
+#include "dh/common/dds_shell.hpp"
 #include "dh/common/paths.hpp"
-#include "dh/common/service.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/common/topics.hpp"
 #include "dh/msg/cameraPubSubTypes.h"
-#include "dh/msg/command.h"
 #include "dh/msg/commandPubSubTypes.h"
-#include "dh/msg/episode.h"
 #include "dh/msg/episodePubSubTypes.h"
 #include "dh/msg/robotPubSubTypes.h"
 #include "dh/sim/camera.hpp"
@@ -61,34 +53,15 @@
 #include "dh/sim/seam_core.hpp"
 #include "dh/sim/workcell.hpp"
 #include "dh/sim/workcell_cache.hpp"
+#include "dh/sim/worker_ports.hpp"
 
 namespace dh {
 namespace {
 
 using Clock = std::chrono::steady_clock;
 
-struct LeaseSilent {};
-using Event = std::variant<msg::EpisodeRequest, msg::Action, msg::Lease, msg::EpisodeResult, LeaseSilent,
-                           msg::RgbdRequest>;
-
-struct Writers {
-  dds::Writer<msg::ObservationPubSubType> obs;
-  dds::Writer<msg::VerdictPubSubType> verdict;
-  dds::Writer<msg::SeamEventPubSubType> seam;
-  dds::Writer<msg::ChannelStatusPubSubType> channel;
-  std::unique_ptr<dds::Writer<msg::CameraImagePubSubType>> camera;  ///< only with --cameras
-  std::unique_ptr<dds::Writer<msg::RgbdFramePubSubType>> rgbd;       ///< only with RGB-D cameras configured
-  Writers(dds::Participant& p, bool cameras, bool rgbd_cameras)
-      : obs(p, topics::kObservation, dds::Qos::Observation),
-        verdict(p, topics::kVerdict, dds::Qos::Verdict),
-        seam(p, topics::kSeamEvent, dds::Qos::Status),
-        channel(p, topics::kChannelStatus, dds::Qos::ChannelStatus) {
-    if (cameras)
-      camera = std::make_unique<dds::Writer<msg::CameraImagePubSubType>>(p, topics::kCamera, dds::Qos::Camera);
-    if (rgbd_cameras)
-      rgbd = std::make_unique<dds::Writer<msg::RgbdFramePubSubType>>(p, topics::kRgbd, dds::Qos::Rgbd);
-  }
-};
+class WorkerBinding;
+using Context = dds::Context<WorkerBinding>;
 
 /// A channel's cameras: its own OpenGL context (made current on the channel's thread) and what to render.
 struct Rendering {
@@ -100,41 +73,148 @@ struct Rendering {
   unsigned rgbd_every = 0;                   ///< 0: RGB-D frames only on request
 };
 
+class Channel;
+
+/// The worker on the one DDS shell: its channels are the shell's lanes; the loop itself keeps the other
+/// workers' channels and refuses actions and leases for a channel nobody serves.
+class WorkerBinding {
+ public:
+  using Inputs =
+      dds::Inputs<dds::In<port::EpisodeRequest>, dds::In<port::Action>, dds::In<port::Lease, dds::kDeadline>,
+                  dds::In<port::EpisodeResult>, dds::In<port::RgbdRequest>, dds::In<port::ChannelStatus, dds::kSkipOwn>>;
+  using Outputs = dds::Outputs<port::Observation, port::Verdict, port::SeamEvent, port::ChannelStatus, port::Camera,
+                               port::Rgbd>;
+  using Lane = Channel;
+
+  std::string name() const { return "dh_sim_worker"; }
+  std::string description() const { return "MuJoCo workcell channels behind the robot seam"; }
+  const Ports& ports() const { return sim::worker_ports(); }
+  void options(CLI::App& app);
+  void parsed();
+  void configure(Context& ctx);
+  void activate(Context& ctx);
+  void shutdown();
+  std::chrono::milliseconds wait() const { return std::chrono::milliseconds(20); }
+  // A channel builds a scene's model on its own thread, between steps: the worker's liveliness waits that
+  // long for it (the channel lease is 2 s).
+  std::chrono::milliseconds loop_allowance() const { return std::chrono::milliseconds(1500); }
+
+  unsigned lanes() const { return channels_; }
+  Channel& lane(unsigned i) { return *chans_[i]; }
+  // The listeners' routing reads only what configure fixed: this worker's channels and RGB-D cameras.
+  std::optional<unsigned> lane_of(const msg::EpisodeRequest& m) const { return mine(m.channel()); }
+  std::optional<unsigned> lane_of(const msg::Action& m) const { return mine(m.channel()); }
+  std::optional<unsigned> lane_of(const msg::Lease& m) const { return mine(m.channel()); }
+  std::optional<unsigned> lane_of(const msg::EpisodeResult& m) const { return mine(m.channel()); }
+  // A camera this worker does not have may be a frames_player's to answer.
+  std::optional<unsigned> lane_of(const msg::RgbdRequest& m) const {
+    return rgbd_.has(m.camera()) ? mine(m.channel()) : std::nullopt;
+  }
+
+  // Channels every worker announces: other workers' actions and leases are theirs. For a channel nobody
+  // serves they are garbage: refused and recorded on the seam topic by every worker.
+  void on(const dds::Sample<port::ChannelStatus>& s, Context&) { known_.insert(s.msg.channel()); }
+  void on(const dds::Sample<port::Action>& s, Context& ctx) {
+    refuse_unknown(ctx, s.msg.channel(), s.msg.episode_id(), s.msg.step(), s.msg.command_id(), "action");
+  }
+  void on(const dds::Sample<port::Lease>& s, Context& ctx) {
+    refuse_unknown(ctx, s.msg.channel(), s.msg.episode_id(), 0, s.msg.command_id(), "lease");
+  }
+
+ private:
+  std::optional<unsigned> mine(std::uint32_t ch) const {
+    return ch >= first_ && ch < first_ + channels_ ? std::optional<unsigned>(ch - first_) : std::nullopt;
+  }
+  void refuse_unknown(Context& ctx, std::uint32_t ch, const std::string& episode, std::uint32_t step,
+                      const std::string& command, const char* what) {
+    if (known_.count(ch)) return;
+    msg::SeamEvent e;
+    e.channel(ch);
+    e.episode_id(episode);
+    e.step(step);
+    e.command_id(command);
+    e.kind(msg::SEAM_REJECTED_CHANNEL);
+    e.reason(std::string(what) + " for channel " + std::to_string(ch) + ", which no simulator worker serves");
+    ctx.write<port::SeamEvent>(e);
+    ctx.log.warn("worker={} rejected: {}", name_, e.reason());
+  }
+
+  unsigned channels_ = 1, first_ = 0, grace_ms_ = 1000, abandon_after_s_ = 60;
+  std::string name_ = "sim_worker", runs_;
+  std::vector<std::string> cameras_;
+  unsigned camera_every_ = 5;
+  int camera_size_ = sim::kDefaultCameraSize;
+  unsigned rgbd_every_ = 0;
+  std::map<std::string, SuiteDef> suites_;
+  sim::CamerasConfig rgbd_;
+  std::vector<std::unique_ptr<Channel>> chans_;
+  std::set<std::uint32_t> known_;  ///< channels other workers announce
+};
+
+/// One channel: a workcell behind its seam core, and its cameras. A lane of the shell: every handler runs on
+/// the channel's own thread.
 class Channel {
  public:
-  Channel(std::uint32_t id, std::string worker, const std::map<std::string, SuiteDef>& suites, Writers& w,
-          sim::SeamSettings seam, std::filesystem::path runs, Rendering rendering, std::shared_ptr<spdlog::logger> log)
-      : id_(id), worker_(std::move(worker)), suites_(suites), w_(w), core_(id, seam), runs_(std::move(runs)),
-        render_(std::move(rendering)), log_(std::move(log)), cells_([this](sim::SceneSpec& spec) {
+  Channel(std::uint32_t id, std::string worker, const std::map<std::string, SuiteDef>& suites, Context& ctx,
+          sim::SeamSettings seam, std::filesystem::path runs, Rendering rendering)
+      : id_(id), worker_(std::move(worker)), suites_(suites), ctx_(ctx), log_(ctx.log), core_(id, seam),
+        runs_(std::move(runs)), render_(std::move(rendering)), cells_([this](sim::SceneSpec& spec) {
           if (render_.rgbd) spec.cameras = render_.rgbd->for_scene(spec.name);
         }) {}
 
-  EventQueue<Event>& queue() { return queue_; }
-  /// Ends run() after its current event (deactivate), as a process-wide stop does.
-  void stop() { stop_ = true; }
-
-  void run() {
+  void enter(Context&) {
     if (render_.gl) {
       try {
         render_.gl->make_current();
       } catch (const std::exception& e) {
-        log_->error("channel={} cannot render its cameras: {}", id_, e.what());
-        request_shutdown();
-        return;
+        throw std::runtime_error("channel " + std::to_string(id_) + " cannot render its cameras: " + e.what());
       }
     }
     announce(msg::CHANNEL_IDLE);
-    while (!shutdown_requested() && !stop_) {
-      if (auto e = queue_.pop(std::chrono::milliseconds(20))) std::visit([&](auto& ev) { handle(ev); }, *e);
-      publish(core_.on_tick(Clock::now()));
-    }
+  }
+  void leave(Context&) {
     if (rgbd_frames_)
-      log_->info("channel={} {} RGB-D frames, {:.1f} ms each to render, {:.1f} ms to publish", id_, rgbd_frames_,
-                 1e3 * rgbd_render_s_ / rgbd_frames_, 1e3 * rgbd_publish_s_ / rgbd_frames_);
+      log_.info("channel={} {} RGB-D frames, {:.1f} ms each to render, {:.1f} ms to publish", id_, rgbd_frames_,
+                1e3 * rgbd_render_s_ / rgbd_frames_, 1e3 * rgbd_publish_s_ / rgbd_frames_);
     rig_.reset();  // GPU state goes on this thread, while its context is current
     rgbd_rigs_.clear();
     if (render_.gl) render_.gl->release();
     if (rgbd_gl_) rgbd_gl_->release();
+  }
+  void tick(Context&) { publish(core_.on_tick(Clock::now())); }
+
+  void on(const dds::Sample<port::EpisodeRequest>& s, Context&) { handle(s.msg); }
+  /// One RGB-D frame of the state the channel shows now, answering the request (an error frame when it cannot).
+  void on(const dds::Sample<port::RgbdRequest>& s, Context&) {
+    log_.debug("channel={} RGB-D request {} for camera {}", id_, s.msg.request_id(), s.msg.camera());
+    publish_rgbd(s.msg.camera(), s.msg.request_id());
+  }
+  void on(const dds::Sample<port::Lease>& s, Context&) {
+    const msg::Lease& l = s.msg;
+    publish(core_.on_lease({l.episode_id(), l.command_id(), l.valid_until_step(), l.budget_until_step(), l.revoked()},
+                           Clock::now()));
+  }
+  // The deadline event names no channel we can use (every lane gets it), so the core checks its own lease's age.
+  void on(const dds::DeadlineMissed<port::Lease>&, Context&) {
+    if (core_.on_lease_silent(Clock::now()))
+      log_.warn("channel={} lease writer missed its {} s deadline; actions are held until it is heard", id_,
+                dds::kLeaseDeadlineSec);
+  }
+  void on(const dds::Sample<port::Action>& s, Context&) {
+    const msg::Action& a = s.msg;
+    sim::ActionIn in{a.episode_id(), a.command_id(), a.step(), {}};
+    std::copy_n(a.a().begin(), 7, in.a.begin());
+    publish(core_.on_action(in, Clock::now()));
+  }
+  void on(const dds::Sample<port::EpisodeResult>& s, Context&) {
+    const msg::EpisodeResult& r = s.msg;
+    if (!core_.running() || r.episode_id() != core_.episode_id()) return;
+    log_.info("channel={} episode={} ended success={} steps={} physics_s={:.3f} stragglers={}", id_, r.episode_id(),
+              r.success(), r.steps(), reset_s_ + core_.physics_s(), core_.stragglers());
+    if (images_)
+      log_.info("channel={} episode={} {} camera images, {:.1f} ms each (render and publish)", id_, r.episode_id(),
+                images_, 1e3 * render_s_ / images_);
+    finish(r.episode_id(), "");
   }
 
  private:
@@ -150,22 +230,26 @@ class Channel {
     st.last_goal_step(last_goal_step_);
     st.last_goal_at_end(last_goal_at_end_);
     st.last_error(last_error_);
-    w_.channel.write(st);
+    ctx_.write<port::ChannelStatus>(st);
   }
 
-  void handle(msg::EpisodeRequest& r) {
+  void handle(const msg::EpisodeRequest& r) {
     if (r.episode_id() == core_.episode_id() || r.episode_id() == last_episode_) return;  // transient-local redelivery
     if (core_.running()) {
       // One client's request must not preempt another's episode; the governor answers it "rejected".
-      log_->warn("channel={} busy with episode={}; request {} ignored", id_, core_.episode_id(), r.episode_id());
+      log_.warn("channel={} busy with episode={}; request {} ignored", id_, core_.episode_id(), r.episode_id());
       return;
     }
     sim::Workcell* reset = nullptr;
     std::string predicate;
     try {
       const TaskDef& task = find_task(suites_, r.suite(), r.task());
+      const auto b0 = Clock::now();
       const auto got = cells_.get(task, r.seed());
       if (got.compiled) {
+        // The lane does not turn while a model is built: its time is logged beside the loop allowance.
+        log_.info("channel={} model for {} built in {:.0f} ms", id_, sim::task_scene_key(task, r.seed()),
+                  std::chrono::duration<double, std::milli>(Clock::now() - b0).count());
         // An object cell's new model may sit where the freed one was: nothing may keep the old pointer.
         rig_.reset();
         rgbd_rigs_.clear();
@@ -179,17 +263,17 @@ class Channel {
       std::string varied;
       for (const auto& e : reset->scene().entities)
         if (!e.variation.empty()) varied += (varied.empty() ? "" : "; ") + e.name + " " + e.variation;
-      if (!varied.empty()) log_->info("channel={} episode={} objects: {}", id_, r.episode_id(), varied);
+      if (!varied.empty()) log_.info("channel={} episode={} objects: {}", id_, r.episode_id(), varied);
       predicate = goal_text(task.goal);
       if (render_.gl && (!rig_ || rig_->model() != reset->model())) {
         rig_.reset();  // one scene's GPU state at a time (a few MB each)
         const auto r0 = Clock::now();
         rig_ = std::make_unique<sim::CameraRig>(*reset, render_.cameras, render_.size, render_.size);
-        log_->debug("channel={} camera rig for {} in {:.1f} ms", id_, sim::task_scene_key(task, r.seed()),
+        log_.debug("channel={} camera rig for {} in {:.1f} ms", id_, sim::task_scene_key(task, r.seed()),
                     std::chrono::duration<double, std::milli>(Clock::now() - r0).count());
       }
     } catch (const std::exception& e) {
-      log_->error("channel={} episode={} cannot start: {}", id_, r.episode_id(), e.what());
+      log_.error("channel={} episode={} cannot start: {}", id_, r.episode_id(), e.what());
       finish(r.episode_id(), e.what());
       return;
     }
@@ -200,48 +284,14 @@ class Channel {
       fx = core_.start(*reset, r.episode_id(), r.budget_steps(), predicate, Clock::now(),
                        paths::evidence_file(runs_, r.episode_id(), ".steps"));
     } catch (const std::exception& e) {
-      log_->error("channel={} episode={} cannot start: {}", id_, r.episode_id(), e.what());
+      log_.error("channel={} episode={} cannot start: {}", id_, r.episode_id(), e.what());
       finish(r.episode_id(), e.what());
       return;
     }
-    log_->info("channel={} episode={} suite={} task={} seed={} started", id_, r.episode_id(), r.suite(), r.task(),
+    log_.info("channel={} episode={} suite={} task={} seed={} started", id_, r.episode_id(), r.suite(), r.task(),
                r.seed());
     announce(msg::CHANNEL_RUNNING);
     publish(fx);
-  }
-
-  /// One RGB-D frame of the state the channel shows now, answering `r` (an error frame when it cannot).
-  void handle(msg::RgbdRequest& r) {
-    log_->debug("channel={} RGB-D request {} for camera {}", id_, r.request_id(), r.camera());
-    publish_rgbd(r.camera(), r.request_id());
-  }
-
-  void handle(msg::Lease& l) {
-    publish(core_.on_lease({l.episode_id(), l.command_id(), l.valid_until_step(), l.budget_until_step(), l.revoked()},
-                           Clock::now()));
-  }
-
-  // The deadline event names no channel we can use, so the core checks its own lease's age.
-  void handle(LeaseSilent&) {
-    if (core_.on_lease_silent(Clock::now()))
-      log_->warn("channel={} lease writer missed its {} s deadline; actions are held until it is heard", id_,
-                 dds::kLeaseDeadlineSec);
-  }
-
-  void handle(msg::Action& a) {
-    sim::ActionIn in{a.episode_id(), a.command_id(), a.step(), {}};
-    std::copy_n(a.a().begin(), 7, in.a.begin());
-    publish(core_.on_action(in, Clock::now()));
-  }
-
-  void handle(msg::EpisodeResult& r) {
-    if (!core_.running() || r.episode_id() != core_.episode_id()) return;
-    log_->info("channel={} episode={} ended success={} steps={} physics_s={:.3f} stragglers={}", id_, r.episode_id(),
-               r.success(), r.steps(), reset_s_ + core_.physics_s(), core_.stragglers());
-    if (images_)
-      log_->info("channel={} episode={} {} camera images, {:.1f} ms each (render and publish)", id_, r.episode_id(),
-                 images_, 1e3 * render_s_ / images_);
-    finish(r.episode_id(), "");
   }
 
   /// Carries the core's effects out: refusals and corrections, the verdict, images, then the observation.
@@ -251,7 +301,7 @@ class Channel {
                  static_cast<msg::SeamEventKind>(e.kind), e.reason);
       if (e.kind != SeamEventKind::SafetyHold && e.kind != SeamEventKind::WorkspaceClamp &&
           e.kind != SeamEventKind::ActionClamped && e.kind != SeamEventKind::SpeedLimited)
-        log_->info("channel={} step={} action refused: {}", id_, e.step, e.reason);
+        log_.info("channel={} step={} action refused: {}", id_, e.step, e.reason);
     }
     if (fx.verdict) {
       msg::Verdict v;
@@ -260,16 +310,16 @@ class Channel {
       v.step(fx.verdict->step);
       v.predicate(fx.verdict->predicate);
       v.value(fx.verdict->value);
-      w_.verdict.write(v);
+      ctx_.write<port::Verdict>(v);
     }
     if (fx.observation) {
       if (rig_ && core_.step() % render_.every == 0) publish_images();
       if (render_.rgbd_every && core_.step() % render_.rgbd_every == 0)
         for (const auto& c : render_.rgbd->cameras) publish_rgbd(c.camera.name, "");
-      w_.obs.write(convert::to_msg(*fx.observation, id_, core_.episode_id()));
+      ctx_.write<port::Observation>(convert::to_msg(*fx.observation, id_, core_.episode_id()));
     }
     if (fx.ended) {
-      log_->error("channel={} episode={} {}", id_, core_.episode_id(), *fx.ended);
+      log_.error("channel={} episode={} {}", id_, core_.episode_id(), *fx.ended);
       finish(core_.episode_id(), *fx.ended);
     }
   }
@@ -300,7 +350,7 @@ class Channel {
       image_msg_.height(static_cast<std::uint32_t>(image_.height));
       image_msg_.encoding("rgb8");
       image_msg_.data().swap(image_.rgb);  // no copy; render() refills the other buffer next time
-      w_.camera->write(image_msg_);
+      ctx_.write<port::Camera>(image_msg_);
       ++images_;
     }
     render_s_ += std::chrono::duration<double>(Clock::now() - t0).count();
@@ -314,7 +364,7 @@ class Channel {
     try {
       auto gl = std::make_unique<sim::GlContext>();
       gl->make_current();
-      log_->info("channel={} OpenGL context for RGB-D frames: {}", id_, gl->description());
+      log_.info("channel={} OpenGL context for RGB-D frames: {}", id_, gl->description());
       rgbd_gl_ = std::move(gl);
     } catch (const std::exception& e) {
       rgbd_gl_error_ = e.what();
@@ -324,7 +374,6 @@ class Channel {
 
   /// Renders `camera`'s RGB-D frame of the state shown and publishes it with `request_id`.
   void publish_rgbd(const std::string& camera, const std::string& request_id) {
-    if (!w_.rgbd) return;
     rgbd_msg_.channel(id_);
     rgbd_msg_.camera(camera);
     rgbd_msg_.source("sim_worker " + worker_);
@@ -379,17 +428,17 @@ class Channel {
       rgbd_msg_.height(0);
       rgbd_msg_.rgb().clear();
       rgbd_msg_.depth().clear();
-      log_->error("channel={} RGB-D frame of camera {} (request '{}') cannot be made: {}", id_, camera, request_id,
+      log_.error("channel={} RGB-D frame of camera {} (request '{}') cannot be made: {}", id_, camera, request_id,
                   e.what());
     }
     const auto t1 = Clock::now();
-    w_.rgbd->write(rgbd_msg_);
+    ctx_.write<port::Rgbd>(rgbd_msg_);
     const auto t2 = Clock::now();
     if (rgbd_msg_.error().empty()) {
       ++rgbd_frames_;
       rgbd_render_s_ += std::chrono::duration<double>(t1 - t0).count();
       rgbd_publish_s_ += std::chrono::duration<double>(t2 - t1).count();
-      log_->debug("channel={} RGB-D frame {} step={} rendered in {:.1f} ms, published in {:.1f} ms", id_, request_id,
+      log_.debug("channel={} RGB-D frame {} step={} rendered in {:.1f} ms, published in {:.1f} ms", id_, request_id,
                   core_.step(), std::chrono::duration<double, std::milli>(t1 - t0).count(),
                   std::chrono::duration<double, std::milli>(t2 - t1).count());
     }
@@ -404,13 +453,14 @@ class Channel {
     e.command_id(command);
     e.kind(kind);
     e.reason(why);
-    w_.seam.write(e);
+    ctx_.write<port::SeamEvent>(e);
   }
 
   std::uint32_t id_;
   std::string worker_;
   const std::map<std::string, SuiteDef>& suites_;
-  Writers& w_;
+  Context& ctx_;
+  spdlog::logger& log_;
   sim::SeamCore core_;
   std::filesystem::path runs_;  ///< step logs go to runs_/evidence, beside the governor's evidence
   Rendering render_;
@@ -428,9 +478,6 @@ class Channel {
   double rgbd_render_s_ = 0, rgbd_publish_s_ = 0;
   double render_s_ = 0;  ///< wall time rendering and publishing images in the running episode
   std::uint32_t images_ = 0;
-  std::shared_ptr<spdlog::logger> log_;
-  EventQueue<Event> queue_;
-  std::atomic<bool> stop_{false};
   sim::WorkcellCache cells_;
   std::string last_episode_, last_error_;
   double reset_s_ = 0, last_physics_s_ = 0;  ///< wall time inside MuJoCo: the reset, the last episode in all
@@ -439,202 +486,82 @@ class Channel {
   bool last_goal_at_end_ = false;
 };
 
-int run(int argc, char** argv) {
-  CLI::App app{"dh_sim_worker: MuJoCo workcell channels behind the robot seam"};
-  unsigned channels = 1, first = 0, grace_ms = 1000, abandon_after_s = 60;
-  std::string name = "sim_worker", runs;
-  std::vector<std::string> cameras;
-  unsigned camera_every = 5;
-  int camera_size = sim::kDefaultCameraSize;
-  unsigned rgbd_every = 0;
-  app.add_option("--channels", channels, "number of channels (workcells) in this process")->check(CLI::Range(1, 64));
-  app.add_option("--first-channel", first, "id of the first channel");
-  app.add_option("--lease-grace-ms", grace_ms, "wall time an action of a command without a lease waits for one");
-  app.add_option("--abandon-after-s", abandon_after_s, "end a running episode nothing has advanced for this long")
+
+void WorkerBinding::options(CLI::App& app) {
+  app.add_option("--channels", channels_, "number of channels (workcells) in this process")->check(CLI::Range(1, 64));
+  app.add_option("--first-channel", first_, "id of the first channel");
+  app.add_option("--lease-grace-ms", grace_ms_, "wall time an action of a command without a lease waits for one");
+  app.add_option("--abandon-after-s", abandon_after_s_, "end a running episode nothing has advanced for this long")
       ->check(CLI::PositiveNumber);
-  app.add_option("--name", name, "worker name in channel announcements");
-  app.add_option("--runs-dir", runs, "where step logs go, under evidence/ (default: DH_RUNS_DIR or ./runs)");
-  app.add_option("--cameras", cameras, "cameras to publish on rt/dh/camera: agentview,wrist (default: none)")
+  app.add_option("--name", name_, "worker name in channel announcements");
+  app.add_option("--runs-dir", runs_, "where step logs go, under evidence/ (default: DH_RUNS_DIR or ./runs)");
+  app.add_option("--cameras", cameras_, "cameras to publish on rt/dh/camera: agentview,wrist (default: none)")
       ->delimiter(',')
       ->check(CLI::IsMember(sim::workcell_cameras()));
-  app.add_option("--camera-every", camera_every, "images every N control steps and at episode start")
+  app.add_option("--camera-every", camera_every_, "images every N control steps and at episode start")
       ->check(CLI::Range(1u, 1000000u));
-  app.add_option("--camera-size", camera_size, "image width and height (px)")->check(CLI::Range(16, 480));
-  app.add_option("--rgbd-every", rgbd_every,
+  app.add_option("--camera-size", camera_size_, "image width and height (px)")->check(CLI::Range(16, 480));
+  app.add_option("--rgbd-every", rgbd_every_,
                  "also publish every RGB-D camera's frame at episode start and every N steps (0: only on request)");
-  CLI11_PARSE(app, argc, argv);
-  std::sort(cameras.begin(), cameras.end());
-  cameras.erase(std::unique(cameras.begin(), cameras.end()), cameras.end());
-  auto log = make_logger("dh_sim_worker");
-  const std::filesystem::path runs_dir =
-      std::filesystem::absolute(runs.empty() ? paths::runs_dir() : std::filesystem::path(runs));
-  std::map<std::string, SuiteDef> suites;
-  sim::CamerasConfig rgbd;
-  std::string rgbd_names;
-  std::optional<dds::Participant> participant;
-  std::optional<Writers> writers;
-  std::vector<std::unique_ptr<Channel>> chans;
-  auto route = [&](std::uint32_t ch) -> Channel* {
-    return ch >= first && ch < first + channels ? chans[ch - first].get() : nullptr;
-  };
-  // Channels every worker announces (other workers' actions are theirs); an action or lease for a
-  // channel nobody serves is garbage: rejected and recorded on the seam topic by every worker.
-  std::mutex known_mutex;
-  std::set<std::uint32_t> known;
-  auto reject_unknown = [&](std::uint32_t ch, const std::string& episode, std::uint32_t step, const std::string& command,
-                            const char* what) {
-    {
-      std::lock_guard l(known_mutex);
-      if ((ch >= first && ch < first + channels) || known.count(ch)) return;
-    }
-    msg::SeamEvent e;
-    e.channel(ch);
-    e.episode_id(episode);
-    e.step(step);
-    e.command_id(command);
-    e.kind(msg::SEAM_REJECTED_CHANNEL);
-    e.reason(std::string(what) + " for channel " + std::to_string(ch) + ", which no simulator worker serves");
-    writers->seam.write(e);
-    log->warn("worker={} rejected: {}", name, e.reason());
-  };
-  std::optional<dds::Reader<msg::ChannelStatusPubSubType>> status;
-  std::optional<dds::Reader<msg::EpisodeRequestPubSubType>> req;
-  std::optional<dds::Reader<msg::ActionPubSubType>> act;
-  std::optional<dds::Reader<msg::LeasePubSubType>> lease;
-  std::optional<dds::Reader<msg::RgbdRequestPubSubType>> rgbd_req;
-  std::optional<dds::Reader<msg::EpisodeResultPubSubType>> res;
-  std::optional<dds::Heartbeat> alive;
-  std::vector<std::thread> threads;
-  const auto remove_readers = [&] {
-    alive.reset();
-    status.reset();
-    req.reset();
-    act.reset();
-    lease.reset();
-    rgbd_req.reset();
-    res.reset();
-  };
-
-  ManagedService service;
-  service.transitions.configure = [&] {
-    suites = load_suites(paths::config_dir());
-    // RGB-D cameras (configs/cameras.yaml) go into every model; they render only when asked.
-    const auto rgbd_file = paths::config_dir() / "cameras.yaml";
-    if (std::filesystem::exists(rgbd_file)) rgbd = sim::load_cameras_config(rgbd_file);
-    else log->warn("{} not found: no RGB-D cameras, requests on {} go unanswered", rgbd_file.string(), topics::kRgbdRequest);
-    if (rgbd_every && rgbd.cameras.empty())
-      throw std::runtime_error("--rgbd-every " + std::to_string(rgbd_every) + " but " + rgbd_file.string() +
-                               " names no RGB-D camera");
-    // Rendering is checked before anything starts, so a machine without it fails here, not mid-episode.
-    std::vector<std::unique_ptr<sim::GlContext>> contexts;
-    if (!cameras.empty()) {
-      std::string list;
-      for (const auto& c : cameras) list += (list.empty() ? "" : ",") + c;
-      try {
-        for (unsigned i = 0; i < channels; ++i) contexts.push_back(std::make_unique<sim::GlContext>());
-        const std::string renderer = sim::check_rendering(*contexts.front(), camera_size, camera_size);
-        log->info("cameras {} at {}x{} px every {} steps on {}; {}", list, camera_size, camera_size,
-                  camera_every, topics::kCamera, renderer);
-      } catch (const sim::RenderError& e) {
-        throw std::runtime_error("--cameras " + list + " cannot be rendered: " + e.what());
-      }
-    }
-    if (rgbd_every) {  // periodic frames: check now, as for --cameras (on request: checked at the first one)
-      try {
-        sim::GlContext gl;
-        log->info("RGB-D frames every {} steps on {}; {}", rgbd_every, topics::kRgbd, sim::check_rendering(gl, 64, 64));
-      } catch (const sim::RenderError& e) {
-        throw std::runtime_error("--rgbd-every " + std::to_string(rgbd_every) + " cannot be rendered: " + e.what());
-      }
-    }
-    for (const auto& c : rgbd.cameras) rgbd_names += (rgbd_names.empty() ? "" : ",") + c.camera.name;
-    participant.emplace("dh_sim_worker");
-    writers.emplace(*participant, !cameras.empty(), !rgbd.cameras.empty());
-    for (unsigned i = 0; i < channels; ++i) {
-      Rendering rendering{contexts.empty() ? nullptr : std::move(contexts[i]), cameras, camera_every, camera_size,
-                          &rgbd, rgbd_every};
-      const sim::SeamSettings seam{std::chrono::milliseconds(grace_ms), std::chrono::seconds(abandon_after_s),
-                                   std::chrono::milliseconds(static_cast<int>(dds::kLeaseDeadlineSec * 1000))};
-      chans.push_back(
-          std::make_unique<Channel>(first + i, name, suites, *writers, seam, runs_dir, std::move(rendering), log));
-    }
-  };
-  service.transitions.activate = [&] {
-    auto& p = *participant;
-    status.emplace(p, topics::kChannelStatus, dds::Qos::ChannelStatus,
-                   dds::Reader<msg::ChannelStatusPubSubType>::Callbacks{
-                       [&](const msg::ChannelStatus& m, const auto&) {
-                         std::lock_guard l(known_mutex);
-                         known.insert(m.channel());
-                       },
-                       {},
-                       {}});
-    req.emplace(p, topics::kEpisodeRequest, dds::Qos::Episode,
-                dds::Reader<msg::EpisodeRequestPubSubType>::Callbacks{
-                    [&](const msg::EpisodeRequest& m, const auto&) {
-                      if (auto c = route(m.channel())) c->queue().push(m);
-                    },
-                    {},
-                    {}});
-    act.emplace(p, topics::kAction, dds::Qos::Action,
-                dds::Reader<msg::ActionPubSubType>::Callbacks{
-                    [&](const msg::Action& m, const auto&) {
-                      if (auto c = route(m.channel())) c->queue().push(m);
-                      else reject_unknown(m.channel(), m.episode_id(), m.step(), m.command_id(), "action");
-                    },
-                    {},
-                    {}});
-    lease.emplace(p, topics::kLease, dds::Qos::Lease,
-                  dds::Reader<msg::LeasePubSubType>::Callbacks{
-                      [&](const msg::Lease& m, const auto&) {
-                        if (auto c = route(m.channel())) c->queue().push(m);
-                        else reject_unknown(m.channel(), m.episode_id(), 0, m.command_id(), "lease");
-                      },
-                      {},
-                      [&](const auto&) {
-                        for (auto& c : chans) c->queue().push(LeaseSilent{});
-                      }});
-    // RGB-D requests for another worker's channel, or a camera this worker does not have (a frames_player
-    // may serve it), are not ours to answer.
-    if (!rgbd.cameras.empty())
-      rgbd_req.emplace(p, topics::kRgbdRequest, dds::Qos::RgbdRequest,
-                       dds::Reader<msg::RgbdRequestPubSubType>::Callbacks{
-                           [&](const msg::RgbdRequest& m, const auto&) {
-                             if (auto c = route(m.channel()); c && rgbd.has(m.camera())) c->queue().push(m);
-                           },
-                           {},
-                           {}});
-    res.emplace(p, topics::kEpisodeResult, dds::Qos::Episode,
-                dds::Reader<msg::EpisodeResultPubSubType>::Callbacks{
-                    [&](const msg::EpisodeResult& m, const auto&) {
-                      if (auto c = route(m.channel())) c->queue().push(m);
-                    },
-                    {},
-                    {}});
-    alive.emplace([&] { writers->channel.assert_liveliness(); },
-                  std::chrono::milliseconds(static_cast<int>(dds::kChannelLivelinessSec * 1000 / 4)));
-    log->info("worker={} channels={}..{} domain={} up; RGB-D cameras on request: {}", name, first,
-              first + channels - 1, dds::domain_id(), rgbd_names.empty() ? "none" : rgbd_names);
-    for (auto& c : chans) threads.emplace_back([&c] { c->run(); });
-  };
-  // Each channel runs on its own thread; deactivate stops and waits for them.
-  service.transitions.deactivate = [&] {
-    for (auto& c : chans) c->stop();
-    for (auto& t : threads) t.join();
-    threads.clear();
-    remove_readers();
-  };
-  service.transitions.shutdown = [&] {
-    remove_readers();
-    chans.clear();
-    writers.reset();
-    participant.reset();
-  };
-  service.step = [] { std::this_thread::sleep_for(std::chrono::milliseconds(50)); };
-  return run_managed(*log, std::move(service));
 }
+
+void WorkerBinding::parsed() {
+  std::sort(cameras_.begin(), cameras_.end());
+  cameras_.erase(std::unique(cameras_.begin(), cameras_.end()), cameras_.end());
+}
+
+void WorkerBinding::configure(Context& ctx) {
+  const std::filesystem::path runs_dir =
+      std::filesystem::absolute(runs_.empty() ? paths::runs_dir() : std::filesystem::path(runs_));
+  suites_ = load_suites(paths::config_dir());
+  // RGB-D cameras (configs/cameras.yaml) go into every model; they render only when asked.
+  const auto rgbd_file = paths::config_dir() / "cameras.yaml";
+  if (std::filesystem::exists(rgbd_file)) rgbd_ = sim::load_cameras_config(rgbd_file);
+  else ctx.log.warn("{} not found: no RGB-D cameras, requests on {} go unanswered", rgbd_file.string(), topics::kRgbdRequest);
+  if (rgbd_every_ && rgbd_.cameras.empty())
+    throw std::runtime_error("--rgbd-every " + std::to_string(rgbd_every_) + " but " + rgbd_file.string() +
+                             " names no RGB-D camera");
+  // Rendering is checked before anything starts, so a machine without it fails here, not mid-episode.
+  std::vector<std::unique_ptr<sim::GlContext>> contexts;
+  if (!cameras_.empty()) {
+    std::string list;
+    for (const auto& c : cameras_) list += (list.empty() ? "" : ",") + c;
+    try {
+      for (unsigned i = 0; i < channels_; ++i) contexts.push_back(std::make_unique<sim::GlContext>());
+      const std::string renderer = sim::check_rendering(*contexts.front(), camera_size_, camera_size_);
+      ctx.log.info("cameras {} at {}x{} px every {} steps on {}; {}", list, camera_size_, camera_size_, camera_every_,
+                   topics::kCamera, renderer);
+    } catch (const sim::RenderError& e) {
+      throw std::runtime_error("--cameras " + list + " cannot be rendered: " + e.what());
+    }
+  }
+  if (rgbd_every_) {  // periodic frames: check now, as for --cameras (on request: checked at the first one)
+    try {
+      sim::GlContext gl;
+      ctx.log.info("RGB-D frames every {} steps on {}; {}", rgbd_every_, topics::kRgbd, sim::check_rendering(gl, 64, 64));
+    } catch (const sim::RenderError& e) {
+      throw std::runtime_error("--rgbd-every " + std::to_string(rgbd_every_) + " cannot be rendered: " + e.what());
+    }
+  }
+  const sim::SeamSettings seam{std::chrono::milliseconds(grace_ms_), std::chrono::seconds(abandon_after_s_),
+                               std::chrono::milliseconds(static_cast<int>(dds::kLeaseDeadlineSec * 1000))};
+  for (unsigned i = 0; i < channels_; ++i) {
+    Rendering rendering{contexts.empty() ? nullptr : std::move(contexts[i]), cameras_, camera_every_, camera_size_,
+                        &rgbd_, rgbd_every_};
+    chans_.push_back(std::make_unique<Channel>(first_ + i, name_, suites_, ctx, seam, runs_dir, std::move(rendering)));
+  }
+}
+
+void WorkerBinding::activate(Context& ctx) {
+  std::string rgbd_names;
+  for (const auto& c : rgbd_.cameras) rgbd_names += (rgbd_names.empty() ? "" : ",") + c.camera.name;
+  ctx.log.info("worker={} channels={}..{} domain={} up; RGB-D cameras on request: {}", name_, first_,
+               first_ + channels_ - 1, dds::domain_id(), rgbd_names.empty() ? "none" : rgbd_names);
+}
+
+void WorkerBinding::shutdown() { chans_.clear(); }
 
 }  // namespace
 }  // namespace dh
 
-int main(int argc, char** argv) { return dh::run(argc, argv); }
+int main(int argc, char** argv) { return dh::dds::run_service(argc, argv, dh::WorkerBinding{}); }

@@ -24,27 +24,50 @@
 //   std::chrono::milliseconds loop_allowance()   liveliness is asserted while the loop turned within it
 //   void deactivate(Context<B>&), void shutdown()
 //
-// Listeners run on Fast DDS's threads and only push into the queue; every handler, and every write, runs on
-// the loop's thread. Work on other threads comes back with Context::post.
+// Lanes (the simulator worker: one workcell per channel, each with its own OpenGL context, so its own
+// thread). A binding that has them also provides:
+//   using Lane = ...                                  the type holding one lane's handlers
+//   unsigned lanes() const, Lane& lane(unsigned)      how many (fixed at configure) and each one
+//   std::optional<unsigned> lane_of(const Msg<port::X>&) const   for each input a lane handles: which
+//                                                    lane a sample goes to; nullopt: no lane's, handed to
+//                                                    the binding's own on() if it has one, else dropped
+// and the Lane:
+//   void on(const Sample<port::X>&, Context<B>&)     for every input the binding routes
+//   void on(const DeadlineMissed<port::X>&, Context<B>&)   optional: a routed input's deadline, to every lane
+//   void enter(Context<B>&), void leave(Context<B>&) optional: first and last on the lane's thread
+//   void tick(Context<B>&)                           optional: after every turn of the lane's loop
+// Each lane pops its own queue on its own thread. Liveliness is asserted only while the loop and every lane
+// have turned within the allowance.
+//
+// Listeners run on Fast DDS's threads and only push into a queue (lane_of runs there too, so it may read
+// only what configure fixed); every handler runs on its loop's or its lane's thread, and the binding's
+// handlers and posted work on the loop's. Work on other threads comes back with Context::post.
 #pragma once
 
 #include <CLI/CLI.hpp>
 
 #include <atomic>
 #include <chrono>
+#include <concepts>
+#include <exception>
+#include <mutex>
 #include <functional>
 #include <optional>
+#include <memory>
 #include <set>
 #include <string>
+#include <thread>
 #include <tuple>
 #include <type_traits>
 #include <variant>
+#include <vector>
 
 #include "dh/common/dds.hpp"
 #include "dh/common/event_queue.hpp"
 #include "dh/common/log.hpp"
 #include "dh/common/ports.hpp"
 #include "dh/common/service.hpp"
+#include "dh/common/shutdown.hpp"
 
 namespace dh::dds {
 
@@ -134,6 +157,18 @@ struct EventsOf<Inputs<I...>> {
                             DeadlineMissed<typename I::tag>..., std::function<void()>>;
 };
 
+/// The lane type of a binding that has lanes (NoLane otherwise).
+struct NoLane {};
+template <class B>
+struct LaneOf {
+  using type = NoLane;
+};
+template <class B>
+  requires requires { typename B::Lane; }
+struct LaneOf<B> {
+  using type = typename B::Lane;
+};
+
 }  // namespace detail
 
 template <class B>
@@ -155,7 +190,7 @@ class Context {
   Writer<typename Tag::PubSub>& writer() {
     return emit_.template get<Tag>();
   }
-  /// Runs `work` on the loop's thread at its next turn (results of work done on other threads).
+  /// Runs `work` on the loop's thread at its next turn (results of work done on other threads, or a lane's).
   void post(std::function<void()> work) { queue_.push(std::move(work)); }
   Participant& participant() { return *participant_; }
 
@@ -171,6 +206,25 @@ class Context {
 
 template <class B>
 class Shell {
+  using Lane = typename detail::LaneOf<B>::type;
+  static constexpr bool kHasLanes = !std::is_same_v<Lane, detail::NoLane>;
+  using Event = typename Context<B>::Event;
+  using Clock = std::chrono::steady_clock;
+
+  /// When a loop last turned (steady clock ticks), read by the heartbeat's thread.
+  struct Beat {
+    std::atomic<Clock::rep> at{0};
+    void now() { at = Clock::now().time_since_epoch().count(); }
+    bool within(std::chrono::milliseconds d) const {
+      return Clock::now() - Clock::time_point(Clock::duration(at.load())) <= d;
+    }
+  };
+  struct LaneLoop {
+    EventQueue<Event> queue;
+    Beat beat;
+    std::thread thread;
+  };
+
  public:
   Shell(B& binding, spdlog::logger& log) : b_(binding), ctx_(log) {}
 
@@ -181,12 +235,15 @@ class Shell {
       b_.configure(ctx_);
       ctx_.participant_.emplace(b_.name());
       ctx_.emit_.open(*ctx_.participant_);
+      if constexpr (kHasLanes)
+        for (unsigned i = 0; i < b_.lanes(); ++i) lanes_.push_back(std::make_unique<LaneLoop>());
     };
     m.transitions.activate = [this] {
+      beat_.now();
+      start_lanes();
       open_readers(typename B::Inputs{});
       if constexpr (requires { b_.activate(ctx_); }) b_.activate(ctx_);
-      beat();
-      heartbeat_.emplace([this] { if (loop_turned_within(allowance())) ctx_.emit_.assert_liveliness(); },
+      heartbeat_.emplace([this] { if (all_turned_within(allowance())) ctx_.emit_.assert_liveliness(); },
                          assert_every());
     };
     m.transitions.drain = [this] {
@@ -195,11 +252,13 @@ class Shell {
     m.transitions.deactivate = [this] {
       heartbeat_.reset();
       close_readers(typename B::Inputs{});
+      stop_lanes();
       if constexpr (requires { b_.deactivate(ctx_); }) b_.deactivate(ctx_);
     };
     m.transitions.shutdown = [this] {
       heartbeat_.reset();
       close_readers(typename B::Inputs{});
+      stop_lanes();
       if constexpr (requires { b_.shutdown(); }) b_.shutdown();
       ctx_.emit_.close();
       ctx_.participant_.reset();
@@ -219,6 +278,12 @@ class Shell {
   std::chrono::milliseconds allowance() {
     if constexpr (requires { b_.loop_allowance(); }) return std::max(assert_every(), b_.loop_allowance());
     return assert_every();
+  }
+  bool all_turned_within(std::chrono::milliseconds d) const {
+    if (!beat_.within(d)) return false;
+    for (const auto& l : lanes_)
+      if (!l->beat.within(d)) return false;
+    return true;
   }
   /// The topics the binding reads and writes are those its core declares.
   void check_ports() const {
@@ -243,24 +308,22 @@ class Shell {
     (into.insert("out " + std::string(Tags::topic)), ...);
   }
 
-  void beat() { beat_ = std::chrono::steady_clock::now().time_since_epoch().count(); }
-  bool loop_turned_within(std::chrono::milliseconds d) const {
-    using C = std::chrono::steady_clock;
-    return C::now() - C::time_point(C::duration(beat_.load())) <= d;
-  }
-
   void turn() {
+    if constexpr (kHasLanes) {
+      std::lock_guard l(lane_failure_mutex_);
+      if (lane_failure_) std::rethrow_exception(lane_failure_);
+    }
     std::chrono::milliseconds wait{50};
     if constexpr (requires { b_.wait(); }) wait = b_.wait();
     if (auto e = ctx_.queue_.pop(wait)) std::visit([this](auto& ev) { dispatch(ev); }, *e);
     if constexpr (requires { b_.tick(ctx_); }) b_.tick(ctx_);
-    beat();
+    beat_.now();
   }
 
   void dispatch(std::function<void()>& work) { work(); }
   template <class Tag>
   void dispatch(Sample<Tag>& s) {
-    b_.on(s, ctx_);
+    if constexpr (requires { b_.on(s, ctx_); }) b_.on(s, ctx_);
   }
   template <class Tag>
   void dispatch(LivelinessChanged<Tag>& e) {
@@ -269,6 +332,46 @@ class Shell {
   template <class Tag>
   void dispatch(DeadlineMissed<Tag>& e) {
     if constexpr (requires { b_.on(e, ctx_); }) b_.on(e, ctx_);
+  }
+
+  // A lane's loop, on its own thread. An exception there ends the lane, and the loop rethrows it: the process
+  // ends with it as the reason.
+  void start_lanes() {
+    if constexpr (kHasLanes)
+      for (unsigned i = 0; i < lanes_.size(); ++i) {
+        lanes_[i]->beat.now();
+        lanes_[i]->thread = std::thread([this, i] { run_lane(i); });
+      }
+  }
+  void stop_lanes() {
+    lanes_stop_ = true;
+    for (auto& l : lanes_)
+      if (l->thread.joinable()) l->thread.join();
+    lanes_stop_ = false;
+  }
+  void run_lane(unsigned i) {
+    if constexpr (kHasLanes) {
+      Lane& lane = b_.lane(i);
+      LaneLoop& loop = *lanes_[i];
+      try {
+        if constexpr (requires { lane.enter(ctx_); }) lane.enter(ctx_);
+        std::chrono::milliseconds wait{50};
+        if constexpr (requires { b_.wait(); }) wait = b_.wait();
+        while (!lanes_stop_ && !shutdown_requested()) {
+          if (auto e = loop.queue.pop(wait)) std::visit([&](auto& ev) { dispatch_lane(lane, ev); }, *e);
+          if constexpr (requires { lane.tick(ctx_); }) lane.tick(ctx_);
+          loop.beat.now();
+        }
+      } catch (...) {
+        std::lock_guard l(lane_failure_mutex_);
+        if (!lane_failure_) lane_failure_ = std::current_exception();
+      }
+      if constexpr (requires { lane.leave(ctx_); }) lane.leave(ctx_);
+    }
+  }
+  template <class Ev>
+  void dispatch_lane(Lane& lane, Ev& ev) {
+    if constexpr (requires { lane.on(ev, ctx_); }) lane.on(ev, ctx_);
   }
 
   template <class... I>
@@ -283,13 +386,35 @@ class Shell {
   void open_reader() {
     using Tag = typename I::tag;
     using R = Reader<typename Tag::PubSub>;
-    static_assert(requires(B& b, Sample<Tag>& s, Context<B>& c) { b.on(s, c); }, "the binding has no handler for an input");
+    constexpr bool own_handler = requires(B& b, Sample<Tag>& s, Context<B>& c) { b.on(s, c); };
+    constexpr bool routed = requires(const B& b, const Msg<Tag>& m) {
+      { b.lane_of(m) } -> std::same_as<std::optional<unsigned>>;
+    };
+    if constexpr (routed)
+      static_assert(requires(Lane& l, Sample<Tag>& s, Context<B>& c) { l.on(s, c); },
+                    "the binding routes an input to its lanes, whose Lane has no handler for it");
+    else
+      static_assert(own_handler, "the binding has no handler for an input");
+    if constexpr ((I::flags & kLiveliness) != 0)
+      static_assert(requires(B& b, LivelinessChanged<Tag>& e, Context<B>& c) { b.on(e, c); },
+                    "an input flagged kLiveliness needs the binding's on(const LivelinessChanged<Tag>&, Context&)");
+    constexpr bool lane_deadline = routed && requires(Lane& l, DeadlineMissed<Tag>& e, Context<B>& c) { l.on(e, c); };
+    if constexpr ((I::flags & kDeadline) != 0)
+      static_assert(lane_deadline || requires(B& b, DeadlineMissed<Tag>& e, Context<B>& c) { b.on(e, c); },
+                    "an input flagged kDeadline needs an on(const DeadlineMissed<Tag>&, Context&)");
     typename R::Callbacks cb;
     auto& q = ctx_.queue_;
     std::optional<fdds::InstanceHandle_t> own;
     if constexpr ((I::flags & kSkipOwn) != 0) own = ctx_.emit_.template get<Tag>().handle();
-    cb.on_data = [&q, own](const Msg<Tag>& m, const fdds::SampleInfo& info) {
+    cb.on_data = [this, &q, own](const Msg<Tag>& m, const fdds::SampleInfo& info) {
       if (own && info.publication_handle == *own) return;
+      if constexpr (routed) {
+        if (const auto lane = b_.lane_of(m); lane && *lane < lanes_.size()) {
+          lanes_[*lane]->queue.push(Sample<Tag>{m, info.publication_handle});
+          return;
+        }
+        if constexpr (!own_handler) return;  // no lane's, and the binding has no use for it
+      }
       q.push(Sample<Tag>{m, info.publication_handle});
     };
     if constexpr ((I::flags & kLiveliness) != 0)
@@ -301,8 +426,12 @@ class Shell {
         if (s.alive_count_change > 0) q.push(LivelinessChanged<Tag>{s.last_publication_handle, true});
       };
     if constexpr ((I::flags & kDeadline) != 0)
-      cb.on_deadline = [&q](const fdds::RequestedDeadlineMissedStatus& s) {
-        q.push(DeadlineMissed<Tag>{s.last_instance_handle});
+      cb.on_deadline = [this, &q](const fdds::RequestedDeadlineMissedStatus& s) {
+        if constexpr (lane_deadline) {
+          for (auto& l : lanes_) l->queue.push(DeadlineMissed<Tag>{s.last_instance_handle});
+        } else {
+          q.push(DeadlineMissed<Tag>{s.last_instance_handle});
+        }
       };
     std::get<detail::ReaderSlot<I>>(readers_).reader.emplace(*ctx_.participant_, std::string(Tag::topic), Tag::qos,
                                                              std::move(cb));
@@ -317,9 +446,13 @@ class Shell {
 
   B& b_;
   Context<B> ctx_;  // before the readers, whose listeners push into its queue
+  std::vector<std::unique_ptr<LaneLoop>> lanes_;  // fixed at configure, before the readers exist
+  std::atomic<bool> lanes_stop_{false};
+  std::mutex lane_failure_mutex_;
+  std::exception_ptr lane_failure_;  ///< a lane's exception, rethrown on the loop's thread: the process ends
   typename ReaderSlots<typename B::Inputs>::type readers_;
   std::optional<Heartbeat> heartbeat_;
-  std::atomic<std::chrono::steady_clock::rep> beat_{0};
+  Beat beat_;
 };
 
 /// A service process's whole `main`: parses the binding's options, then runs its lifecycle.
