@@ -96,6 +96,10 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
   if (rec.build != build_info().str())
     report.drift.push_back("recorded by build " + (rec.build.empty() ? std::string("(none recorded)") : rec.build) +
                            "; this is build " + build_info().str());
+  // The simulator may have run another build than the governor (another host).
+  if (log.header.build != build_info().str() && log.header.build != rec.build)
+    report.drift.push_back("simulated by build " + (log.header.build.empty() ? std::string("(none recorded)") : log.header.build) +
+                           "; this is build " + build_info().str());
   // The suite's task as recorded: the instruction and budget the governor had, the goal the seam checked.
   if (rec.instruction != task.instruction)
     report.drift.push_back(rec.suite + " task " + std::to_string(rec.task) + " says \"" + task.instruction +

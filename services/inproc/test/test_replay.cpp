@@ -82,11 +82,12 @@ TEST_F(Replay, FromACommandComparesOnlyThatCommandsActions) {
 
 TEST_F(Replay, AnAlteredActionIsTheFirstDivergenceWithItsBodyAndQuantity) {
   const fs::path ev = copy("altered");
-  // Record 40's gripper component: header 8 + 8 + 4 + 4 bytes, then fixed-size records up to the id.
+  // Record 40's gripper component: header 8 + 8 + 4 + 4 bytes and the build string, then fixed-size
+  // records up to the id.
   sim::StepLog log = sim::read_step_log(*dir / "altered.steps");
   ASSERT_GT(log.records.size(), 41u);
   std::fstream f(*dir / "altered.steps", std::ios::in | std::ios::out | std::ios::binary);
-  std::size_t at = 24;
+  std::size_t at = 24 + 2 + log.header.build.size();
   const std::size_t fixed = 4 + 8 + 4 * log.records[0].digest.joints.size() + 16 + 56 + 2;
   for (std::size_t i = 0; i < 40; ++i) at += fixed + log.records[i].command_id.size();
   const double changed = log.records[40].action[2] + 0.25;

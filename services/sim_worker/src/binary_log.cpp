@@ -21,13 +21,21 @@ void append(std::FILE* file, const std::string& record) {
 
 std::string read(const std::filesystem::path& path, const char* what, const char (&magic)[8],
                  const char* missing_hint) {
+  return read_versions(path, what, {magic}, missing_hint).first;
+}
+
+std::pair<std::string, std::size_t> read_versions(const std::filesystem::path& path, const char* what,
+                                                  std::initializer_list<const char*> magics, const char* missing_hint) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(std::string("no ") + what + " " + path.string() + " (" + missing_hint + ")");
   std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (bytes.size() < sizeof magic || std::memcmp(bytes.data(), magic, sizeof magic) != 0)
-    throw std::runtime_error(path.string() + " is not a DynaHarness " + what + " (no " + std::string(magic, 8) +
-                             " header)");
-  return bytes;
+  std::size_t i = 0;
+  for (const char* magic : magics) {
+    if (bytes.size() >= 8 && std::memcmp(bytes.data(), magic, 8) == 0) return {std::move(bytes), i};
+    ++i;
+  }
+  throw std::runtime_error(path.string() + " is not a DynaHarness " + what + " (no " +
+                           std::string(*std::prev(magics.end()), 8) + " header)");
 }
 
 }  // namespace dh::sim::binlog

@@ -6,8 +6,10 @@
 #include <cstring>
 #include <cstdint>
 #include <filesystem>
+#include <initializer_list>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace dh::sim::binlog {
 
@@ -45,5 +47,9 @@ void append(std::FILE* file, const std::string& record);
 /// is missing (`missing_hint` says where it comes from) or is not a `what`.
 std::string read(const std::filesystem::path& path, const char* what, const char (&magic)[8],
                  const char* missing_hint);
+/// As read(), for a format with versions: `magics` are their 8-byte magics; returns the index of the one the
+/// file has beside its bytes.
+std::pair<std::string, std::size_t> read_versions(const std::filesystem::path& path, const char* what,
+                                                  std::initializer_list<const char*> magics, const char* missing_hint);
 
 }  // namespace dh::sim::binlog

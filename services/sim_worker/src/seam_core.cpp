@@ -2,6 +2,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include "dh/common/build_info.hpp"
 #include "dh/sim/workcell.hpp"
 
 namespace dh::sim {
@@ -28,7 +29,8 @@ SeamEffects SeamCore::start(Workcell& cell, std::string episode_id, std::uint32_
   if (!steps_file.empty()) {
     const auto mj = static_cast<std::uint32_t>(mj_version());
     log_ = std::make_unique<StepLogWriter>(
-        steps_file, StepLogHeader{cell.model_hash(), mj, static_cast<std::uint32_t>(cell.digest().joints.size() / 2)});
+        steps_file, StepLogHeader{cell.model_hash(), mj, static_cast<std::uint32_t>(cell.digest().joints.size() / 2),
+                                 build_info().str()});
     states_ = std::make_unique<StateLogWriter>(std::filesystem::path(steps_file).replace_extension(".states"),
                                                StateLogHeader{cell.model_hash(), mj, cell.shape()});
     states_->append({0, {}, cell.physics_state()});

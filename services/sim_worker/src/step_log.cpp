@@ -7,7 +7,8 @@
 namespace dh::sim {
 namespace {
 
-constexpr char kMagic[8] = {'D', 'H', 'S', 'T', 'E', 'P', 'S', '1'};
+constexpr char kMagic1[8] = {'D', 'H', 'S', 'T', 'E', 'P', 'S', '1'};  // no build in the header
+constexpr char kMagic[8] = {'D', 'H', 'S', 'T', 'E', 'P', 'S', '2'};
 constexpr const char* kWhere = "the simulator worker writes it beside the evidence; copy it there from the worker's host";
 using binlog::put;
 
@@ -19,6 +20,7 @@ StepLogWriter::StepLogWriter(const std::filesystem::path& path, const StepLogHea
   put(out, header.model_hash);
   put(out, header.mujoco_version);
   put(out, header.joints);
+  binlog::put_string(out, header.build);
   file_ = binlog::create(path, "step log", out);
 }
 
@@ -41,11 +43,15 @@ void StepLogWriter::append(const StepRecord& r) {
 }
 
 StepLog read_step_log(const std::filesystem::path& path) {
-  const std::string bytes = binlog::read(path, "step log", kMagic, kWhere);
+  const auto [bytes, version] = binlog::read_versions(path, "step log", {kMagic1, kMagic}, kWhere);
   binlog::Cursor c{bytes, sizeof kMagic};
   StepLog log;
-  if (!c.get(log.header.model_hash) || !c.get(log.header.mujoco_version) || !c.get(log.header.joints))
+  std::uint16_t n = 0;
+  if (!c.get(log.header.model_hash) || !c.get(log.header.mujoco_version) || !c.get(log.header.joints) ||
+      (version > 0 && (!c.get(n) || c.at + n > bytes.size())))
     throw std::runtime_error(path.string() + ": the step log's header is cut short");
+  log.header.build.assign(bytes.data() + c.at, n);
+  c.at += n;
   for (;;) {
     StepRecord r;
     r.digest.joints.resize(2 * log.header.joints);

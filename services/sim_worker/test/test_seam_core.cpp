@@ -13,6 +13,7 @@
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/sim/scene.hpp"
+#include "dh/common/build_info.hpp"
 #include "dh/sim/seam_core.hpp"
 #include "dh/sim/worker_ports.hpp"
 #include "dh/sim/workcell.hpp"
@@ -256,6 +257,23 @@ TEST_F(SeamCoreTest, WritesAStepLogThatReadsBackAsWritten) {
   EXPECT_EQ(log.records[2].digest, after);
   EXPECT_NE(reset.state, after.state);
   EXPECT_NE(reset.joints, after.joints);
+  EXPECT_EQ(log.header.build, build_info().str());
+
+  // A step log written before the header named the build (DHSTEPS1) reads the same, with no build.
+  {
+    std::ifstream in(file, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::size_t at = 8 + 8 + 4 + 4;  // magic, model hash, MuJoCo version, joints
+    bytes[7] = '1';
+    bytes.erase(at, 2 + build_info().str().size());
+    const auto v1 = file.parent_path() / "seam_core_test_v1.steps";
+    std::ofstream(v1, std::ios::binary) << bytes;
+    const sim::StepLog old = sim::read_step_log(v1);
+    EXPECT_EQ(old.header.build, "");
+    EXPECT_EQ(old.header.model_hash, log.header.model_hash);
+    ASSERT_EQ(old.records.size(), 3u);
+    EXPECT_EQ(old.records[2].digest, after);
+  }
 
   // A torn last record is dropped; a file that is not a step log is named.
   std::filesystem::resize_file(file, std::filesystem::file_size(file) - 3);

@@ -3,7 +3,8 @@
 // read by `dh replay`, which applies the same actions to the same reset and compares the digests.
 //
 // Binary, little-endian, append-only (a crash loses at most the record being written):
-//   header  "DHSTEPS1", u64 model hash, u32 MuJoCo version, u32 joints J
+//   header  "DHSTEPS2", u64 model hash, u32 MuJoCo version, u32 joints J, u16 n, n bytes build
+//           (the simulator's, as build_info() says; "DHSTEPS1" files, written before it, have none)
 //   record  u32 step, u64 state hash, u32 per joint [qpos hash, qvel hash] x J,
 //           u32 [time, act, ctrl, qacc_warmstart] hashes, f64 action x 7, u16 n, n bytes command id
 // Step 0 (the reset) has no command and a zero action.
@@ -37,6 +38,7 @@ struct StepLogHeader {
   std::uint64_t model_hash = 0;
   std::uint32_t mujoco_version = 0;
   std::uint32_t joints = 0;
+  std::string build;  ///< the build of the simulator that wrote it; empty in a DHSTEPS1 file
 };
 
 class StepLogWriter {
