@@ -8,8 +8,6 @@
 #include "dh/common/config.hpp"
 #include "dh/gov/config.hpp"
 #include "dh/inproc/bus.hpp"
-#include "dh/planner/errors.hpp"
-#include "dh/planner/rules.hpp"
 #include "dh/sim/scene.hpp"
 
 namespace dh::inproc {
@@ -104,13 +102,12 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
       }
       if (fx.plan_request) {
         const auto& r = *fx.plan_request;
-        const planner::PlanContext context{r.instruction, r.scene, r.capabilities, r.history};
-        planner::PlannerAdvice a = planner::plan_rules(context);
-        const PlannerError injected =
-            r.errors.none() ? PlannerError::None
-                            : planner::make_wrong(a, context, draw_planner_error(r.errors, r.seed, r.index));
+        const auto answer = std::get<planner::Answer>(planner_.on_request(
+            {channel, r.request_id, episode_id, {r.instruction, r.scene, r.capabilities, r.history}, r.seed, r.index,
+             r.errors}));
+        const planner::PlannerAdvice& a = answer.advice;
         gov::Advice adv{r.request_id, a.refused, a.capability, a.args, a.rationale, a.reason, "rules", a.done, {},
-                        injected};
+                        answer.injected};
         for (const auto& s : a.rest) adv.rest.push_back({s.capability, s.args});
         from_governor(governor_.on_advice(channel, episode_id, adv, now));
       }

@@ -7,11 +7,11 @@
 // Parameters: --backend rules|openai; openai: --endpoint URL --model NAME [--api-key-env VAR]
 //             [--timeout-s 90] [--workers 8] [--system-prompt-file FILE]
 //
-// Run by the one DDS shell (dds_shell.hpp). `rules` answers on the shell's loop in arrival order. `openai`
-// requests run on a pool of workers, so a slow model on one channel never holds up the others; a newer
-// request for a channel supersedes an older one still queued or in flight (the governor waits only for its
-// latest request per channel); answers are written from the loop. Every failure of the model server is an
-// Advice with refused = true and the reason.
+// planner::PlannerCore (core.hpp) holds the rules: `rules` answers at once, on the shell's loop in arrival
+// order; an `openai` request is a job, at most one live per channel. Here the jobs run on a pool of workers,
+// so a slow model on one channel never holds up the others; a job superseded while queued is skipped, one
+// in flight sees its flag and gives up; answers come back to the loop and are written from there. Every
+// failure of the model server is an Advice with refused = true and the reason.
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <condition_variable>
@@ -27,9 +27,8 @@
 #include "dh/msg/capabilityPubSubTypes.h"
 #include "dh/msg/plannerPubSubTypes.h"
 #include "dh/planner/curl_transport.hpp"
-#include "dh/planner/errors.hpp"
 #include "dh/planner/openai.hpp"
-#include "dh/planner/ports.hpp"
+#include "dh/planner/core.hpp"
 #include "dh/planner/rules.hpp"
 
 namespace dh {
@@ -37,13 +36,13 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-msg::Advice to_msg(const msg::PlanRequest& r, const planner::PlannerAdvice& a, PlannerError injected,
-                   const std::string& backend) {
+msg::Advice to_msg(const planner::Answer& answer, const std::string& backend) {
+  const planner::PlannerAdvice& a = answer.advice;
   msg::Advice m;
-  m.injected(convert::to_msg(injected));
-  m.channel(r.channel());
-  m.request_id(r.request_id());
-  m.episode_id(r.episode_id());
+  m.injected(convert::to_msg(answer.injected));
+  m.channel(answer.channel);
+  m.request_id(answer.request_id);
+  m.episode_id(answer.episode_id);
   m.refused(a.refused);
   m.capability(a.capability);
   m.args(convert::to_msg(a.args));
@@ -60,15 +59,20 @@ msg::Advice to_msg(const msg::PlanRequest& r, const planner::PlannerAdvice& a, P
   return m;
 }
 
-planner::PlanContext context(const msg::PlanRequest& r) {
-  return {r.instruction(), convert::from_msg(r.scene()), r.capabilities(), r.history()};
+planner::Request from_msg(const msg::PlanRequest& r) {
+  return {r.channel(),
+          r.request_id(),
+          r.episode_id(),
+          {r.instruction(), convert::from_msg(r.scene()), r.capabilities(), r.history()},
+          r.seed(),
+          r.index(),
+          convert::from_msg(r.errors())};
 }
 
-/// Runs plan requests on `workers` threads; at most one live request per channel.
+/// Runs the model backend's jobs on `workers` threads; a job cancelled while queued is skipped.
 class RequestPool {
  public:
-  using Work = std::function<void(const msg::PlanRequest&, const planner::CapabilityRoles&,
-                                  const std::function<bool()>& stale)>;
+  using Work = std::function<void(const planner::Job&, const std::function<bool()>& stale)>;
 
   RequestPool(std::size_t workers, Work work, spdlog::logger& log) : work_(std::move(work)), log_(log) {
     for (std::size_t i = 0; i < workers; ++i) threads_.emplace_back([this] { loop(); });
@@ -84,35 +88,18 @@ class RequestPool {
   RequestPool(const RequestPool&) = delete;
   RequestPool& operator=(const RequestPool&) = delete;
 
-  /// `roles`: the argument roles announced when the request arrived.
-  void submit(msg::PlanRequest r, planner::CapabilityRoles roles) {
+  void submit(planner::Job job) {
     {
       std::lock_guard lock(mutex_);
-      for (auto it = queue_.begin(); it != queue_.end();) {
-        if (it->first.channel() == r.channel()) {
-          log_.info("channel={} request={} superseded by {} before it started", it->first.channel(),
-                    it->first.request_id(), r.request_id());
-          it = queue_.erase(it);
-        } else {
-          ++it;
-        }
-      }
-      latest_[r.channel()] = r.request_id();
-      queue_.emplace_back(std::move(r), std::move(roles));
+      queue_.push_back(std::move(job));
     }
     cv_.notify_one();
-  }
-
-  /// Whether `r` is no longer worth answering: a newer request for its channel, or the node stops.
-  bool stale(const msg::PlanRequest& r) {
-    std::lock_guard lock(mutex_);
-    return stopping_ || shutdown_requested() || latest_[r.channel()] != r.request_id();
   }
 
  private:
   void loop() {
     while (true) {
-      std::pair<msg::PlanRequest, planner::CapabilityRoles> job;
+      planner::Job job;
       {
         std::unique_lock lock(mutex_);
         cv_.wait(lock, [&] { return stopping_ || !queue_.empty(); });
@@ -120,21 +107,28 @@ class RequestPool {
         job = std::move(queue_.front());
         queue_.pop_front();
       }
-      const msg::PlanRequest& r = job.first;
+      const planner::Request& r = job.request;
+      if (*job.cancelled) {
+        log_.info("channel={} request={} superseded before it started", r.channel, r.request_id);
+        continue;
+      }
       try {
-        work_(r, job.second, [this, &r] { return stale(r); });
+        work_(job, [this, &job] { return *job.cancelled || stopping() || shutdown_requested(); });
       } catch (const std::exception& e) {  // a worker must not take the process down
-        log_.error("channel={} request={} failed: {}", r.channel(), r.request_id(), e.what());
+        log_.error("channel={} request={} failed: {}", r.channel, r.request_id, e.what());
       }
     }
+  }
+  bool stopping() {
+    std::lock_guard lock(mutex_);
+    return stopping_;
   }
 
   Work work_;
   spdlog::logger& log_;
   std::mutex mutex_;
   std::condition_variable cv_;
-  std::deque<std::pair<msg::PlanRequest, planner::CapabilityRoles>> queue_;
-  std::map<std::uint32_t, std::string> latest_;
+  std::deque<planner::Job> queue_;
   bool stopping_ = false;
   std::vector<std::thread> threads_;
 };
@@ -155,7 +149,7 @@ class PlannerBinding {
 
   std::string name() const { return "dh_planner"; }
   std::string description() const { return "slow-brain proxy"; }
-  const Ports& ports() const { return planner::ports(); }
+  const Ports& ports() const { return planner::PlannerCore::ports(); }
   void options(CLI::App& app) {
     app.add_option("--backend", backend_, "planner backend")->check(CLI::IsMember({"rules", "openai"}));
     app.add_option("--endpoint", oc_.endpoint, "openai: server root, e.g. http://127.0.0.1:8000");
@@ -174,7 +168,11 @@ class PlannerBinding {
 
   void configure(Context& ctx) {
     if (!prompt_file_.empty()) oc_.system_prompt = read_file(prompt_file_);
-    if (backend_ != "openai") return;
+    if (backend_ != "openai") {
+      core_ = std::make_unique<planner::PlannerCore>(planner::PlannerCore::Backend::Rules);
+      return;
+    }
+    core_ = std::make_unique<planner::PlannerCore>(planner::PlannerCore::Backend::Model);
     http_ = std::make_unique<planner::CurlTransport>();  // libcurl initialized before the workers start
     model_ = std::make_unique<planner::OpenAiPlanner>(oc_, *http_);
     if (!model_->key_problem().empty()) ctx.log.warn("every request will be refused: {}", model_->key_problem());
@@ -186,55 +184,57 @@ class PlannerBinding {
     }
     pool_ = std::make_unique<RequestPool>(
         workers_,
-        [this, &ctx](const msg::PlanRequest& r, const planner::CapabilityRoles& roles,
-                     const std::function<bool()>& stale) {
+        [this, &ctx](const planner::Job& job, const std::function<bool()>& stale) {
           const auto t0 = Clock::now();
           // PlanRequest carries no camera images yet (the governor does not attach rt/dh/camera's): the
           // model reads the scene as text. OpenAiPlanner attaches images when given (image_url parts).
-          planner::PlannerAdvice a = model_->plan(context(r), roles, {}, stale);
-          if (stale()) {
-            ctx.log.info("channel={} request={} superseded (or the planner stops): answer dropped", r.channel(),
-                         r.request_id());
-            return;
-          }
-          ctx.post([this, &ctx, r, a = std::move(a), t0]() mutable { publish(ctx, r, std::move(a), t0); });
+          planner::PlannerAdvice a = model_->plan(job.request.context, job.roles, {}, stale);
+          ctx.post([this, &ctx, job, a = std::move(a), t0]() mutable {
+            if (auto answer = core_->on_advice(job, std::move(a))) publish(ctx, *answer, t0);
+            else
+              ctx.log.info("channel={} request={} superseded (or the planner stops): answer dropped",
+                           job.request.channel, job.request.request_id);
+          });
         },
         ctx.log);
     ctx.log.info("backend=openai endpoint={} model={} timeout={:g} s workers={} domain={} up", model_->url(), oc_.model,
                  timeout_s_, workers_, dds::domain_id());
   }
 
-  void on(const dds::Sample<port::Announce>& s, Context&) { roles_[s.msg.capability()] = s.msg.arguments(); }
+  void on(const dds::Sample<port::Announce>& s, Context&) {
+    core_->on_announce(s.msg.capability(), s.msg.arguments());
+  }
   void on(const dds::Sample<port::PlanRequest>& s, Context& ctx) {
-    const msg::PlanRequest& r = s.msg;
-    if (pool_) {
-      ctx.log.debug("channel={} request={} queued", r.channel(), r.request_id());
-      pool_->submit(r, roles_);
+    const auto t0 = Clock::now();
+    auto out = core_->on_request(from_msg(s.msg));
+    if (auto* job = std::get_if<planner::Job>(&out)) {
+      ctx.log.debug("channel={} request={} queued", job->request.channel, job->request.request_id);
+      pool_->submit(std::move(*job));
       return;
     }
-    const auto t0 = Clock::now();
-    publish(ctx, r, planner::plan_rules(context(r)), t0);
+    publish(ctx, std::get<planner::Answer>(out), t0);
   }
 
-  void deactivate(Context&) { pool_.reset(); }  // in-flight transfers see the stop within about a second
+  void deactivate(Context&) {
+    core_->stop();  // in-flight transfers see the stop within about a second
+    pool_.reset();
+  }
   void shutdown() {
     pool_.reset();
     model_.reset();
     http_.reset();
+    core_.reset();
   }
 
  private:
-  void publish(Context& ctx, const msg::PlanRequest& r, planner::PlannerAdvice a, Clock::time_point t0) {
-    // The request's planner-error rates make the backend's advice wrong on purpose, whichever backend.
-    PlannerError injected = PlannerError::None;
-    if (const PlannerErrorRates rates = convert::from_msg(r.errors()); !rates.none())
-      injected = planner::make_wrong(a, context(r), draw_planner_error(rates, r.seed(), r.index()));
+  void publish(Context& ctx, const planner::Answer& answer, Clock::time_point t0) {
     const auto ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-    ctx.write<port::Advice>(to_msg(r, a, injected, backend_));
+    ctx.write<port::Advice>(to_msg(answer, backend_));
+    const planner::PlannerAdvice& a = answer.advice;
     if (a.refused)
-      ctx.log.info("channel={} request={} {:.1f} ms -> refused: {}", r.channel(), r.request_id(), ms, a.reason);
+      ctx.log.info("channel={} request={} {:.1f} ms -> refused: {}", answer.channel, answer.request_id, ms, a.reason);
     else
-      ctx.log.info("channel={} request={} {:.1f} ms -> {} {}", r.channel(), r.request_id(), ms, a.capability,
+      ctx.log.info("channel={} request={} {:.1f} ms -> {} {}", answer.channel, answer.request_id, ms, a.capability,
                    a.rationale);
   }
 
@@ -243,7 +243,7 @@ class PlannerBinding {
   double timeout_s_ = 90;
   std::size_t workers_ = 8;
   std::string prompt_file_;
-  planner::CapabilityRoles roles_;  ///< argument roles per capability, as the capability processes announce them
+  std::unique_ptr<planner::PlannerCore> core_;
   std::unique_ptr<planner::CurlTransport> http_;
   std::unique_ptr<planner::OpenAiPlanner> model_;
   std::unique_ptr<RequestPool> pool_;

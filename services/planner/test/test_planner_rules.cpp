@@ -5,7 +5,7 @@
 #include <cstdlib>
 #include <filesystem>
 
-#include "dh/planner/ports.hpp"
+#include "dh/planner/core.hpp"
 
 #include "dh/common/history.hpp"
 #include "dh/planner/rules.hpp"
@@ -215,5 +215,5 @@ TEST(PlannerPorts, MatchTheServiceReadme) {
   const char* home = std::getenv("DH_HOME");
   ASSERT_TRUE(home) << "DH_HOME names the checkout";
   EXPECT_EQ(dh::port_table(std::filesystem::path(home) / "services/planner/README.md"),
-            dh::port_table(dh::planner::ports()));
+            dh::port_table(dh::planner::PlannerCore::ports()));
 }

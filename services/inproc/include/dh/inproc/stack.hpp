@@ -19,6 +19,7 @@
 #include "dh/common/arms.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/gov/core.hpp"
+#include "dh/planner/core.hpp"
 #include "dh/sim/workcell_cache.hpp"
 
 namespace dh::inproc {
@@ -57,6 +58,7 @@ class Stack {
 
   gov::GovernorCore governor_;  ///< every episode on channel 0
   cap::HostCore host_;  ///< every capability's instance "<name>@inproc"
+  planner::PlannerCore planner_{planner::PlannerCore::Backend::Rules};
   cap::LibraryTheta library_;
   std::uint64_t runs_ = 0;  ///< episodes run, for unique episode ids
   PlannerErrorRates planner_errors_;

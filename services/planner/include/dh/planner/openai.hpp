@@ -33,9 +33,6 @@ struct EncodedImage {
   std::string bytes;
 };
 
-/// Capability -> its argument roles as the capability announces them ("object", "state:open|closed").
-using CapabilityRoles = std::map<std::string, std::vector<std::string>>;
-
 struct OpenAiConfig {
   std::string endpoint;  ///< server root, e.g. http://127.0.0.1:8000 (/v1/chat/completions is appended)
   std::string model;

@@ -6,6 +6,7 @@
 // brain. It never gives poses; what it cannot form is a refusal naming the words it could not place.
 #pragma once
 
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -22,6 +23,9 @@ struct PlanContext {
   std::vector<std::string> capabilities;  ///< eligible capabilities
   std::vector<std::string> history;       ///< dh::history lines
 };
+
+/// Capability -> its argument roles as the capability announces them ("object", "state:open|closed").
+using CapabilityRoles = std::map<std::string, std::vector<std::string>>;
 
 struct PlanStep {
   std::string capability;
