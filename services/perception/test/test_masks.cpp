@@ -1,10 +1,7 @@
 // Mask decoding: base64, COCO uncompressed and compressed RLE, base64 PNG; every error names its cause.
 #include <gtest/gtest.h>
 
-#include <cstdlib>
-#include <filesystem>
 
-#include "dh/perception/ports.hpp"
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -137,10 +134,3 @@ TEST(PngMask, Errors) {
 
 }  // namespace
 }  // namespace dh::perception
-
-TEST(PerceptionPorts, MatchTheServiceReadme) {
-  const char* home = std::getenv("DH_HOME");
-  ASSERT_TRUE(home) << "DH_HOME names the checkout";
-  EXPECT_EQ(dh::port_table(std::filesystem::path(home) / "services/perception/README.md"),
-            dh::port_table(dh::perception::ports()));
-}

@@ -1,0 +1,111 @@
+// The perception service's core, DDS-free (DESIGN §11): which channels to look at, when to ask for a
+// frame, which frame answers which request, and the estimate made from it. An episode is looked at only
+// when its request grounds in perception (rendering costs the simulator time); its first observation (or
+// the request, when the observation came first) asks for a frame, then every `every_steps` steps, never
+// with one already pending; a request unanswered for `frame_timeout` is asked again. Each frame becomes
+// one estimate: the objects looked for, those seen, the time it took. The DDS shell
+// (node/perception_node.cpp) carries its events and effects.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dh/common/ports.hpp"
+#include "dh/perception/scene_entities.hpp"
+
+namespace dh::perception {
+
+using Clock = std::chrono::steady_clock;
+
+struct CoreSettings {
+  std::string camera = "workcell";  ///< the camera frames are asked of
+  unsigned every_steps = 10;        ///< a frame every N control steps (and at step 0)
+  std::chrono::milliseconds frame_timeout{2000};
+};
+
+/// The objects an episode of `suite` task `task` is to look for (what its scene names); throws with the
+/// reason when there is no such task.
+using ObjectsOf = std::function<std::vector<LookFor>(const std::string& suite, std::uint32_t task)>;
+
+struct FrameAsk {
+  std::uint32_t channel = 0;
+  std::string camera, request_id;
+};
+
+/// A frame's metadata: what the pixels answer.
+struct FrameMeta {
+  std::uint32_t channel = 0;
+  std::string request_id, episode_id, camera;
+  std::string error;  ///< the source could not make it
+  std::uint32_t step = 0;
+  double stamp_s = 0;
+};
+
+struct SceneOut {
+  std::uint32_t channel = 0;
+  std::string episode_id, camera;
+  std::uint32_t step = 0;
+  double stamp_s = 0;
+  std::vector<EntityEstimate> seen;     ///< the estimates with a positive confidence
+  std::vector<std::string> looked_for;  ///< every object looked for, seen or not
+  double latency_ms = 0;                ///< segmentation and estimation of this frame
+};
+
+struct Note {
+  enum class Level { Info, Warn, Error } level = Level::Info;
+  std::string text;
+};
+
+struct PerceptionEffects {
+  std::vector<FrameAsk> asks;
+  std::optional<SceneOut> estimate;
+  std::vector<Note> notes;  ///< what the shell logs
+};
+
+class PerceptionCore {
+ public:
+  PerceptionCore(CoreSettings settings, ObjectsOf objects_of, Segmenter& segmenter, CloudParams cloud);
+
+  /// What the service reads and writes (README.md lists them; a test checks the list).
+  static const Ports& ports();
+
+  PerceptionEffects on_episode(std::uint32_t channel, const std::string& episode_id, const std::string& grounding,
+                               const std::string& suite, std::uint32_t task, Clock::time_point now);
+  void on_result(std::uint32_t channel, const std::string& episode_id);
+  PerceptionEffects on_observation(std::uint32_t channel, const std::string& episode_id, std::uint32_t step,
+                                   Clock::time_point now);
+  /// A frame from the camera topic; `pixels` makes it (a copy of megabytes) only when it answers a request.
+  PerceptionEffects on_frame(const FrameMeta& meta, const std::function<RgbdFrame()>& pixels);
+  /// Asks again for frames unanswered for the timeout (the robot may be waiting for them).
+  PerceptionEffects on_tick(Clock::time_point now);
+
+ private:
+  struct Channel {
+    std::string episode_id;
+    std::vector<LookFor> objects;
+    std::vector<EntityAppearance> looked_for;
+    std::optional<std::uint32_t> last_step;  ///< the step of the last frame asked for
+    std::string pending;                     ///< request id awaiting its frame
+    Clock::time_point asked_at;
+  };
+  FrameAsk ask(std::uint32_t channel, Channel& ch, std::uint32_t step, Clock::time_point now);
+  /// Nothing is seen when the frame cannot be made or processed (a note says why): the estimate still says
+  /// what was looked for.
+  SceneOut estimate(const FrameMeta& meta, Channel& ch, const std::function<RgbdFrame()>& pixels,
+                    PerceptionEffects& fx);
+
+  CoreSettings settings_;
+  ObjectsOf objects_of_;
+  Segmenter& segmenter_;
+  CloudParams cloud_;
+  std::map<std::uint32_t, Channel> channels_;
+  std::map<std::uint32_t, std::pair<std::string, std::uint32_t>> last_seen_;  ///< episode and step per channel
+  std::uint64_t requests_ = 0;
+};
+
+}  // namespace dh::perception

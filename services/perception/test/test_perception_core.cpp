@@ -1,0 +1,167 @@
+// The perception core's bookkeeping: only episodes grounded in perception are looked at; a frame is asked
+// at the first observation (or at the request, when the observation came first), then every N steps and
+// never with one pending; a frame that is not the awaited one is ignored, an error frame leaves the
+// request pending until the timeout asks again; a frame becomes one estimate of what was looked for and
+// seen, and a seen object's place becomes its prior; an unknown task is a note, not a crash; the episode's
+// result ends the looking. Its port list matches the service's README.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+
+#include "dh/perception/core.hpp"
+#include "dh/perception/masks.hpp"
+#include "synthetic_scene.hpp"
+
+namespace dh::perception {
+namespace {
+
+using namespace std::chrono_literals;
+
+/// Masks a red box wherever the frame shows it (the synthetic scene's object 1), and counts its calls.
+struct BoxSegmenter : Segmenter {
+  const synth::Rendered* shown = nullptr;
+  int calls = 0;
+  std::vector<Mask> segment(const cv::Mat&, const std::vector<EntityAppearance>& entities) override {
+    ++calls;
+    std::vector<Mask> out;
+    for (const auto& e : entities) out.push_back({e.entity, synth::id_mask(*shown, 1), 1.0});
+    return out;
+  }
+};
+
+struct PerceptionCoreTest : ::testing::Test {
+  synth::Rendered rendered = [] {
+    synth::Scene s;
+    s.world_from_camera = synth::workcell_camera();
+    s.boxes = {synth::Box{Eigen::Vector3d(0.05, -0.02, 0.03), 0, Eigen::Vector3d(0.06, 0.06, 0.06), {200, 40, 40}}};
+    return synth::render(s);
+  }();
+  BoxSegmenter segmenter;
+  std::vector<std::pair<std::string, std::uint32_t>> scenes_loaded;
+  Clock::time_point t0{};
+  std::unique_ptr<PerceptionCore> core;
+
+  void SetUp() override {
+    segmenter.shown = &rendered;
+    CloudParams cloud;
+    cloud.support_z = 0;
+    core = std::make_unique<PerceptionCore>(
+        CoreSettings{"workcell", 10, 2000ms},
+        [this](const std::string& suite, std::uint32_t task) {
+          if (suite != "goal") throw std::invalid_argument("no suite '" + suite + "'");
+          scenes_loaded.emplace_back(suite, task);
+          LookFor box;
+          box.appearance = {"red_box", {{200, 40, 40}}, 40, 0};
+          box.size = Eigen::Vector3d(0.06, 0.06, 0.06);
+          return std::vector<LookFor>{box};
+        },
+        segmenter, cloud);
+  }
+  PerceptionEffects start(std::uint32_t channel, const std::string& episode, const std::string& grounding = "perception") {
+    return core->on_episode(channel, episode, grounding, "goal", 3, t0);
+  }
+  PerceptionEffects frame(const FrameAsk& ask, const std::string& episode, std::uint32_t step,
+                          const std::string& error = "") {
+    return core->on_frame({ask.channel, ask.request_id, episode, ask.camera, error, step, 1.5},
+                          [this] { return rendered.frame; });
+  }
+};
+
+TEST_F(PerceptionCoreTest, AnEpisodeGroundedInStateIsNotLookedAt) {
+  EXPECT_TRUE(start(0, "ep", "state").asks.empty());
+  EXPECT_TRUE(core->on_observation(0, "ep", 0, t0).asks.empty());
+  EXPECT_TRUE(scenes_loaded.empty()) << "a scene was loaded for an episode nobody looks at";
+}
+
+TEST_F(PerceptionCoreTest, FramesAreAskedAtTheFirstObservationThenEveryNStepsNeverWithOnePending) {
+  EXPECT_TRUE(start(0, "ep").asks.empty()) << "no observation yet";
+  const auto first = core->on_observation(0, "ep", 0, t0);
+  ASSERT_EQ(first.asks.size(), 1u);
+  EXPECT_EQ(first.asks[0].camera, "workcell");
+  EXPECT_TRUE(core->on_observation(0, "ep", 12, t0).asks.empty()) << "asked again with one pending";
+  ASSERT_TRUE(frame(first.asks[0], "ep", 0).estimate);
+  EXPECT_TRUE(core->on_observation(0, "ep", 9, t0).asks.empty()) << "asked before N steps passed";
+  const auto next = core->on_observation(0, "ep", 10, t0);
+  ASSERT_EQ(next.asks.size(), 1u);
+  EXPECT_NE(next.asks[0].request_id, first.asks[0].request_id);
+  EXPECT_TRUE(core->on_observation(1, "other", 0, t0).asks.empty()) << "a channel without a request";
+}
+
+TEST_F(PerceptionCoreTest, AnObservationBeforeTheRequestIsAnsweredWhenTheRequestComes) {
+  EXPECT_TRUE(core->on_observation(2, "ep", 0, t0).asks.empty());
+  const auto fx = start(2, "ep");
+  ASSERT_EQ(fx.asks.size(), 1u);
+  EXPECT_EQ(fx.asks[0].channel, 2u);
+  EXPECT_TRUE(start(2, "ep").asks.empty()) << "the same request again asked again";
+}
+
+TEST_F(PerceptionCoreTest, AFrameBecomesAnEstimateOfWhatWasLookedForAndSeen) {
+  start(0, "ep");
+  const auto ask = core->on_observation(0, "ep", 0, t0).asks.at(0);
+  const auto fx = frame(ask, "ep", 0);
+  ASSERT_TRUE(fx.estimate);
+  const SceneOut& e = *fx.estimate;
+  EXPECT_EQ(e.channel, 0u);
+  EXPECT_EQ(e.episode_id, "ep");
+  EXPECT_EQ(e.camera, "workcell");
+  EXPECT_EQ(e.stamp_s, 1.5);
+  EXPECT_EQ(e.looked_for, std::vector<std::string>{"red_box"});
+  ASSERT_EQ(e.seen.size(), 1u);
+  EXPECT_LT((e.seen[0].centroid - Eigen::Vector3d(0.05, -0.02, 0.03)).norm(), 0.01) << e.seen[0].centroid.transpose();
+  EXPECT_GE(e.latency_ms, 0.0);
+  EXPECT_TRUE(frame(ask, "ep", 0).notes.empty() && !frame(ask, "ep", 0).estimate) << "one frame answered twice";
+}
+
+TEST_F(PerceptionCoreTest, AFrameThatCannotBeMadeIsAnEstimateThatSeesNothingAndSaysWhy) {
+  start(0, "ep");
+  const auto ask = core->on_observation(0, "ep", 0, t0).asks.at(0);
+  const auto fx = core->on_frame({0, ask.request_id, "ep", "workcell", "", 0, 0},
+                                 []() -> RgbdFrame { throw std::invalid_argument("depth of 3 bytes"); });
+  ASSERT_TRUE(fx.estimate);
+  EXPECT_TRUE(fx.estimate->seen.empty());
+  EXPECT_EQ(fx.estimate->looked_for.size(), 1u);
+  ASSERT_EQ(fx.notes.size(), 1u);
+  EXPECT_NE(fx.notes[0].text.find("depth of 3 bytes"), std::string::npos) << fx.notes[0].text;
+}
+
+TEST_F(PerceptionCoreTest, AnErrorFrameLeavesTheRequestPendingUntilTheTimeoutAsksAgain) {
+  start(0, "ep");
+  const auto ask = core->on_observation(0, "ep", 5, t0).asks.at(0);
+  EXPECT_FALSE(frame({0, "workcell", "perception-999"}, "ep", 5).estimate) << "another request's frame";
+  const auto failed = frame(ask, "ep", 5, "no OpenGL context");
+  EXPECT_FALSE(failed.estimate);
+  ASSERT_EQ(failed.notes.size(), 1u);
+  EXPECT_NE(failed.notes[0].text.find("no OpenGL context"), std::string::npos);
+  EXPECT_FALSE(frame(ask, "another-episode", 5).estimate) << "a frame of another episode was taken";
+  EXPECT_EQ(segmenter.calls, 0);
+  EXPECT_TRUE(core->on_tick(t0 + 1999ms).asks.empty());
+  const auto again = core->on_tick(t0 + 2000ms);
+  ASSERT_EQ(again.asks.size(), 1u);
+  EXPECT_NE(again.asks[0].request_id, ask.request_id);
+  EXPECT_TRUE(frame(again.asks[0], "ep", 5).estimate);
+}
+
+TEST_F(PerceptionCoreTest, AnUnknownTaskIsANoteAndTheResultEndsTheLooking) {
+  const auto bad = core->on_episode(0, "ep", "perception", "no-such-suite", 0, t0);
+  ASSERT_EQ(bad.notes.size(), 1u);
+  EXPECT_EQ(bad.notes[0].level, Note::Level::Error);
+  EXPECT_NE(bad.notes[0].text.find("no suite 'no-such-suite'"), std::string::npos) << bad.notes[0].text;
+  EXPECT_TRUE(core->on_observation(0, "ep", 0, t0).asks.empty());
+
+  start(1, "ep1");
+  core->on_result(1, "someone-else");
+  EXPECT_EQ(core->on_observation(1, "ep1", 0, t0).asks.size(), 1u) << "another episode's result ended this one";
+  core->on_result(1, "ep1");
+  EXPECT_TRUE(core->on_tick(t0 + 10s).asks.empty()) << "an ended episode asked again";
+}
+
+TEST(PerceptionPorts, MatchTheServiceReadme) {
+  const char* home = std::getenv("DH_HOME");
+  ASSERT_TRUE(home) << "DH_HOME names the checkout";
+  EXPECT_EQ(port_table(std::filesystem::path(home) / "services/perception/README.md"),
+            port_table(PerceptionCore::ports()));
+}
+
+}  // namespace
+}  // namespace dh::perception
