@@ -1,7 +1,8 @@
 // `dh evolve` over real processes (every service of campaign_local.yaml): one round on goal-swap 5 (Figure
 // 3's task: the push is refused and pick_place substituted; four of these six seeds fail in the
 // substitute), SIGKILLed in the candidate's campaign and run again. The rerun goes on from where the kill left it: no recorded episode runs again, the round
-// ends with the gate's decision in the registry, and the JSON and the report say so.
+// ends with the gate's decision in the registry, and the JSON and the report say so. Then `dh transfer`
+// sets the parent and the candidate on a fresh block beside their development success.
 #include <signal.h>
 #include <sys/wait.h>
 
@@ -92,4 +93,23 @@ TEST(EvolveE2E, ARoundKilledInTheCandidatesCampaignResumesAndRegistersItsDecisio
   auto [again, again_status] = itest::run_command(evolve + " --json 2>/dev/null");
   ASSERT_EQ(again_status, 0);
   EXPECT_EQ(nlohmann::json::parse(again)["rounds"], j["rounds"]);
+
+  // The parent and the candidate on a fresh block: their development success comes from the round's
+  // databases (nothing runs on the development seeds again), and each runs its one fresh episode.
+  const auto round_dir = out / "round-1";
+  auto [transfer, transfer_status] = itest::run_command(
+      dh + " transfer --snapshots " + (paths::config_dir() / "library").string() + "," +
+      (round_dir / "candidate").string() + " --dev-dbs " + (round_dir / "parent.db").string() + "," +
+      (round_dir / "candidate.db").string() + " --cells goal-swap --tasks 5 --fresh-seeds 1 --salt 5 --out " +
+      (env.runs / "transfer").string() + " --json 2>" + (env.runs / "transfer.log").string());
+  ASSERT_EQ(transfer_status, 0) << transfer << std::ifstream(env.runs / "transfer.log").rdbuf();
+  const auto t = nlohmann::json::parse(transfer);
+  ASSERT_EQ(t["snapshots"].size(), 2u) << t.dump();
+  EXPECT_EQ(t["snapshots"][0]["dev_episodes"], 6) << "the parent's development rows are its round's";
+  EXPECT_NEAR(t["snapshots"][0]["dev_success"].get<double>(), 2.0 / 6, 1e-9);
+  EXPECT_EQ(t["snapshots"][1]["dev_episodes"], 6);
+  EXPECT_EQ(t["snapshots"][0]["fresh_episodes"], 1);
+  EXPECT_EQ(t["snapshots"][1]["fresh_episodes"], 1);
+  EXPECT_FALSE(std::filesystem::exists(env.runs / "transfer" / "dev")) << "a development campaign ran again";
+  EXPECT_TRUE(std::filesystem::exists(env.runs / "transfer" / "transfer.md"));
 }

@@ -97,6 +97,17 @@ struct EvolveArgs {
 /// The self-evolution loop, resumable: exit 1 when a campaign was interrupted or found no deployment.
 int cmd_evolve(const EvolveArgs& a);
 
+struct TransferArgs {
+  std::string snapshots, dev_dbs, out, launch_file, arm = "full";
+  std::string cells = "goal-task,goal-swap,long-task,long-swap";
+  std::string tasks, dev_seeds = "21-40";
+  unsigned fresh_seeds = 20;
+  std::uint64_t salt = 0;
+  unsigned ready_ms = 20000;
+  bool json = false;
+};
+int cmd_transfer(const TransferArgs& a);
+
 int cmd_registry(const std::string& dir, const std::string& id, bool json);
 
 /// `dh library perturb`: writes `out`, prints the drawn library's version (or a JSON object with it and θ).

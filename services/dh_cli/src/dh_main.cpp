@@ -34,6 +34,9 @@
 //   dh evolve --library DIR [--rounds K] [--cells ...] [--dev-seeds 21-40] [--regression-seeds 41-42] [--out DIR]
 //                                            the loop, automatic and resumable: campaign, revise, candidate
 //                                            campaign, gate, broader round, register; per round
+//   dh transfer --snapshots A,B,... --salt S [--fresh-seeds 20] [--dev-dbs F,...] [--out DIR]
+//                                            frozen snapshots on a fresh block beside their development
+//                                            success: Spearman ρ and the first-to-last gains
 //   dh registry list | dh registry show ID   the candidates and the decisions on them
 //   dh library perturb --from DIR --seed S --out DIR
 //                                            every θ drawn uniformly within its range: an untuned library
@@ -296,6 +299,25 @@ int main(int argc, char** argv) {
   evolve->add_option("--launch", evolve_args.launch_file, "launch file for a local deployment when none is running");
   evolve->add_option("--ready-timeout-ms", evolve_args.ready_ms, "wait for a deployment (default 20000)");
   evolve->add_flag("--json", evolve_args.json, "one JSON object: start_success, final_success, rounds");
+  TransferArgs transfer_args;
+  auto* transfer = app.add_subcommand(
+      "transfer", "frozen snapshots on a fresh block beside their development success: Spearman rho and the gains");
+  transfer->add_option("--snapshots", transfer_args.snapshots, "library folders, in the climb's order (at least two)")
+      ->required();
+  transfer->add_option("--salt", transfer_args.salt, "the fresh block's salt: one never used in development")
+      ->required();
+  transfer->add_option("--fresh-seeds", transfer_args.fresh_seeds, "fresh seeds per task (default 20)");
+  transfer->add_option("--dev-dbs", transfer_args.dev_dbs,
+                       "campaign databases holding the snapshots' development success (a climb's round databases)");
+  transfer->add_option("--dev-seeds", transfer_args.dev_seeds,
+                       "a snapshot no --dev-dbs database ran is measured on these seeds (default 21-40)");
+  transfer->add_option("--cells", transfer_args.cells, "cells (default goal-task,goal-swap,long-task,long-swap)");
+  transfer->add_option("--tasks", transfer_args.tasks, "tasks (default all)");
+  transfer->add_option("--arm", transfer_args.arm, "arm (default full)");
+  transfer->add_option("--out", transfer_args.out, "folder of its databases and transfer.md (default runs/transfer)");
+  transfer->add_option("--launch", transfer_args.launch_file, "launch file for a local deployment when none is running");
+  transfer->add_option("--ready-timeout-ms", transfer_args.ready_ms, "wait for a deployment (default 20000)");
+  transfer->add_flag("--json", transfer_args.json, "one JSON object: snapshots, rho, dev_gain_pp, fresh_gain_pp");
   std::string registry_dir, registry_id;
   auto* registry = app.add_subcommand("registry", "the candidates and the decisions on them");
   registry->require_subcommand(1);
@@ -350,6 +372,7 @@ int main(int argc, char** argv) {
     if (*revise) return cmd_revise(revise_args);
     if (*gate) return cmd_gate(gate_args);
     if (*evolve) return cmd_evolve(evolve_args);
+    if (*transfer) return cmd_transfer(transfer_args);
     if (*registry_list) return cmd_registry(registry_dir, "", json);
     if (*registry_show) return cmd_registry(registry_dir, registry_id, true);
     if (*perturb) return cmd_library_perturb(perturb_from, perturb_seed, perturb_out, json);

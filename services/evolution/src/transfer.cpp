@@ -1,0 +1,70 @@
+#include "dh/evo/transfer.hpp"
+
+#include <spdlog/fmt/fmt.h>
+
+#include <stdexcept>
+
+namespace dh::evo {
+namespace {
+
+std::vector<stats::ClusteredOutcome> clustered(const std::vector<EpisodeRecord>& rows, unsigned& successes) {
+  std::vector<stats::ClusteredOutcome> out;
+  successes = 0;
+  for (const auto& r : rows) {
+    out.push_back({r.cell + "/" + std::to_string(r.task), r.success});
+    successes += r.success;
+  }
+  return out;
+}
+
+std::string rate(unsigned k, unsigned n, const stats::ClusteredRate& c) {
+  return fmt::format("{}/{} = {:.1f} % [{:.1f}, {:.1f}]", k, n, 100 * c.interval.point, 100 * c.interval.lo,
+                     100 * c.interval.hi);
+}
+
+}  // namespace
+
+TransferSummary summarise_transfer(const std::vector<SnapshotEpisodes>& snapshots, unsigned resamples) {
+  TransferSummary s;
+  std::vector<double> dev, fresh;
+  for (const auto& snap : snapshots) {
+    if (snap.dev.empty() || snap.fresh.empty())
+      throw std::invalid_argument("snapshot " + snap.name + " (" + snap.version + ") has no " +
+                                  (snap.dev.empty() ? "development" : "fresh") + " episodes");
+    SnapshotRates r{snap.name, snap.version};
+    r.dev = stats::clustered_rate(clustered(snap.dev, r.dev_successes), resamples);
+    r.fresh = stats::clustered_rate(clustered(snap.fresh, r.fresh_successes), resamples);
+    r.dev_episodes = static_cast<unsigned>(snap.dev.size());
+    r.fresh_episodes = static_cast<unsigned>(snap.fresh.size());
+    dev.push_back(r.dev.interval.point);
+    fresh.push_back(r.fresh.interval.point);
+    s.snapshots.push_back(std::move(r));
+  }
+  if (s.snapshots.empty()) throw std::invalid_argument("no snapshots to compare");
+  s.dev_gain_pp = 100 * (dev.back() - dev.front());
+  s.fresh_gain_pp = 100 * (fresh.back() - fresh.front());
+  try {
+    s.rho = stats::spearman(dev, fresh);
+  } catch (const std::invalid_argument& e) {
+    s.rho_note = e.what();
+  }
+  return s;
+}
+
+std::string transfer_markdown(const TransferSummary& s) {
+  std::string md =
+      "| # | snapshot | library | development | fresh block |\n|---|---|---|---|---|\n";
+  for (std::size_t i = 0; i < s.snapshots.size(); ++i) {
+    const SnapshotRates& r = s.snapshots[i];
+    md += fmt::format("| {} | {} | {} | {} | {} |\n", i + 1, r.name, r.version,
+                      rate(r.dev_successes, r.dev_episodes, r.dev), rate(r.fresh_successes, r.fresh_episodes, r.fresh));
+  }
+  md += "\nIntervals: cell × task cluster bootstrap, 95 %.\n\n";
+  md += fmt::format("First to last snapshot: development {:+.1f} points, fresh block {:+.1f} points.\n",
+                    s.dev_gain_pp, s.fresh_gain_pp);
+  md += s.rho ? fmt::format("Spearman ρ of the two columns over {} snapshots: {:.2f}.\n", s.snapshots.size(), *s.rho)
+              : "Spearman ρ is undefined: " + s.rho_note + ".\n";
+  return md;
+}
+
+}  // namespace dh::evo
