@@ -88,6 +88,8 @@ TEST(EvolveE2E, ARoundKilledInTheCandidatesCampaignResumesAndRegistersItsDecisio
   std::ifstream report(out / "evolve.md");
   const std::string md((std::istreambuf_iterator<char>(report)), std::istreambuf_iterator<char>());
   EXPECT_NE(md.find("| 1 | "), std::string::npos) << md;
+  EXPECT_NE(md.find("![The climb](climb.png)"), std::string::npos) << md;
+  EXPECT_TRUE(std::filesystem::exists(out / "climb.png"));
 
   // Run again on a finished climb: nothing runs, the same answer.
   auto [again, again_status] = itest::run_command(evolve + " --json 2>/dev/null");

@@ -13,11 +13,14 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "dh/campaign/db.hpp"
 #include "dh/cap/library_theta.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/common/shutdown.hpp"
+#include "dh/common/stats.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/evo/registry.hpp"
+#include "dh/report/climb.hpp"
 
 namespace dh::cli {
 
@@ -322,6 +325,28 @@ class Climb {
                         r.value("registry_id", ""), r["wall_s"].get<double>(), r.value("reason", ""));
     }
     if (!(*state_)["stop"].is_null()) md << "\nThe climb stopped: " << (*state_)["stop"].get<std::string>() << "\n";
+    const std::string why_not = report::draw_climb(climb_points(), out_);
+    md << "\n" << (why_not.empty() ? "![The climb](climb.png)" : "No plot of the climb: " + why_not + ".") << "\n";
+  }
+
+  /// Each round's library on the development seeds (its parent campaign), then the last admitted
+  /// candidate's, with cell × task cluster intervals.
+  std::vector<report::ClimbPoint> climb_points() const {
+    std::vector<report::ClimbPoint> points;
+    const auto point = [&](const std::string& label, const std::string& db, const std::string& decision) {
+      std::vector<stats::ClusteredOutcome> outcomes;
+      for (const auto& r : campaign::CampaignDb::read_rows(db))
+        if (r.arm == a_.arm) outcomes.push_back({r.cell + "/" + std::to_string(r.task), r.success});
+      const auto rate = stats::clustered_rate(outcomes);
+      points.push_back({label, rate.interval.point, rate.interval.lo, rate.interval.hi, decision});
+    };
+    for (const auto& r : (*state_)["rounds"]) {
+      if (!r.contains("success")) break;
+      point("round " + std::to_string(r["round"].get<unsigned>()), str(r["parent_db"]),
+            r["decision"].is_null() ? "running" : str(r["decision"]));
+      if (r["decision"] == "admitted" && &r == &(*state_)["rounds"].back()) point("final", str(r["candidate_db"]), "");
+    }
+    return points;
   }
 
   int print() {

@@ -1,17 +1,10 @@
 #include "plots.hpp"
 
-#include <fcntl.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
-
-#include <cerrno>
-#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <sstream>
 
-extern char** environ;
+#include "gnuplot.hpp"
 
 namespace dh::report {
 
@@ -24,37 +17,11 @@ using nlohmann::json;
 // when the report has -pos cells.
 const std::vector<std::string> kPlotFiles{"success.png", "wall_clock.png", "budget.png", "positions.png"};
 
-fs::path find_on_path(const std::string& program) {
-  const char* path = std::getenv("PATH");
-  std::stringstream dirs(path ? path : "");
-  for (std::string dir; std::getline(dirs, dir, ':');) {
-    const fs::path candidate = fs::path(dir.empty() ? "." : dir) / program;
-    std::error_code ec;
-    if (fs::is_regular_file(candidate, ec) && ::access(candidate.c_str(), X_OK) == 0) return candidate;
-  }
-  return {};
-}
-
-// A gnuplot single-quoted string: no escapes inside, a quote is doubled.
-std::string gp_quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("''") : std::string(1, c);
-  return out + "'";
-}
-
-// A string column of a gnuplot data file: double-quoted, so it may hold spaces but no double quote.
-std::string data_label(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s)
-    if (c != '"') out += c;
-  return out + "\"";
-}
-
 std::string success_data(const json& summary) {
   std::ostringstream out;
   out << "# cell, then per arm: rate, wilson_lo, wilson_hi (%)\n";
   for (const json& cell : summary["cells"]) {
-    out << data_label(cell);
+    out << gnuplot::data_label(cell);
     for (const json& arm : summary["arms"]) {
       const json* row = nullptr;
       for (const json& s : summary["summary"])
@@ -79,7 +46,7 @@ std::string wall_clock_data(const json& summary, const std::vector<Source>& sour
   out << "# arm/cell, episode wall clock (s)\n";
   for (const json& s : summary["summary"]) {
     const std::string arm = s["arm"], cell = s["cell"];
-    for (double w : wall_s[{arm, cell}]) out << data_label(arm + "/" + cell) << ' ' << w << '\n';
+    for (double w : wall_s[{arm, cell}]) out << gnuplot::data_label(arm + "/" + cell) << ' ' << w << '\n';
   }
   return out.str();
 }
@@ -97,7 +64,7 @@ std::string budget_data(const json& summary) {
   for (const json& e : summary["execution"])
     for (const char* outcome : {"success", "failure"})
       for (const json& v : e["budget_used_values"][outcome])
-        out << data_label(e["arm"].get<std::string>() + "/" + outcome) << ' ' << 100 * v.get<double>() << '\n';
+        out << gnuplot::data_label(e["arm"].get<std::string>() + "/" + outcome) << ' ' << 100 * v.get<double>() << '\n';
   return out.str();
 }
 
@@ -129,7 +96,7 @@ std::vector<std::string> series_of(const json& summary) {
 // One box per label of `data` (lines "label value"), in the order the labels come.
 std::string boxes(const std::string& png, const std::string& title, const std::string& ylabel,
                   const std::string& extra, const std::string& data) {
-  return "reset\nset output " + png + "\nset title " + gp_quote(title) + "\nset ylabel " + gp_quote(ylabel) + "\n" +
+  return "reset\nset output " + png + "\nset title " + gnuplot::quote(title) + "\nset ylabel " + gnuplot::quote(ylabel) + "\n" +
          extra +
          "set grid ytics\nunset key\nset xtics rotate by -30\nset style data boxplot\n"
          "set style fill solid 0.3 border -1\nset boxwidth 0.5\nset pointsize 0.5\nplot " +
@@ -137,14 +104,9 @@ std::string boxes(const std::string& png, const std::string& title, const std::s
 }
 
 std::string script(const json& summary, const fs::path& dir) {
-  const auto file = [&](const char* name) { return gp_quote((dir / name).string()); };
+  const auto file = [&](const char* name) { return gnuplot::quote((dir / name).string()); };
   std::ostringstream gp;
-  gp << R"(if (strstrt(GPVAL_TERMINALS, 'pngcairo') > 0) {
-  set terminal pngcairo size 960,540 noenhanced
-} else {
-  set terminal png size 960,540 noenhanced
-}
-set datafile missing 'NaN'
+  gp << gnuplot::png_terminal(960, 540) << R"(set datafile missing 'NaN'
 set output )" << file("success.png") << R"(
 set title 'Success rate per arm and cell (Wilson 95 % intervals)'
 set ylabel 'success (%)'
@@ -159,7 +121,7 @@ plot )";
   for (std::size_t i = 0; i < arms.size(); ++i) {
     const std::size_t col = 2 + 3 * i;
     gp << (i ? ", '' " : file("success.dat") + " ") << "using " << col << ':' << col + 1 << ':' << col + 2
-       << (i ? "" : ":xtic(1)") << " title " << gp_quote(arms[i]);
+       << (i ? "" : ":xtic(1)") << " title " << gnuplot::quote(arms[i]);
   }
   gp << "\n" << boxes(file("wall_clock.png"), "Episode wall clock per arm and cell", "wall clock (s)", "",
                       file("wall_clock.dat"));
@@ -178,36 +140,11 @@ set key outside right top
 plot )";
     for (std::size_t i = 0; i < series.size(); ++i)
       gp << (i ? ", '' " : file("positions.dat") + " ") << "index " << i
-         << " using 1:2:3:4 with yerrorlines title " << gp_quote(series[i]);
+         << " using 1:2:3:4 with yerrorlines title " << gnuplot::quote(series[i]);
     gp << "\n";
   }
   gp << "set output\n";
   return gp.str();
-}
-
-bool write_file(const fs::path& path, const std::string& text) {
-  std::ofstream out(path, std::ios::trunc);
-  out << text;
-  return static_cast<bool>(out);
-}
-
-// Runs `program script` with stdout and stderr in `log`; returns the exit status, or −1 if it did not run.
-int run(const fs::path& program, const fs::path& script_path, const fs::path& log) {
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_addopen(&actions, STDOUT_FILENO, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  posix_spawn_file_actions_adddup2(&actions, STDOUT_FILENO, STDERR_FILENO);
-  std::string arg0 = program.string(), arg1 = script_path.string();
-  char* argv[] = {arg0.data(), arg1.data(), nullptr};
-  pid_t pid = 0;
-  const int spawned = posix_spawn(&pid, program.c_str(), &actions, nullptr, argv, environ);
-  posix_spawn_file_actions_destroy(&actions);
-  if (spawned != 0) return -1;
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0)
-    if (errno != EINTR) return -1;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 }  // namespace
@@ -223,8 +160,8 @@ PlotResult draw_plots(const json& summary, const std::vector<Source>& sources, c
     result.note = "no episodes to plot.";
     return result;
   }
-  const fs::path gnuplot = find_on_path("gnuplot");
-  if (gnuplot.empty()) {
+  const fs::path program = gnuplot::find();
+  if (program.empty()) {
     result.note = "gnuplot was not found on PATH (install gnuplot-nox to get the PNG plots).";
     return result;
   }
@@ -232,15 +169,15 @@ PlotResult draw_plots(const json& summary, const std::vector<Source>& sources, c
   std::vector<std::string> expected{kPlotFiles[0], kPlotFiles[1]};
   if (has_budget(summary)) expected.push_back(kPlotFiles[2]);
   if (!summary["positions"].empty()) expected.push_back(kPlotFiles[3]);
-  if (!write_file(dir / "success.dat", success_data(summary)) ||
-      !write_file(dir / "positions.dat", positions_data(summary)) ||
-      !write_file(dir / "wall_clock.dat", wall_clock_data(summary, sources)) ||
-      !write_file(dir / "budget.dat", budget_data(summary)) ||
-      !write_file(script_path, script(summary, dir))) {
+  if (!gnuplot::write_file(dir / "success.dat", success_data(summary)) ||
+      !gnuplot::write_file(dir / "positions.dat", positions_data(summary)) ||
+      !gnuplot::write_file(dir / "wall_clock.dat", wall_clock_data(summary, sources)) ||
+      !gnuplot::write_file(dir / "budget.dat", budget_data(summary)) ||
+      !gnuplot::write_file(script_path, script(summary, dir))) {
     result.note = "could not write the plot data into " + dir.string() + ".";
     return result;
   }
-  const int status = run(gnuplot, script_path, dir / "plots.log");
+  const int status = gnuplot::run(program, script_path, dir / "plots.log");
   if (status != 0) {
     result.note = (status < 0 ? std::string("gnuplot did not run")
                               : "gnuplot exited with status " + std::to_string(status)) +

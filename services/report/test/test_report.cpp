@@ -2,6 +2,7 @@
 #include <unistd.h>
 
 #include "dh/common/stats.hpp"
+#include "dh/report/climb.hpp"
 #include "dh/report/report.hpp"
 
 #include <cmath>
@@ -539,4 +540,26 @@ TEST(Summarize, ThePolicySectionReadsTheTrainingRecordAndNamesAMissingOne) {
   EXPECT_DOUBLE_EQ(s["policy"]["curve"][1]["validation"].get<double>(), 0.3);
   o.policy_dir.clear();
   EXPECT_TRUE(summarize(campaign(dir.path()), o)["policy"].is_null());
+}
+
+// The climb's plot: each point with its interval and decision in climb.dat, climb.png drawn when gnuplot
+// is there (the reason otherwise), and nothing to draw said so.
+TEST(Climb, EachRoundsSuccessWithItsIntervalAndDecisionIsDrawn) {
+  TempDir dir;
+  const std::vector<ClimbPoint> points{{"round 1", 0.5, 0.4, 0.6, "rejected"},
+                                       {"round 2", 0.5, 0.4, 0.6, "admitted"},
+                                       {"final", 0.625, 0.5, 0.75, ""}};
+  const std::string why_not = draw_climb(points, dir.path());
+  std::ifstream dat(dir.path() / "climb.dat");
+  const std::string data((std::istreambuf_iterator<char>(dat)), std::istreambuf_iterator<char>());
+  if (!gnuplot_on_path()) {
+    EXPECT_NE(why_not.find("gnuplot was not found"), std::string::npos) << why_not;
+    return;
+  }
+  EXPECT_EQ(why_not, "");
+  EXPECT_GT(fs::file_size(dir.path() / "climb.png"), 0u);
+  EXPECT_NE(data.find("1 \"round 2\" 50 40 60 \"admitted\""), std::string::npos) << data;
+  EXPECT_NE(data.find("2 \"final\" 62.5 50 75 \"-\""), std::string::npos) << data;
+  EXPECT_EQ(draw_climb({}, dir.path()), "no round has a success yet");
+  EXPECT_FALSE(fs::exists(dir.path() / "climb.png")) << "an earlier climb's image stayed";
 }
