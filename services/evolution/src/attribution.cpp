@@ -110,8 +110,10 @@ const std::vector<NamedCheck>& checks() {
            return !c.recovery && (c.state == "failed" || c.state == "expired");
          });
        }},
-      {"effect_absent", "a step completed but its effect did not hold (asked again, or the plan done and the goal unmet)",
-       [](const EpisodeFacts& f) { return completed_then_again(f) || f.planner_done; }},
+      {"effect_absent",
+       "a step completed but its effect did not hold (asked again, or the plan done or a frozen plan run to its "
+       "end, and the goal unmet)",
+       [](const EpisodeFacts& f) { return completed_then_again(f) || f.planner_done || f.gave_up_on_completion; }},
       {"recovery_failed", "an inserted recovery did not complete",
        [](const EpisodeFacts& f) { return any_command(f, [](const CommandFacts& c) { return c.recovery && failed(c); }); }},
       {"policy_in_control", "vla_act was the command in control at the end",

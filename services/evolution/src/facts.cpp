@@ -79,6 +79,7 @@ EpisodeFacts read_facts(const std::vector<json>& records, bool flagged_infrastru
       const std::string d = field<std::string>(r, "decision");
       recovery_next = d == "insert_recovery";
       f.last_stagnant = r.value("stagnant", 0);
+      f.gave_up_on_completion = d == "give_up" && r.value("phase", "") == "completed";
     } else if (kind == "command_status") {
       const auto it = by_id.find(field<std::string>(r, "command_id"));
       if (it == by_id.end()) continue;  // a status of a command this episode did not dispatch

@@ -121,6 +121,20 @@ TEST(Attribution, OneConstructedEpisodePerLayer) {
             "verification")
       << "every step done, the goal unmet";
   EXPECT_EQ(Evidence()
+                .command("c0", "pick_place", "completed")
+                .add("decision", {{"decision", "give_up"}, {"phase", "completed"}, {"stagnant", 0}})
+                .end()
+                .label(),
+            "verification")
+      << "seq's frozen plan run to its end, the goal unmet";
+  EXPECT_EQ(Evidence()
+                .command("c0", "pick_place", "failed", "grasp_missed")
+                .add("decision", {{"decision", "give_up"}, {"phase", "failed"}, {"stagnant", 0}})
+                .end()
+                .label(),
+            "capability_execution")
+      << "giving up on a failed command is not a missing effect";
+  EXPECT_EQ(Evidence()
                 .command("c0", "regrasp", "failed", "grasp_missed", {{"object", "bowl"}}, true)
                 .end()
                 .label(),

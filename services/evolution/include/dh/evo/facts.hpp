@@ -44,6 +44,8 @@ struct EpisodeFacts {
   std::vector<RefusalFacts> refusals;     ///< in order
   std::vector<CommandFacts> commands;     ///< in dispatch order
   bool planner_done = false;      ///< the last advice said every step is done
+  /// The last decision gave up on a completed command: a frozen plan (seq) run to its end, the goal unmet.
+  bool gave_up_on_completion = false;
   bool verdict_lost = false;      ///< the task predicate held at some step and later did not
   bool latched = false;           ///< the governor's latch held at the end
   int last_stagnant = -1;         ///< stagnant decisions at the last decision (-1: no decision)
