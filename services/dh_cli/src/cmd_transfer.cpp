@@ -53,8 +53,9 @@ int cmd_transfer(const TransferArgs& a) {
   const auto snapshots = campaign::parse_list(a.snapshots, "--snapshots");
   if (snapshots.size() < 2)
     throw std::invalid_argument("--snapshots: give at least two library folders, in the climb's order");
-  const Selection sel{a.arm, campaign::parse_list(a.cells, "--cells"),
-                      a.tasks.empty() ? std::vector<unsigned>{} : campaign::parse_numbers(a.tasks, "--tasks")};
+  const Selection sel{
+      a.arm, campaign::parse_list(a.cells, "--cells"),
+      a.tasks.empty() ? std::vector<unsigned>{} : campaign::parse_numbers(a.tasks, "--tasks")};
   const fs::path out = a.out.empty() ? paths::runs_dir() / "transfer" : fs::path(a.out);
   fs::create_directories(out);
   std::vector<evo::SnapshotEpisodes> all;
@@ -76,8 +77,11 @@ int cmd_transfer(const TransferArgs& a) {
       if (!summary || (*summary)["campaign"]["interrupted"].get<bool>()) return false;
       return true;
     };
-    if (const auto db = dev_db_of(a.dev_dbs.empty() ? std::vector<std::string>{} : campaign::parse_list(a.dev_dbs, "--dev-dbs"), version, sel)) {
-      std::cerr << "dh transfer: " << dir << " (" << version << "): development success from " << db->string() << "\n";
+    if (const auto db = dev_db_of(
+            a.dev_dbs.empty() ? std::vector<std::string>{} : campaign::parse_list(a.dev_dbs, "--dev-dbs"),
+            version, sel)) {
+      std::cerr << "dh transfer: " << dir << " (" << version << "): development success from " << db->string()
+                << "\n";
       s.dev = sel.rows_of(*db);
     } else {
       c.seeds = a.dev_seeds;
@@ -88,15 +92,16 @@ int cmd_transfer(const TransferArgs& a) {
     c.fresh_seeds = a.fresh_seeds;
     c.salt = a.salt;
     const fs::path fresh = out / ("fresh-salt" + std::to_string(a.salt)) / (version + ".db");
-    if (!run(fresh, "a fresh block, " + std::to_string(a.fresh_seeds) + " seeds, salt " + std::to_string(a.salt)))
+    if (!run(fresh,
+             "a fresh block, " + std::to_string(a.fresh_seeds) + " seeds, salt " + std::to_string(a.salt)))
       return 1;
     s.fresh = sel.rows_of(fresh);
     all.push_back(std::move(s));
   }
   const evo::TransferSummary summary = evo::summarise_transfer(all);
-  const std::string md = "# Snapshots on new states\n\nArm " + a.arm + ", cells " + a.cells + ", fresh block " +
-                         std::to_string(a.fresh_seeds) + " seeds per task, salt " + std::to_string(a.salt) +
-                         ".\n\n" + evo::transfer_markdown(summary);
+  const std::string md = "# Snapshots on new states\n\nArm " + a.arm + ", cells " + a.cells +
+                         ", fresh block " + std::to_string(a.fresh_seeds) + " seeds per task, salt " +
+                         std::to_string(a.salt) + ".\n\n" + evo::transfer_markdown(summary);
   std::ofstream(out / "transfer.md") << md;
   if (!a.json) {
     std::cout << md << "\nWritten to " << (out / "transfer.md").string() << "\n";

@@ -31,7 +31,9 @@ TransferSummary summarise_transfer(const std::vector<SnapshotEpisodes>& snapshot
     if (snap.dev.empty() || snap.fresh.empty())
       throw std::invalid_argument("snapshot " + snap.name + " (" + snap.version + ") has no " +
                                   (snap.dev.empty() ? "development" : "fresh") + " episodes");
-    SnapshotRates r{snap.name, snap.version};
+    SnapshotRates r;
+    r.name = snap.name;
+    r.version = snap.version;
     r.dev = stats::clustered_rate(clustered(snap.dev, r.dev_successes), resamples);
     r.fresh = stats::clustered_rate(clustered(snap.fresh, r.fresh_successes), resamples);
     r.dev_episodes = static_cast<unsigned>(snap.dev.size());
@@ -52,17 +54,18 @@ TransferSummary summarise_transfer(const std::vector<SnapshotEpisodes>& snapshot
 }
 
 std::string transfer_markdown(const TransferSummary& s) {
-  std::string md =
-      "| # | snapshot | library | development | fresh block |\n|---|---|---|---|---|\n";
+  std::string md = "| # | snapshot | library | development | fresh block |\n|---|---|---|---|---|\n";
   for (std::size_t i = 0; i < s.snapshots.size(); ++i) {
     const SnapshotRates& r = s.snapshots[i];
     md += fmt::format("| {} | {} | {} | {} | {} |\n", i + 1, r.name, r.version,
-                      rate(r.dev_successes, r.dev_episodes, r.dev), rate(r.fresh_successes, r.fresh_episodes, r.fresh));
+                      rate(r.dev_successes, r.dev_episodes, r.dev),
+                      rate(r.fresh_successes, r.fresh_episodes, r.fresh));
   }
   md += "\nIntervals: cell × task cluster bootstrap, 95 %.\n\n";
   md += fmt::format("First to last snapshot: development {:+.1f} points, fresh block {:+.1f} points.\n",
                     s.dev_gain_pp, s.fresh_gain_pp);
-  md += s.rho ? fmt::format("Spearman ρ of the two columns over {} snapshots: {:.2f}.\n", s.snapshots.size(), *s.rho)
+  md += s.rho ? fmt::format("Spearman ρ of the two columns over {} snapshots: {:.2f}.\n", s.snapshots.size(),
+                            *s.rho)
               : "Spearman ρ is undefined: " + s.rho_note + ".\n";
   return md;
 }

@@ -32,9 +32,8 @@ SnapshotEpisodes snapshot(const std::string& name, unsigned dev_k, unsigned fres
 }  // namespace
 
 TEST(Transfer, RatesGainsAndTheRankCorrelationOfTheTwoColumns) {
-  const auto s = summarise_transfer({snapshot("a", 20, 18), snapshot("b", 24, 22), snapshot("c", 28, 21),
-                                     snapshot("d", 32, 27)},
-                                    2000);
+  const auto s = summarise_transfer(
+      {snapshot("a", 20, 18), snapshot("b", 24, 22), snapshot("c", 28, 21), snapshot("d", 32, 27)}, 2000);
   ASSERT_EQ(s.snapshots.size(), 4u);
   EXPECT_EQ(s.snapshots[0].dev_successes, 20u);
   EXPECT_EQ(s.snapshots[0].fresh_episodes, 40u);
@@ -74,6 +73,7 @@ TEST(Transfer, ASnapshotWithoutEpisodesIsNamed) {
     summarise_transfer({snapshot("a", 10, 10), empty}, 0);
     FAIL() << "summarised a snapshot with no fresh episodes";
   } catch (const std::invalid_argument& e) {
-    EXPECT_NE(std::string(e.what()).find("snapshot b (lib-b) has no fresh episodes"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("snapshot b (lib-b) has no fresh episodes"), std::string::npos)
+        << e.what();
   }
 }

@@ -34,7 +34,8 @@ struct PerceptionCoreTest : ::testing::Test {
   synth::Rendered rendered = [] {
     synth::Scene s;
     s.world_from_camera = synth::workcell_camera();
-    s.boxes = {synth::Box{Eigen::Vector3d(0.05, -0.02, 0.03), 0, Eigen::Vector3d(0.06, 0.06, 0.06), {200, 40, 40}}};
+    s.boxes = {
+        synth::Box{Eigen::Vector3d(0.05, -0.02, 0.03), 0, Eigen::Vector3d(0.06, 0.06, 0.06), {200, 40, 40}}};
     return synth::render(s);
   }();
   BoxSegmenter segmenter;
@@ -58,7 +59,8 @@ struct PerceptionCoreTest : ::testing::Test {
         },
         segmenter, cloud);
   }
-  PerceptionEffects start(std::uint32_t channel, const std::string& episode, const std::string& grounding = "perception") {
+  PerceptionEffects start(std::uint32_t channel, const std::string& episode,
+                          const std::string& grounding = "perception") {
     return core->on_episode(channel, episode, grounding, "goal", 3, t0);
   }
   PerceptionEffects frame(const FrameAsk& ask, const std::string& episode, std::uint32_t step,
@@ -108,9 +110,11 @@ TEST_F(PerceptionCoreTest, AFrameBecomesAnEstimateOfWhatWasLookedForAndSeen) {
   EXPECT_EQ(e.stamp_s, 1.5);
   EXPECT_EQ(e.looked_for, std::vector<std::string>{"red_box"});
   ASSERT_EQ(e.seen.size(), 1u);
-  EXPECT_LT((e.seen[0].centroid - Eigen::Vector3d(0.05, -0.02, 0.03)).norm(), 0.01) << e.seen[0].centroid.transpose();
+  EXPECT_LT((e.seen[0].centroid - Eigen::Vector3d(0.05, -0.02, 0.03)).norm(), 0.01)
+      << e.seen[0].centroid.transpose();
   EXPECT_GE(e.latency_ms, 0.0);
-  EXPECT_TRUE(frame(ask, "ep", 0).notes.empty() && !frame(ask, "ep", 0).estimate) << "one frame answered twice";
+  EXPECT_TRUE(frame(ask, "ep", 0).notes.empty() && !frame(ask, "ep", 0).estimate)
+      << "one frame answered twice";
 }
 
 TEST_F(PerceptionCoreTest, AFrameThatCannotBeMadeIsAnEstimateThatSeesNothingAndSaysWhy) {
@@ -151,7 +155,8 @@ TEST_F(PerceptionCoreTest, AnUnknownTaskIsANoteAndTheResultEndsTheLooking) {
 
   start(1, "ep1");
   core->on_result(1, "someone-else");
-  EXPECT_EQ(core->on_observation(1, "ep1", 0, t0).asks.size(), 1u) << "another episode's result ended this one";
+  EXPECT_EQ(core->on_observation(1, "ep1", 0, t0).asks.size(), 1u)
+      << "another episode's result ended this one";
   core->on_result(1, "ep1");
   EXPECT_TRUE(core->on_tick(t0 + 10s).asks.empty()) << "an ended episode asked again";
 }

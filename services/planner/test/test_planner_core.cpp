@@ -24,7 +24,10 @@ Request request(std::uint32_t channel, const std::string& id, PlannerErrorRates 
   return {channel,
           id,
           "episode-" + std::to_string(channel),
-          {"put the bowl on the plate", {entity("bowl", "bowl"), entity("plate", "plate")}, {"pick_place", "push"}, {}},
+          {"put the bowl on the plate",
+           {entity("bowl", "bowl"), entity("plate", "plate")},
+           {"pick_place", "push"},
+           {}},
           21,
           0,
           errors};
@@ -62,8 +65,9 @@ TEST(PlannerCore, AnAnswerCarriesTheErrorItsRequestsRatesDraw) {
   EXPECT_EQ(a.advice.capability, "push") << "the other eligible capability";
   // The same draw as the perturbation makes on its own.
   PlannerAdvice expected = plan_rules(request(0, "r1").context);
-  EXPECT_EQ(make_wrong(expected, request(0, "r1").context, draw_planner_error(always_wrong_capability, 21, 0)),
-            a.injected);
+  EXPECT_EQ(
+      make_wrong(expected, request(0, "r1").context, draw_planner_error(always_wrong_capability, 21, 0)),
+      a.injected);
   EXPECT_EQ(a.advice.capability, expected.capability);
   EXPECT_EQ(a.advice.args, expected.args);
 }

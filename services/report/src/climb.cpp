@@ -30,7 +30,8 @@ set yrange [0:105]
 set offsets 0.5, 0.5, 0, 0
 set grid ytics
 set key outside right top
-plot )" << file("climb.dat") << R"( using 1:3:4:5:xtic(2) with yerrorlines lw 2 pt 7 title 'success', \
+plot )"
+     << file("climb.dat") << R"( using 1:3:4:5:xtic(2) with yerrorlines lw 2 pt 7 title 'success', \
      '' using 1:3:(strcol(6) eq '-' ? '' : strcol(6)) with labels offset 0,-1.5 notitle
 set output
 )";
@@ -38,9 +39,11 @@ set output
     return "could not write the climb's plot data into " + dir.string();
   const int status = gnuplot::run(program, dir / "climb.gp", dir / "climb.log");
   if (status != 0)
-    return (status < 0 ? std::string("gnuplot did not run") : "gnuplot exited with status " + std::to_string(status)) +
+    return (status < 0 ? std::string("gnuplot did not run")
+                       : "gnuplot exited with status " + std::to_string(status)) +
            "; see " + (dir / "climb.log").string();
-  if (fs::file_size(dir / "climb.png", ec) == 0 || ec) return "gnuplot did not write climb.png; see climb.log";
+  if (fs::file_size(dir / "climb.png", ec) == 0 || ec)
+    return "gnuplot did not write climb.png; see climb.log";
   return "";
 }
 

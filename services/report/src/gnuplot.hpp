@@ -15,7 +15,8 @@ std::string quote(const std::string& s);
 std::string data_label(const std::string& s);
 bool write_file(const std::filesystem::path& path, const std::string& text);
 /// Runs `program script` with stdout and stderr in `log`; returns the exit status, or −1 if it did not run.
-int run(const std::filesystem::path& program, const std::filesystem::path& script, const std::filesystem::path& log);
+int run(const std::filesystem::path& program, const std::filesystem::path& script,
+        const std::filesystem::path& log);
 /// The script's first lines: a PNG terminal of `width` x `height` (pngcairo when gnuplot has it).
 std::string png_terminal(int width, int height);
 

@@ -2,8 +2,12 @@
 
 namespace dh::perception {
 
-PerceptionCore::PerceptionCore(CoreSettings settings, ObjectsOf objects_of, Segmenter& segmenter, CloudParams cloud)
-    : settings_(std::move(settings)), objects_of_(std::move(objects_of)), segmenter_(segmenter), cloud_(cloud) {}
+PerceptionCore::PerceptionCore(CoreSettings settings, ObjectsOf objects_of, Segmenter& segmenter,
+                               CloudParams cloud)
+    : settings_(std::move(settings)),
+      objects_of_(std::move(objects_of)),
+      segmenter_(segmenter),
+      cloud_(cloud) {}
 
 const Ports& PerceptionCore::ports() {
   static const Ports p{
@@ -70,15 +74,15 @@ PerceptionEffects PerceptionCore::on_observation(std::uint32_t channel, const st
 PerceptionEffects PerceptionCore::on_frame(const FrameMeta& meta, const std::function<RgbdFrame()>& pixels) {
   PerceptionEffects fx;
   const auto it = channels_.find(meta.channel);
-  if (it == channels_.end() || meta.request_id != it->second.pending) return fx;  // not what this channel waits for
+  if (it == channels_.end() || meta.request_id != it->second.pending)
+    return fx;  // not what this channel waits for
   Channel& ch = it->second;
   if (!meta.error.empty() || (!meta.episode_id.empty() && meta.episode_id != ch.episode_id)) {
     // Asked before the simulator started the episode, or it could not render: asked again after the timeout.
-    fx.notes.push_back({Note::Level::Warn, "channel=" + std::to_string(meta.channel) + " frame " + meta.request_id +
-                                               ": " +
-                                               (meta.error.empty() ? "shows episode '" + meta.episode_id +
-                                                                         "', not this one"
-                                                                   : meta.error)});
+    fx.notes.push_back(
+        {Note::Level::Warn,
+         "channel=" + std::to_string(meta.channel) + " frame " + meta.request_id + ": " +
+             (meta.error.empty() ? "shows episode '" + meta.episode_id + "', not this one" : meta.error)});
     return fx;
   }
   ch.pending.clear();
@@ -86,8 +90,8 @@ PerceptionEffects PerceptionCore::on_frame(const FrameMeta& meta, const std::fun
   return fx;
 }
 
-SceneOut PerceptionCore::estimate(const FrameMeta& meta, Channel& ch, const std::function<RgbdFrame()>& pixels,
-                                  PerceptionEffects& fx) {
+SceneOut PerceptionCore::estimate(const FrameMeta& meta, Channel& ch,
+                                  const std::function<RgbdFrame()>& pixels, PerceptionEffects& fx) {
   const auto t0 = Clock::now();
   SceneOut out;
   out.channel = meta.channel;
@@ -107,8 +111,8 @@ SceneOut PerceptionCore::estimate(const FrameMeta& meta, Channel& ch, const std:
       out.seen.push_back(e);
     }
   } catch (const std::exception& e) {
-    fx.notes.push_back({Note::Level::Error, "channel=" + std::to_string(meta.channel) + " frame " + meta.request_id +
-                                                " not processed: " + e.what()});
+    fx.notes.push_back({Note::Level::Error, "channel=" + std::to_string(meta.channel) + " frame " +
+                                                meta.request_id + " not processed: " + e.what()});
   }
   for (const auto& a : ch.looked_for) out.looked_for.push_back(a.entity);
   out.latency_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();

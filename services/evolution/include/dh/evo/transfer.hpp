@@ -36,7 +36,8 @@ struct TransferSummary {
 
 /// Rates, ρ and gains; episodes lost to infrastructure count as failures, as in every report. Throws
 /// std::invalid_argument naming a snapshot without episodes in either column.
-TransferSummary summarise_transfer(const std::vector<SnapshotEpisodes>& snapshots, unsigned resamples = 20000);
+TransferSummary summarise_transfer(const std::vector<SnapshotEpisodes>& snapshots,
+                                   unsigned resamples = 20000);
 
 /// The table and the figures under it, Markdown.
 std::string transfer_markdown(const TransferSummary& s);

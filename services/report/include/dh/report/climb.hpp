@@ -9,9 +9,9 @@
 namespace dh::report {
 
 struct ClimbPoint {
-  std::string label;  ///< "round 1", …, "final"
+  std::string label;                   ///< "round 1", …, "final"
   double success = 0, lo = 0, hi = 0;  ///< rates in [0, 1]
-  std::string decision;                ///< the round's: admitted, rejected, running; empty for the final point
+  std::string decision;  ///< the round's: admitted, rejected, running; empty for the final point
 };
 
 /// Writes climb.dat and climb.gp into `dir` and runs gnuplot (its output in climb.log) to draw climb.png.

@@ -74,8 +74,9 @@ class PerceptionCore {
   /// What the service reads and writes (README.md lists them; a test checks the list).
   static const Ports& ports();
 
-  PerceptionEffects on_episode(std::uint32_t channel, const std::string& episode_id, const std::string& grounding,
-                               const std::string& suite, std::uint32_t task, Clock::time_point now);
+  PerceptionEffects on_episode(std::uint32_t channel, const std::string& episode_id,
+                               const std::string& grounding, const std::string& suite, std::uint32_t task,
+                               Clock::time_point now);
   void on_result(std::uint32_t channel, const std::string& episode_id);
   PerceptionEffects on_observation(std::uint32_t channel, const std::string& episode_id, std::uint32_t step,
                                    Clock::time_point now);
@@ -104,7 +105,8 @@ class PerceptionCore {
   Segmenter& segmenter_;
   CloudParams cloud_;
   std::map<std::uint32_t, Channel> channels_;
-  std::map<std::uint32_t, std::pair<std::string, std::uint32_t>> last_seen_;  ///< episode and step per channel
+  std::map<std::uint32_t, std::pair<std::string, std::uint32_t>>
+      last_seen_;  ///< episode and step per channel
   std::uint64_t requests_ = 0;
 };
 
