@@ -17,9 +17,9 @@
 #include "dh/cap/library_theta.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/common/shutdown.hpp"
-#include "dh/common/stats.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/evo/registry.hpp"
+#include "dh/evo/transfer.hpp"
 #include "dh/report/climb.hpp"
 
 namespace dh::cli {
@@ -334,10 +334,9 @@ class Climb {
   std::vector<report::ClimbPoint> climb_points() const {
     std::vector<report::ClimbPoint> points;
     const auto point = [&](const std::string& label, const std::string& db, const std::string& decision) {
-      std::vector<stats::ClusteredOutcome> outcomes;
-      for (const auto& r : campaign::CampaignDb::read_rows(db))
-        if (r.arm == a_.arm) outcomes.push_back({r.cell + "/" + std::to_string(r.task), r.success});
-      const auto rate = stats::clustered_rate(outcomes);
+      std::vector<EpisodeRecord> rows = campaign::CampaignDb::read_rows(db);
+      std::erase_if(rows, [&](const EpisodeRecord& r) { return r.arm != a_.arm; });
+      const auto rate = evo::clustered_success(rows);
       points.push_back({label, rate.interval.point, rate.interval.lo, rate.interval.hi, decision});
     };
     for (const auto& r : (*state_)["rounds"]) {

@@ -35,14 +35,16 @@ struct Selection {
   }
 };
 
-/// The database of `dbs` whose campaign ran library `version` and has rows of the selection; nullopt when
-/// none.
-std::optional<fs::path> dev_db_of(const std::vector<std::string>& dbs, const std::string& version,
-                                  const Selection& sel) {
+/// The first database of `dbs` whose campaign ran library `version` with rows of the selection, and those
+/// rows; nullopt when none.
+std::optional<std::pair<fs::path, std::vector<EpisodeRecord>>> dev_rows_of(const std::vector<std::string>& dbs,
+                                                                           const std::string& version,
+                                                                           const Selection& sel) {
   for (const auto& f : dbs) {
     if (!fs::exists(f)) throw std::invalid_argument("--dev-dbs: no database " + f);
     const auto plan = campaign::CampaignDb::open(f).plan();
-    if (plan && plan->library_version == version && !sel.rows_of(f).empty()) return fs::path(f);
+    if (!plan || plan->library_version != version) continue;
+    if (auto rows = sel.rows_of(f); !rows.empty()) return std::make_pair(fs::path(f), std::move(rows));
   }
   return std::nullopt;
 }
@@ -56,6 +58,8 @@ int cmd_transfer(const TransferArgs& a) {
   const Selection sel{
       a.arm, campaign::parse_list(a.cells, "--cells"),
       a.tasks.empty() ? std::vector<unsigned>{} : campaign::parse_numbers(a.tasks, "--tasks")};
+  const auto dev_dbs =
+      a.dev_dbs.empty() ? std::vector<std::string>{} : campaign::parse_list(a.dev_dbs, "--dev-dbs");
   const fs::path out = a.out.empty() ? paths::runs_dir() / "transfer" : fs::path(a.out);
   fs::create_directories(out);
   std::vector<evo::SnapshotEpisodes> all;
@@ -74,15 +78,12 @@ int cmd_transfer(const TransferArgs& a) {
       c.db = db.string();
       std::cerr << "dh transfer: " << dir << " (" << version << "): " << what << "\n";
       const auto summary = run_campaign(c);
-      if (!summary || (*summary)["campaign"]["interrupted"].get<bool>()) return false;
-      return true;
+      return summary && !(*summary)["campaign"]["interrupted"].get<bool>();
     };
-    if (const auto db = dev_db_of(
-            a.dev_dbs.empty() ? std::vector<std::string>{} : campaign::parse_list(a.dev_dbs, "--dev-dbs"),
-            version, sel)) {
-      std::cerr << "dh transfer: " << dir << " (" << version << "): development success from " << db->string()
-                << "\n";
-      s.dev = sel.rows_of(*db);
+    if (auto found = dev_rows_of(dev_dbs, version, sel)) {
+      std::cerr << "dh transfer: " << dir << " (" << version << "): development success from "
+                << found->first.string() << "\n";
+      s.dev = std::move(found->second);
     } else {
       c.seeds = a.dev_seeds;
       if (!run(out / "dev" / (version + ".db"), "the development seeds " + a.dev_seeds)) return 1;

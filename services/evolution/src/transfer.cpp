@@ -2,19 +2,14 @@
 
 #include <spdlog/fmt/fmt.h>
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace dh::evo {
 namespace {
 
-std::vector<stats::ClusteredOutcome> clustered(const std::vector<EpisodeRecord>& rows, unsigned& successes) {
-  std::vector<stats::ClusteredOutcome> out;
-  successes = 0;
-  for (const auto& r : rows) {
-    out.push_back({r.cell + "/" + std::to_string(r.task), r.success});
-    successes += r.success;
-  }
-  return out;
+unsigned successes(const std::vector<EpisodeRecord>& rows) {
+  return static_cast<unsigned>(std::count_if(rows.begin(), rows.end(), [](const auto& r) { return r.success; }));
 }
 
 std::string rate(unsigned k, unsigned n, const stats::ClusteredRate& c) {
@@ -23,6 +18,12 @@ std::string rate(unsigned k, unsigned n, const stats::ClusteredRate& c) {
 }
 
 }  // namespace
+
+stats::ClusteredRate clustered_success(const std::vector<EpisodeRecord>& rows, unsigned resamples) {
+  std::vector<stats::ClusteredOutcome> outcomes;
+  for (const auto& r : rows) outcomes.push_back({r.cell + "/" + std::to_string(r.task), r.success});
+  return stats::clustered_rate(outcomes, resamples);
+}
 
 TransferSummary summarise_transfer(const std::vector<SnapshotEpisodes>& snapshots, unsigned resamples) {
   TransferSummary s;
@@ -34,8 +35,10 @@ TransferSummary summarise_transfer(const std::vector<SnapshotEpisodes>& snapshot
     SnapshotRates r;
     r.name = snap.name;
     r.version = snap.version;
-    r.dev = stats::clustered_rate(clustered(snap.dev, r.dev_successes), resamples);
-    r.fresh = stats::clustered_rate(clustered(snap.fresh, r.fresh_successes), resamples);
+    r.dev = clustered_success(snap.dev, resamples);
+    r.fresh = clustered_success(snap.fresh, resamples);
+    r.dev_successes = successes(snap.dev);
+    r.fresh_successes = successes(snap.fresh);
     r.dev_episodes = static_cast<unsigned>(snap.dev.size());
     r.fresh_episodes = static_cast<unsigned>(snap.fresh.size());
     dev.push_back(r.dev.interval.point);

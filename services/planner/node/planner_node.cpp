@@ -17,7 +17,6 @@
 #include <condition_variable>
 #include <deque>
 #include <fstream>
-#include <map>
 #include <mutex>
 #include <sstream>
 #include <thread>

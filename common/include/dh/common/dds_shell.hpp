@@ -275,6 +275,11 @@ class Shell {
   static std::chrono::milliseconds assert_every() {
     return std::chrono::milliseconds(static_cast<int>(kLivelinessLeaseSec * 1000 / 4));
   }
+  /// How long a turn of the loop or of a lane waits for an event.
+  std::chrono::milliseconds wait() {
+    if constexpr (requires { b_.wait(); }) return b_.wait();
+    return std::chrono::milliseconds(50);
+  }
   std::chrono::milliseconds allowance() {
     if constexpr (requires { b_.loop_allowance(); }) return std::max(assert_every(), b_.loop_allowance());
     return assert_every();
@@ -313,9 +318,7 @@ class Shell {
       std::lock_guard l(lane_failure_mutex_);
       if (lane_failure_) std::rethrow_exception(lane_failure_);
     }
-    std::chrono::milliseconds wait{50};
-    if constexpr (requires { b_.wait(); }) wait = b_.wait();
-    if (auto e = ctx_.queue_.pop(wait)) std::visit([this](auto& ev) { dispatch(ev); }, *e);
+    if (auto e = ctx_.queue_.pop(wait())) std::visit([this](auto& ev) { dispatch(ev); }, *e);
     if constexpr (requires { b_.tick(ctx_); }) b_.tick(ctx_);
     beat_.now();
   }
@@ -355,10 +358,8 @@ class Shell {
       LaneLoop& loop = *lanes_[i];
       try {
         if constexpr (requires { lane.enter(ctx_); }) lane.enter(ctx_);
-        std::chrono::milliseconds wait{50};
-        if constexpr (requires { b_.wait(); }) wait = b_.wait();
         while (!lanes_stop_ && !shutdown_requested()) {
-          if (auto e = loop.queue.pop(wait)) std::visit([&](auto& ev) { dispatch_lane(lane, ev); }, *e);
+          if (auto e = loop.queue.pop(wait())) std::visit([&](auto& ev) { dispatch_lane(lane, ev); }, *e);
           if constexpr (requires { lane.tick(ctx_); }) lane.tick(ctx_);
           loop.beat.now();
         }

@@ -34,6 +34,10 @@ struct TransferSummary {
   double dev_gain_pp = 0, fresh_gain_pp = 0;  ///< last snapshot's rate minus the first's, points
 };
 
+/// The pooled success of `rows` with its cell × task cluster-bootstrap interval (a loss to infrastructure
+/// is a failure).
+stats::ClusteredRate clustered_success(const std::vector<EpisodeRecord>& rows, unsigned resamples = 20000);
+
 /// Rates, ρ and gains; episodes lost to infrastructure count as failures, as in every report. Throws
 /// std::invalid_argument naming a snapshot without episodes in either column.
 TransferSummary summarise_transfer(const std::vector<SnapshotEpisodes>& snapshots,
