@@ -74,7 +74,8 @@ static void BM_Ground(benchmark::State& state) {
   Advice a{"p0", false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules", false, {}};
   const std::set<std::string> masked;
   const std::map<std::string, std::map<std::string, double>> library;  // announced θ
-  for (auto _ : state) benchmark::DoNotOptimize(ground({a, registry, obs, 260, masked, "ep/c0", 10, library}));
+  const std::map<std::string, std::uint32_t> costs;                     // and cost
+  for (auto _ : state) benchmark::DoNotOptimize(ground({a, registry, obs, 260, masked, "ep/c0", 10, library, costs}));
 }
 BENCHMARK(BM_Ground)->DH_PERCENTILES;
 

@@ -1,6 +1,6 @@
 // One episode loop: the same episodes over DDS (every process of campaign_local.yaml) and in process (the
 // lock-step bus) give the same outcome, the same steps and the same evidence records. Wall-clock fields
-// (t_wall_ns, the decision latency), the record order across topics (DDS does not order two topics), the
+// (t_wall_ns, the decision latency, a snapshot's waits), the record order across topics (DDS does not order two topics), the
 // channel, episode ids and instance names (host and pid) aside.
 #include <nlohmann/json.hpp>
 
@@ -26,7 +26,7 @@ std::vector<std::string> normalised(const std::filesystem::path& file) {
   static const std::regex instance(R"re("([a-z_]+)@[^"]*")re");
   std::vector<std::string> out;
   for (auto r : records) {
-    for (const char* wall : {"t_wall_ns", "seq", "latency_ns", "channel"}) r.erase(wall);
+    for (const char* wall : {"t_wall_ns", "seq", "latency_ns", "channel", "waits"}) r.erase(wall);
     std::string text = r.dump();
     for (auto at = text.find(episode); !episode.empty() && at != std::string::npos; at = text.find(episode, at))
       text.replace(at, episode.size(), "EP");
@@ -34,6 +34,17 @@ std::vector<std::string> normalised(const std::filesystem::path& file) {
   }
   std::sort(out.begin(), out.end());
   return out;
+}
+
+/// Where the first records of each side part: the text around the first character that differs.
+std::string first_difference(const std::vector<std::string>& dds, const std::vector<std::string>& inproc) {
+  if (dds.empty() || inproc.empty())
+    return (dds.empty() ? "in process " + inproc.front() : "over DDS " + dds.front()).substr(0, 400);
+  const std::string &a = dds.front(), &b = inproc.front();
+  std::size_t at = 0;
+  while (at < a.size() && at < b.size() && a[at] == b[at]) ++at;
+  const std::size_t from = at > 120 ? at - 120 : 0;
+  return "over DDS ..." + a.substr(from, 240) + "... in process ..." + b.substr(from, 240) + "...";
 }
 
 }  // namespace
@@ -60,9 +71,8 @@ TEST(Equivalence, EightyEpisodesOverDdsAndInProcessAreTheSame) {
     std::set_difference(inproc_records.begin(), inproc_records.end(), dds_records.begin(), dds_records.end(),
                         std::back_inserter(only_inproc));
     EXPECT_TRUE(only_dds.empty() && only_inproc.empty())
-        << what << ": " << only_dds.size() << " record(s) only over DDS, e.g. "
-        << (only_dds.empty() ? "-" : only_dds.front().substr(0, 400)) << "; " << only_inproc.size()
-        << " only in process, e.g. " << (only_inproc.empty() ? "-" : only_inproc.front().substr(0, 400));
+        << what << ": " << only_dds.size() << " record(s) only over DDS, " << only_inproc.size()
+        << " only in process; first: " << first_difference(only_dds, only_inproc);
     same += only_dds.empty() && only_inproc.empty() && in.success == row.success && in.steps == row.steps;
     successes += row.success;
   }

@@ -2,7 +2,7 @@
 // the planner, every capability family, perception) replay in process bit for bit: every state digest,
 // every skill action and every verdict as recorded, also from the state recorded at a command's start. Their
 // commands, probed from the state recorded at their start under the recorded θ (every failed one and one
-// other per episode), run as recorded. And
+// other per episode), run as recorded, and so does the rest of each episode from there. And
 // `dh replay` refuses a changed θ.
 #include <nlohmann/json.hpp>
 
@@ -32,7 +32,7 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
 
   std::set<std::string> arms, cells;
   std::size_t identical = 0, compared = 0, resumed = 0, resumed_mid = 0, probed = 0, probes_reproduce = 0,
-              failures_reproduce = 0;
+              failures_reproduce = 0, rests_reproduce = 0;
   for (const auto& row : rows) {
     ASSERT_FALSE(row.infrastructure) << row.episode_id << ": " << row.reason;
     const auto r = inproc::replay(row.evidence_path, {paths::config_dir(), {}, std::nullopt, false, {}});
@@ -75,6 +75,14 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
       ++probed;
       probes_reproduce += p.reproduces;
       failures_reproduce += p.reproduces && p.recorded && p.recorded->state == "failed";
+      // And the rest of the episode from there: the governor restored from its snapshot at the dispatch
+      // decides again, on the bus, every step and the episode's end as recorded over DDS.
+      evo::ProbeOptions o{paths::config_dir(), {}, c, std::nullopt};
+      o.rest = true;
+      const auto rest = evo::probe(row.evidence_path, o);
+      EXPECT_TRUE(rest.reproduces) << row.evidence_path << " rest of the episode from command " << c << ": "
+                                   << evo::to_json(rest).dump().substr(0, 600);
+      rests_reproduce += rest.reproduces;
     }
     arms.insert(row.arm);
     cells.insert(row.cell);
@@ -82,9 +90,11 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
   EXPECT_EQ(identical, rows.size());
   EXPECT_GE(resumed_mid, 20u) << "restored mid-episode states replay identically";
   EXPECT_EQ(probes_reproduce, probed);
+  EXPECT_EQ(rests_reproduce, probed);
   EXPECT_GE(probed, 45u);
-  std::printf("%zu commands probed under the recorded θ, %zu reproduced (%zu of them recorded failures)\n", probed,
-              probes_reproduce, failures_reproduce);
+  std::printf("%zu commands probed under the recorded θ, %zu reproduced (%zu of them recorded failures); the rest "
+              "of the episode from each reproduced in %zu\n",
+              probed, probes_reproduce, failures_reproduce, rests_reproduce);
   EXPECT_EQ(arms.size(), 5u);
   EXPECT_EQ(cells.size(), 6u);
   std::printf("%zu episodes over DDS replayed, %zu identical, %zu skill actions compared; %zu replays from a "

@@ -61,7 +61,7 @@ inline PlannerErrorRates planner_errors(const std::string& name) {
   return name.empty() ? PlannerErrorRates{} : load_planner_errors(paths::config_dir() / "planner_errors.yaml", name);
 }
 
-/// Puts the library an episode runs into its request: version and θ by capability.
+/// Puts the library an episode runs into its request: version, θ and cost by capability.
 inline void set_library(msg::EpisodeRequest& r, const cap::LibraryTheta& lib) {
   r.library_version(lib.version);
   std::vector<msg::CapabilityTheta> theta;
@@ -69,6 +69,7 @@ inline void set_library(msg::EpisodeRequest& r, const cap::LibraryTheta& lib) {
     msg::CapabilityTheta c;
     c.capability(capability);
     c.parameters(convert::to_msg(params));
+    if (const auto cost = lib.cost_steps.find(capability); cost != lib.cost_steps.end()) c.cost_steps(cost->second);
     theta.push_back(std::move(c));
   }
   r.library(std::move(theta));

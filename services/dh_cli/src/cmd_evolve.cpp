@@ -40,7 +40,8 @@ json plan_of(const EvolveArgs& a, const std::string& start_version) {
           {"arm", a.arm},
           {"bare", a.bare},
           {"max_evals", a.max_evals},
-          {"successes", a.successes}};
+          {"successes", a.successes},
+          {"rest", a.rest}};
 }
 
 class State {
@@ -202,6 +203,7 @@ class Climb {
       v.out = (dir / "candidate").string();
       v.max_evals = a_.max_evals;
       v.successes = a_.successes;
+      v.rest = a_.rest;
       v.json = true;
       fs::remove_all(v.out);  // a search killed half way wrote nothing the gate reads: it runs again
       std::set<std::string> excluded;

@@ -18,7 +18,7 @@ int probe_set(const ProbeArgs& a) {
   if (a.capability.empty()) throw std::invalid_argument("--db needs --capability (whose commands to probe)");
   const unsigned jobs = probe_jobs(a.jobs);
   const auto t0 = std::chrono::steady_clock::now();
-  const evo::ProbeSet set = evo::probe_set(arm_rows(a.db, a.arm), {a.capability, a.successes, a.draw_seed},
+  const evo::ProbeSet set = evo::probe_set(arm_rows(a.db, a.arm), {a.capability, a.successes, a.draw_seed, a.rest},
                                            paths::config_dir(), jobs);
   report_skipped(set);
   const auto& parent = set.states;
@@ -29,12 +29,12 @@ int probe_set(const ProbeArgs& a) {
   for (const auto& p : parent) states.push_back(p.state);
   // Under a candidate library the set is probed again; without one, the parent's probes are the result.
   const auto results =
-      a.library.empty() ? parent : evo::probe_states(states, paths::config_dir(), a.library, jobs);
+      a.library.empty() ? parent : evo::probe_states(states, paths::config_dir(), a.library, jobs, std::nullopt, a.rest);
   const double wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   unsigned failing = 0, fixed = 0, successes = 0, kept = 0, errors = 0;
   nlohmann::json list = nlohmann::json::array();
   for (const auto& o : results) {
-    const bool held = o.report && o.report->effect_held;
+    const bool held = o.report && o.report->passed();
     (o.state.failing ? failing : successes)++;
     (o.state.failing ? fixed : kept) += held;
     errors += !o.report;
@@ -42,8 +42,10 @@ int probe_set(const ProbeArgs& a) {
                      {"evidence", o.state.evidence},
                      {"command", o.state.command},
                      {"failing", o.state.failing},
-                     {"effect_held", held}};
+                     {"effect_held", o.report && o.report->effect_held},
+                     {"passed", held}};
     if (o.report) {
+      if (o.report->rest) j["episode_success"] = o.report->rest->success;
       j["state"] = o.report->state;
       j["failure"] = o.report->failure;
       j["reproduces"] = o.report->reproduces;
@@ -55,12 +57,13 @@ int probe_set(const ProbeArgs& a) {
       std::cout << fmt::format("{:<40} {:<8} {}\n", o.state.label, o.state.failing ? "failing" : "success",
                                o.report ? o.report->state +
                                               (o.report->failure != "none" ? " " + o.report->failure : "") +
-                                              (held ? ", effect held" : ", effect not held")
+                                              (o.report->effect_held ? ", effect held" : ", effect not held") +
+                                              (o.report->rest ? (o.report->rest->success ? ", episode won" : ", episode lost") : "")
                                         : "error: " + o.error);
   }
   const std::string library = a.library.empty() ? "recorded" : a.library;
   if (a.json) {
-    std::cout << nlohmann::json{{"capability", a.capability}, {"library", library},
+    std::cout << nlohmann::json{{"capability", a.capability}, {"library", library}, {"rest", a.rest},
                                 {"failing", failing},         {"fixed", fixed},
                                 {"successes", successes},     {"kept", kept},
                                 {"errors", errors},           {"jobs", jobs},
@@ -69,9 +72,10 @@ int probe_set(const ProbeArgs& a) {
               << "\n";
   } else {
     std::cout << fmt::format(
-        "{} under {}: {} failing state(s), effect held in {}; {} success(es), still held in {}; "
+        "{} under {}: {} failing state(s), {} in {}; {} success(es), still {} in {}; "
         "{} error(s); {:.1f} s on {} thread(s)\n",
-        a.capability, library, failing, fixed, successes, kept, errors, wall_s, jobs);
+        a.capability, library, failing, a.rest ? "the episode won" : "effect held", fixed, successes,
+        a.rest ? "won" : "held", kept, errors, wall_s, jobs);
   }
   return errors ? 2 : 0;
 }
@@ -83,14 +87,17 @@ int cmd_probe(const ProbeArgs& a) {
   if (a.evidence.empty() || !a.command)
     throw std::invalid_argument(
         "give --evidence FILE --command K (one command) or --db FILE --capability C (a probe set)");
+  evo::ProbeOptions o{paths::config_dir(), a.library, *a.command, std::nullopt};
+  o.rest = a.rest;
+  o.rest_evidence = a.rest_evidence;
   evo::ProbeReport r;
   try {
-    r = evo::probe(a.evidence, {paths::config_dir(), a.library, *a.command, std::nullopt});
+    r = evo::probe(a.evidence, o);
   } catch (const std::runtime_error& e) {
     std::cerr << "error: " << e.what() << "\n";
     return 2;
   }
-  const int code = r.effect_held ? 0 : 3;
+  const int code = (r.rest ? r.rest->success : r.effect_held) ? 0 : 3;
   if (a.json) {
     std::cout << evo::to_json(r).dump() << "\n";
     return code;
@@ -111,7 +118,16 @@ int cmd_probe(const ProbeArgs& a) {
             << (r.first_divergence ? "first differs at step " + std::to_string(r.first_divergence->step) +
                                          ", " + r.first_divergence->body + " " + r.first_divergence->quantity
                                    : std::string("identical"))
-            << (r.reproduces ? "; the recorded command reproduced bit for bit" : "") << "\n";
+            << (r.reproduces ? (r.rest ? "; the rest of the episode reproduced bit for bit"
+                                       : "; the recorded command reproduced bit for bit")
+                             : "")
+            << "\n";
+  if (r.rest) {
+    std::cout << "  rest of the episode: " << r.rest->outcome << " at step " << r.rest->steps
+              << (r.rest->reason.empty() ? "" : ": " + r.rest->reason) << "\n";
+    if (r.rest->recorded)
+      std::cout << "  recorded episode: " << r.rest->recorded->outcome << " at step " << r.rest->recorded->steps << "\n";
+  }
   return code;
 }
 

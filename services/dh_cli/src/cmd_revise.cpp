@@ -45,16 +45,16 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
   if (!lib.theta.count(capability))
     throw std::invalid_argument("library " + parent.string() + " has no " + capability + ".yaml");
   const evo::ProbeSet set =
-      evo::probe_set(rows, {capability, a.successes, a.draw_seed}, paths::config_dir(), jobs);
+      evo::probe_set(rows, {capability, a.successes, a.draw_seed, a.rest}, paths::config_dir(), jobs);
   report_skipped(set);
   // Progress on stderr: a search over a large set runs for minutes.
   const auto on_eval = [&](unsigned eval, unsigned max_evals, unsigned held, unsigned best) {
-    std::cerr << fmt::format("{}: candidate θ {} of at most {} (the first is the parent's): {} of {} effects "
-                             "held, best {}\n",
-                             capability, eval, max_evals, held, set.states.size(), best);
+    std::cerr << fmt::format("{}: candidate θ {} of at most {} (the first is the parent's): {} of {} {}, best {}\n",
+                             capability, eval, max_evals, held, set.states.size(),
+                             a.rest ? "episodes won from the state" : "effects held", best);
   };
   const evo::Revision rev = evo::revise(
-      set.states, {capability, paths::config_dir(), parent, a.max_evals, jobs, a.max_probes, on_eval});
+      set.states, {capability, paths::config_dir(), parent, a.max_evals, jobs, a.max_probes, a.rest, on_eval});
   nlohmann::json kappa = nlohmann::json::object();
   for (const auto& [name, v] : rev.kappa) kappa[name] = {{"parent", v.first}, {"revised", v.second}};
   std::string out, version;
@@ -76,7 +76,8 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
                           {"candidate_version", version},
                           {"kappa", kappa},
                           {"probe",
-                           {{"states", rev.states},
+                           {{"judged_by", a.rest ? "rest of the episode" : "effect"},
+                            {"states", rev.states},
                             {"failing", rev.failing},
                             {"held_before", rev.parent_held},
                             {"held_after", rev.best_held},

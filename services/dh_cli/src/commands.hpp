@@ -44,6 +44,8 @@ int cmd_film(const FilmArgs& a);
 struct ProbeArgs {
   std::string evidence, library;
   std::optional<std::uint32_t> command;
+  bool rest = false;          ///< and the rest of the episode after the command; a set is judged by it
+  std::string rest_evidence;  ///< with rest, one command: where its evidence goes
   // A probe set instead of one command:
   std::string db, capability, arm = "full";
   std::size_t successes = 20;
@@ -51,7 +53,7 @@ struct ProbeArgs {
   unsigned jobs = 0;  ///< 0: every core
   bool json = false;
 };
-/// One command: exit 0 its effect held, 3 it did not. A probe set: exit 0 when every state was probed.
+/// One command: exit 0 its effect held (with rest: the episode succeeded), 3 it did not. A probe set: exit 0 when every state was probed.
 /// 2 bad input (a missing or corrupt recording or database, a command out of range or one a probe cannot
 /// re-run, a library that does not load).
 int cmd_probe(const ProbeArgs& a);
@@ -61,6 +63,7 @@ struct ReviseArgs {
   unsigned max_evals = 40, max_probes = 0, jobs = 0;
   std::size_t successes = 20;
   std::uint64_t draw_seed = 0;
+  bool rest = false;  ///< the probe set judged by the rest of each episode
   bool json = false;
 };
 /// `dh revise`: exit 0 with a candidate written to --out, 3 when no θ did better than the parent's.
@@ -93,6 +96,7 @@ struct EvolveArgs {
   unsigned rounds = 3, max_evals = 12, ready_ms = 20000;
   std::size_t successes = 20;
   bool bare = true, json = false;
+  bool rest = false;  ///< the revision search judges its probe sets by the rest of each episode
 };
 /// The self-evolution loop, resumable: exit 1 when a campaign was interrupted or found no deployment.
 int cmd_evolve(const EvolveArgs& a);

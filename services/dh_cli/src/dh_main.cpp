@@ -19,9 +19,10 @@
 //   dh film EVIDENCE --out F.png [--steps auto|S1,S2,..] [--camera agentview|wrist|workcell] [--video F.webm]
 //                                            re-runs a recorded episode and renders the chosen steps into a
 //                                            labelled strip (auto: refusals, recoveries, commands, verdict)
-//   dh probe --evidence E --command K [--library DIR] [--json]
+//   dh probe --evidence E --command K [--library DIR] [--rest [--rest-evidence F]] [--json]
 //                                            re-runs command K from the state recorded at its start under the
-//                                            recorded θ or DIR's (exit 0 its effect held, 3 it did not)
+//                                            recorded θ or DIR's (exit 0 its effect held, 3 it did not);
+//                                            --rest: and the rest of the episode after it
 //   dh probe --db FILE --capability C [--library DIR] [--jobs N] [--json]
 //                                            the capability's probe set (its failed commands and as many
 //                                            successes), probed in parallel
@@ -241,8 +242,13 @@ int main(int argc, char** argv) {
   probe->add_option("--jobs", probe_args.jobs, "with --db: probes at once (default: every core)");
   probe->add_option("--library", probe_args.library,
                     "a candidate library folder (descriptors as configs/library); default: the θ the episode recorded");
+  probe->add_flag("--rest", probe_args.rest,
+                  "run the rest of the episode after the command too, the governor restored from its snapshot at "
+                  "its dispatch (one command: exit 0 the episode succeeded, 3 it did not; a set: judged by it)");
+  probe->add_option("--rest-evidence", probe_args.rest_evidence,
+                    "with --rest: where the resumed episode's evidence goes (default: a temporary file, removed)");
   probe->add_flag("--json", probe_args.json,
-                  "one JSON object: state, failure, effect, effect_held, reproduces, first_divergence, ... (a set: "
+                  "one JSON object: state, failure, effect, effect_held, reproduces, first_divergence, rest, ... (a set: "
                   "failing, fixed, successes, kept, states)");
   ReviseArgs revise_args;
   auto* revise = app.add_subcommand("revise", "search a capability's θ within its ranges on its probe set");
@@ -257,6 +263,9 @@ int main(int argc, char** argv) {
                      "probes at most over the search (each candidate probes the whole set; default no bound)");
   revise->add_option("--jobs", revise_args.jobs, "probes at once (default: every core)");
   revise->add_option("--successes", revise_args.successes, "successes in the probe set, at least (default 20)");
+  revise->add_flag("--rest", revise_args.rest,
+                   "judge the probe set by the rest of each episode run from its state (its success), not by the "
+                   "command's effect");
   revise->add_option("--draw-seed", revise_args.draw_seed, "seed of the draw of successes (default 0)");
   revise->add_option("--out", revise_args.out, "folder for the candidate library (default runs/candidates/<version>)");
   revise->add_flag("--json", revise_args.json, "one JSON object: kappa, counts, evals, wall_s, out");
@@ -295,6 +304,8 @@ int main(int argc, char** argv) {
                    "skip the bare arm's campaign (the gate's third condition is then vacuous)");
   evolve->add_option("--max-evals", evolve_args.max_evals, "candidate θ probed at most per round (default 12)");
   evolve->add_option("--successes", evolve_args.successes, "successes in each probe set, at least (default 20)");
+  evolve->add_flag("--rest", evolve_args.rest,
+                   "the revision search judges its probe sets by the rest of each episode (dh revise --rest)");
   evolve->add_option("--out", evolve_args.out, "the climb's folder: state, campaigns, registry (default runs/evolve)");
   evolve->add_option("--launch", evolve_args.launch_file, "launch file for a local deployment when none is running");
   evolve->add_option("--ready-timeout-ms", evolve_args.ready_ms, "wait for a deployment (default 20000)");

@@ -2,7 +2,12 @@
 
 #include <mujoco/mujoco.h>
 
+#include <unistd.h>
+
+#include <functional>
+#include <map>
 #include <stdexcept>
+#include <thread>
 
 #include "dh/cap/descriptor.hpp"
 #include "dh/cap/library.hpp"
@@ -11,7 +16,9 @@
 #include "dh/common/suite.hpp"
 #include "dh/evo/effect.hpp"
 #include "dh/gov/grounding.hpp"
+#include "dh/common/evidence.hpp"
 #include "dh/inproc/bus.hpp"
+#include "dh/inproc/stack.hpp"
 #include "dh/sim/scene.hpp"
 #include "dh/sim/state_log.hpp"
 #include "dh/sim/step_log.hpp"
@@ -21,6 +28,57 @@ namespace {
 
 using nlohmann::json;
 constexpr const char* kHost = "probe";
+
+/// The rest of the episode from command K on the in-process stack (ProbeOptions::rest): K's end and
+/// effect, every step against the step log, and the episode's end beside the recorded one.
+void rest_of_episode(ProbeReport& r, const inproc::Stack::Resume& from, const sim::StepLog& log,
+                     const std::vector<PredicateSpec>& effect, const ProbeOptions& o) {
+  const inproc::RecordedCommand& k = from.recording.commands[from.command];
+  inproc::Stack stack(o.config_dir);
+  std::map<std::uint32_t, bool> held;  ///< the effect's predicates after each step
+  inproc::StepTap tap;
+  tap.on_step = [&](std::uint32_t step, const sim::Workcell& cell) {
+    if (!effect.empty()) held[step] = cell.holds(effect);
+    if (step >= log.records.size()) return;
+    ++r.steps_compared;
+    if (!r.first_divergence && cell.digest() != log.records[step].digest)
+      r.first_divergence = inproc::divergence_at(cell, step, log.records[step].digest);
+  };
+  const bool temporary = o.rest_evidence.empty();
+  const std::filesystem::path out =
+      temporary ? std::filesystem::temp_directory_path() /
+                      ("dh-probe-" + std::to_string(::getpid()) + "-" +
+                       std::to_string(std::hash<std::thread::id>{}(std::this_thread::get_id())) + ".jsonl")
+                : o.rest_evidence;
+  const inproc::EpisodeOutcome end = stack.resume(from, out, tap);
+  // K's end is its last status in the new evidence; a command the governor moved on from has none.
+  r.state = to_string(CommandState::Cancelled);
+  r.failure = to_string(FailureCode::None);
+  r.end_step = end.steps;
+  for (const auto& e : read_evidence(out)) {
+    if (e.value("kind", "") != "command_status" || e.value("command_id", "") != k.id) continue;
+    const std::string state = e.value("state", "");
+    if (state == "accepted" || state == "running") continue;
+    r.state = state;
+    r.failure = e.value("failure", "none");
+    r.stage = e.value("stage", "");
+    r.reason = e.value("reason", "");
+    r.end_step = e.value("step", 0u);
+  }
+  if (temporary) std::filesystem::remove(out);
+  if (effect.empty()) {
+    r.effect_held = r.state == to_string(CommandState::Completed);
+  } else {
+    const auto at = held.upper_bound(r.end_step);  // the state after the end step's action, or before
+    r.effect_held = at != held.begin() && std::prev(at)->second;
+  }
+  r.same_end = k.end && k.end->state == r.state && k.end->failure == r.failure && k.end->stage == r.stage &&
+               k.end->step == r.end_step;
+  r.rest = RestReport{end.success, to_string(end.outcome), end.reason, end.steps, from.recording.end};
+  const auto& rec_end = from.recording.end;
+  r.reproduces = !r.first_divergence && (!k.end || r.same_end) && rec_end && rec_end->success == end.success &&
+                 rec_end->outcome == to_string(end.outcome) && rec_end->steps == end.steps;
+}
 
 }  // namespace
 
@@ -86,15 +144,28 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
   r.budget_steps = k.budget_steps;
   r.library = "recorded";
   std::optional<cap::Theta> candidate = o.theta;
+  std::optional<cap::LibraryTheta> library;  ///< the candidate's, for the rest of the episode
   if (!o.library_dir.empty()) {
-    const cap::LibraryTheta lib = cap::load_library_theta(o.library_dir);
-    const auto t = lib.theta.find(k.capability);
-    if (t == lib.theta.end())
+    library = cap::load_library_theta(o.library_dir);
+    const auto t = library->theta.find(k.capability);
+    if (t == library->theta.end())
       throw std::invalid_argument("library " + o.library_dir.string() + " has no " + k.capability + ".yaml");
     candidate = t->second;
-    r.library = lib.version;
+    r.library = library->version;
   } else if (o.theta) {
     r.library = "theta " + cap::library_version({{k.capability, *o.theta}});
+    if (o.rest) {
+      if (!k.snapshot)
+        throw inproc::EvidenceError(evidence.string() + ": no snapshot of the governor at the dispatch of " + k.id +
+                                    " (evidence written before snapshots were recorded)");
+      const gov::EpisodeSpec recorded = gov::snapshot_spec(*k.snapshot);
+      library.emplace();
+      library->theta = recorded.library;
+      library->theta[k.capability] = *o.theta;
+      library->cost_steps = recorded.library_costs;
+      library->cost_steps[k.capability] = static_cast<std::uint32_t>(def->make(*o.theta)->cost_steps());
+      library->version = cap::library_version(library->theta);
+    }
   }
   const std::vector<PredicateSpec> effect = command_effect(inproc::bindings(k.args), task.goal);
   r.effect = effect.empty() ? "completion" : goal_text(effect);
@@ -118,6 +189,11 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
     r.budget_steps = gov::command_budget(cost, remaining);
   }
   r.theta = json(theta);
+
+  if (o.rest) {
+    rest_of_episode(r, {rec, states, task, o.command, library, r.budget_steps}, log, effect, o);
+    return r;
+  }
 
   std::vector<cap::ServedCapability> served;
   for (const auto& d : defs) served.push_back({d, d.name + "@" + kHost});
@@ -172,7 +248,16 @@ json to_json(const ProbeReport& r) {
          {"same_end", r.same_end},
          {"steps_compared", r.steps_compared},
          {"first_divergence", inproc::to_json(r.first_divergence)},
-         {"reproduces", r.reproduces}};
+         {"reproduces", r.reproduces},
+         {"rest", nullptr}};
+  if (r.rest) {
+    j["rest"] = {{"success", r.rest->success}, {"outcome", r.rest->outcome}, {"reason", r.rest->reason},
+                 {"steps", r.rest->steps}, {"recorded", nullptr}};
+    if (r.rest->recorded)
+      j["rest"]["recorded"] = {{"success", r.rest->recorded->success},
+                               {"outcome", r.rest->recorded->outcome},
+                               {"steps", r.rest->recorded->steps}};
+  }
   if (r.recorded)
     j["recorded"] = {{"state", r.recorded->state},
                      {"failure", r.recorded->failure},

@@ -29,7 +29,7 @@ ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions
                        r.cell + "/" + std::to_string(r.task) + " seed " + std::to_string(r.seed) +
                            " command " + std::to_string(k)});
   }
-  std::vector<ProbeOutcome> parent = probe_states(all, config_dir, {}, jobs);
+  std::vector<ProbeOutcome> parent = probe_states(all, config_dir, {}, jobs, std::nullopt, o.rest);
   ProbeSet set;
   std::vector<ProbeOutcome> failing, held;
   for (auto& p : parent) {
@@ -37,7 +37,7 @@ ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions
       set.skipped.push_back(std::move(p));
       continue;
     }
-    p.state.failing = !p.report->effect_held;
+    p.state.failing = !p.report->passed();
     (p.state.failing ? failing : held).push_back(std::move(p));
   }
   // The successes kept: a draw by seed, listed in the rows' order.
@@ -54,7 +54,7 @@ ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions
 std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
                                        const std::filesystem::path& config_dir,
                                        const std::filesystem::path& library_dir, unsigned jobs,
-                                       const std::optional<cap::Theta>& theta) {
+                                       const std::optional<cap::Theta>& theta, bool rest) {
   std::vector<ProbeOutcome> out(states.size());
   std::atomic<std::size_t> next{0};
   // Each probe owns its workcell, host and seam; MuJoCo models and data are not shared between threads
@@ -63,7 +63,9 @@ std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
     for (std::size_t i = next++; i < states.size(); i = next++) {
       out[i].state = states[i];
       try {
-        out[i].report = probe(states[i].evidence, {config_dir, library_dir, states[i].command, theta});
+        ProbeOptions o{config_dir, library_dir, states[i].command, theta};
+        o.rest = rest;
+        out[i].report = probe(states[i].evidence, o);
       } catch (const std::exception& e) {
         out[i].error = e.what();
       }

@@ -29,9 +29,12 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
       throw std::invalid_argument(p.state.label + " recorded θ " + p.report->theta.dump() +
                                   ", not the θ of " + o.library_dir.string() +
                                   ": probe a campaign of the parent library");
+    if (p.report->rest.has_value() != o.rest)
+      throw std::invalid_argument(p.state.label + (o.rest ? " was probed without" : " was probed with") +
+                                  " the rest of its episode, the search " + (o.rest ? "with" : "without"));
     states.push_back(p.state);
     rev.failing += p.state.failing;
-    rev.parent_held += p.report->effect_held;
+    rev.parent_held += p.report->passed();
   }
   rev.states = static_cast<unsigned>(states.size());
 
@@ -66,8 +69,8 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
     const cap::Theta th = theta_at(at);
     ++rev.evals;
     unsigned held = 0, fixed = 0, kept = 0;
-    for (const auto& r : probe_states(states, o.config_dir, {}, o.jobs, th)) {
-      const bool h = r.report && r.report->effect_held;
+    for (const auto& r : probe_states(states, o.config_dir, {}, o.jobs, th, o.rest)) {
+      const bool h = r.report && r.report->passed();
       held += h;
       (r.state.failing ? fixed : kept) += h;
     }

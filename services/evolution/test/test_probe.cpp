@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include "dh/cap/library_theta.hpp"
+#include "dh/common/evidence.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/evo/effect.hpp"
@@ -147,6 +148,74 @@ TEST_F(Probe, ACandidateLibraryRunsItsThetaAndDepartsFromTheRecording) {
   EXPECT_FALSE(r.reproduces);
 }
 
+TEST_F(Probe, TheRestOfAnEpisodeUnderTheRecordedThetaEndsAsRecordedBitForBit) {
+  // From each command of the slipped grasp's episode: the governor restored from its snapshot at that
+  // dispatch decides again, recovery and all, to the recorded end.
+  for (std::uint32_t k = 0; k < 4; ++k) {
+    evo::ProbeOptions o{paths::config_dir(), {}, k, std::nullopt};
+    o.rest = true;
+    const auto r = evo::probe(*dir / "missed.jsonl", o);
+    ASSERT_TRUE(r.rest) << k;
+    ASSERT_TRUE(r.rest->recorded) << k;
+    EXPECT_EQ(r.rest->success, missed->success) << k;
+    EXPECT_EQ(r.rest->steps, missed->steps) << k;
+    EXPECT_EQ(r.rest->outcome, r.rest->recorded->outcome) << k;
+    EXPECT_EQ(r.steps_compared, missed->steps - r.from_step) << k << ": every step from K's start on";
+    EXPECT_FALSE(r.first_divergence) << k << ": " << evo::to_json(r).dump();
+    EXPECT_TRUE(r.same_end) << k;
+    EXPECT_TRUE(r.reproduces) << k;
+  }
+  evo::ProbeOptions o{paths::config_dir(), {}, 1, std::nullopt};
+  o.rest = true;
+  const auto slipped = evo::probe(*dir / "missed.jsonl", o);
+  EXPECT_EQ(slipped.failure, "grasp_slipped");
+  EXPECT_FALSE(slipped.effect_held);
+  EXPECT_EQ(slipped.rest->outcome, slipped.rest->recorded->outcome) << "the recovery and the retry, as recorded";
+  const auto j = evo::to_json(slipped);
+  EXPECT_EQ(j["rest"]["success"].get<bool>(), missed->success);
+  EXPECT_EQ(j["rest"]["recorded"]["steps"].get<std::uint32_t>(), missed->steps);
+}
+
+TEST_F(Probe, TheRestOfAnEpisodeGoesOnUnderACandidate) {
+  const auto lib = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
+  evo::ProbeOptions o{paths::config_dir(), lib, 1, std::nullopt};
+  o.rest = true;
+  o.rest_evidence = *dir / "rest.jsonl";
+  const auto r = evo::probe(*dir / "ep.jsonl", o);
+  ASSERT_TRUE(r.rest);
+  EXPECT_TRUE(r.first_divergence) << "another θ, other actions";
+  EXPECT_FALSE(r.reproduces);
+  // The resumed episode writes its own evidence: K dispatched again under the candidate's θ, to the end.
+  const auto records = read_evidence(o.rest_evidence);
+  ASSERT_FALSE(records.empty());
+  EXPECT_EQ(records.front().value("kind", ""), "snapshot");
+  EXPECT_DOUBLE_EQ(records.front()["machine"]["running"]["theta"]["max_speed"].get<double>(), 0.2);
+  EXPECT_EQ(records.back().value("kind", ""), "episode_end");
+  EXPECT_EQ(records.back().value("success", false), r.rest->success);
+}
+
+TEST_F(Probe, TheRestOfAnEpisodeNeedsTheGovernorsSnapshot) {
+  // Evidence without snapshot records (written before they were recorded) is refused, naming the file.
+  std::ifstream in(*dir / "missed.jsonl");
+  std::ofstream out(*dir / "old.jsonl");
+  for (std::string line; std::getline(in, line);)
+    if (line.find("\"kind\":\"snapshot\"") == std::string::npos) out << line << "\n";
+  out.close();
+  for (const char* ext : {".steps", ".states"})
+    fs::copy_file(*dir / (std::string("missed") + ext), *dir / (std::string("old") + ext),
+                  fs::copy_options::overwrite_existing);
+  evo::ProbeOptions o{paths::config_dir(), {}, 1, std::nullopt};
+  EXPECT_NO_THROW(evo::probe(*dir / "old.jsonl", o)) << "a single command needs no snapshot";
+  o.rest = true;
+  try {
+    evo::probe(*dir / "old.jsonl", o);
+    ADD_FAILURE() << "resumed without a snapshot";
+  } catch (const inproc::EvidenceError& e) {
+    EXPECT_NE(std::string(e.what()).find("old.jsonl"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("snapshot"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(Probe, BadInputIsNamed) {
   EXPECT_THROW(evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 2, std::nullopt}),
                std::invalid_argument);
@@ -196,6 +265,27 @@ TEST_F(Probe, AProbeSetHoldsTheFailingStatesAndDrawnSuccessesTheSameOnAnyNumberO
     EXPECT_EQ(one[i].report->effect_held, two[i].report->effect_held) << states[i].label;
     EXPECT_EQ(one[i].report->state, two[i].report->state) << states[i].label;
   }
+}
+
+TEST_F(Probe, AProbeSetJudgedByTheRestOfItsEpisodesCountsTheirSuccesses) {
+  const std::vector<EpisodeRecord> rows{row("ep"), row("missed")};
+  const auto set = evo::probe_set(rows, {"pick_place", 20, 7, true}, paths::config_dir(), 2).states;
+  ASSERT_EQ(set.size(), 3u);
+  for (const auto& o : set) {
+    ASSERT_TRUE(o.report && o.report->rest) << o.state.label;
+    EXPECT_TRUE(o.report->reproduces) << o.state.label << ": the recorded θ, the recorded episode";
+    // Failing exactly when the recorded episode failed, whatever the command's own effect.
+    const bool won = o.state.label.rfind("goal-swap", 0) == 0 ? outcome->success : missed->success;
+    EXPECT_EQ(o.state.failing, !won) << o.state.label;
+    EXPECT_EQ(o.report->passed(), won) << o.state.label;
+  }
+  // The search judges a set the way it was probed.
+  const auto parent = paths::config_dir() / "library";
+  EXPECT_THROW(evo::revise(set, {"pick_place", paths::config_dir(), parent, 2, 2, 0, false, {}}),
+               std::invalid_argument);
+  const evo::Revision rev = evo::revise(set, {"pick_place", paths::config_dir(), parent, 2, 2, 0, true, {}});
+  EXPECT_EQ(rev.parent_held, static_cast<unsigned>(outcome->success) + 2u * missed->success);
+  EXPECT_LE(rev.evals, 2u);
 }
 
 TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParentsTheta) {

@@ -55,7 +55,10 @@ gov::EpisodeRequest from_msg(const msg::EpisodeRequest& r) {
   q.seed = r.seed();
   q.budget_steps = r.budget_steps();
   q.library_version = r.library_version();
-  for (const auto& c : r.library()) q.library[c.capability()] = convert::from_msg(c.parameters());
+  for (const auto& c : r.library()) {
+    q.library[c.capability()] = convert::from_msg(c.parameters());
+    if (c.cost_steps() > 0) q.library_costs[c.capability()] = c.cost_steps();
+  }
   if (r.decision_period_steps() > 0) q.decision_period = r.decision_period_steps();
   if (!r.grounding().empty()) q.grounding = r.grounding();
   if (r.perception().max_age_steps() > 0) q.perception = convert::from_msg(r.perception());

@@ -16,6 +16,16 @@ bool empty(const Effects& fx) {
   return !fx.plan_request && !fx.command && !fx.lease && !fx.cancel_command && !fx.end;
 }
 
+/// The machine's state in the evidence, at the episode's start and at each dispatch, after the event's
+/// effects were made: what a resumed episode starts from (`waits` is the deployment's, see MachineSnapshot).
+void record_snapshot(EvidenceWriter& evidence, const EpisodeMachine& m, const std::string& at, Clock::time_point now) {
+  MachineSnapshot s = m.snapshot(now);
+  const nlohmann::json& obs = s.state.at("last_obs");
+  const std::uint32_t step = obs.is_null() ? 0 : obs.at("step").get<std::uint32_t>();
+  evidence.append("governor", "snapshot",
+                  {{"at", at}, {"step", step}, {"machine", std::move(s.state)}, {"waits", std::move(s.waits)}});
+}
+
 }  // namespace
 
 GovernorCore::GovernorCore(GovernorConfig config, std::map<std::string, ArmSpec> arms, CoreSettings settings)
@@ -51,7 +61,10 @@ void GovernorCore::emit(std::uint32_t channel, Effects fx, Clock::time_point now
     ch.lease = *e.fx.lease;
     ch.lease_written = now;
   }
-  if (e.fx.command) ch.instance_of[e.fx.command->command_id] = e.fx.command->instance;
+  if (e.fx.command) {
+    ch.instance_of[e.fx.command->command_id] = e.fx.command->instance;
+    record_snapshot(*ch.evidence, *ch.machine, e.fx.command->command_id, now);
+  }
   if (e.fx.end) {
     e.evidence = ch.evidence->path();
     finished(e.episode_id);
@@ -67,13 +80,32 @@ void GovernorCore::refuse(const EpisodeRequest& r, const std::string& why, const
   finished(r.episode_id);
 }
 
+CoreEffects GovernorCore::resume(std::uint32_t channel, const MachineSnapshot& snapshot,
+                                 const std::filesystem::path& evidence, const std::string& library_version,
+                                 const std::map<std::string, std::map<std::string, double>>& library,
+                                 const std::map<std::string, std::uint32_t>& library_costs,
+                                 std::uint32_t budget_steps, Clock::time_point now) {
+  Channel& ch = channels_[channel];
+  if (ch.machine && !ch.machine->ended())
+    throw std::logic_error("resume: channel " + std::to_string(channel) + " is busy with episode " +
+                           ch.machine->spec().episode_id);
+  const EpisodeSpec spec = snapshot_spec(snapshot);
+  const GovernorConfig config = for_request(for_arm(config_, find_arm(arms_, spec.arm)), spec);
+  ch = Channel{};
+  ch.evidence = std::make_unique<EvidenceWriter>(evidence);
+  ch.machine = EpisodeMachine::restore(snapshot, channel, config, registry_, *ch.evidence, now);
+  CoreEffects out;
+  emit(channel, ch.machine->redispatch(library_version, library, library_costs, budget_steps, now), now, out);
+  return out;
+}
+
 CoreEffects GovernorCore::on_request(const EpisodeRequest& r, Clock::time_point now) {
   CoreEffects out;
   Channel& ch = channels_[r.channel];
   if (known(ch, r.episode_id)) return out;  // a redelivery
   const std::string arm = r.arm.empty() ? "full" : r.arm;
   EpisodeSpec spec{r.channel,         r.episode_id, r.instruction,     arm,         r.budget_steps,
-                   r.library_version, r.library,    r.decision_period, r.grounding, r.perception,
+                   r.library_version, r.library,    r.library_costs, r.decision_period, r.grounding, r.perception,
                    planner_error_seed(r.cell, r.task, r.seed), r.planner_errors};
   std::optional<GovernorConfig> episode_config;
   std::string why;
@@ -115,6 +147,7 @@ CoreEffects GovernorCore::on_request(const EpisodeRequest& r, Clock::time_point 
     return out;
   }
   ch.machine = std::make_unique<EpisodeMachine>(std::move(spec), *episode_config, registry_, *ch.evidence, now);
+  record_snapshot(*ch.evidence, *ch.machine, "episode_start", now);
   if (ch.early && ch.early->episode_id == r.episode_id) {
     Observation first = std::move(*ch.early);
     ch.early.reset();

@@ -9,6 +9,19 @@ void VerdictLatch::record(std::uint32_t step, bool value) {
   }
 }
 
+nlohmann::json VerdictLatch::state() const {
+  return {{"latched", latched_}, {"pending", pending_}, {"pending_step", pending_step_}, {"event_step", event_step_}};
+}
+
+VerdictLatch VerdictLatch::from_state(const nlohmann::json& j) {
+  VerdictLatch l;
+  l.latched_ = j.at("latched").get<bool>();
+  l.pending_ = j.at("pending").get<bool>();
+  l.pending_step_ = j.at("pending_step").get<std::uint32_t>();
+  l.event_step_ = j.at("event_step").get<std::uint32_t>();
+  return l;
+}
+
 bool VerdictLatch::decide(std::uint32_t step) {
   if (pending_ && pending_step_ <= step && !latched_) {
     latched_ = true;

@@ -174,7 +174,7 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
   }
   GroundingResult g = unseen ? GroundingResult{std::nullopt, Refusal::Perception, unseen->reason}
                              : ground({advice, registry_, seen, remaining, config_.masked, command_id,
-                                      config_.decision_period, spec_.library});
+                                      config_.decision_period, spec_.library, spec_.library_costs});
   if (!advice.refused) tried_[history::signature(advice.args)].insert(advice.capability);
   if (!g.command) {
     // An episode can reach this governor before the policy's announcement does (they travel on different

@@ -100,9 +100,12 @@ GroundingResult ground(const GroundingInput& in) {
   }
   for (const auto& pre : info->preconditions)
     if (auto why = precondition_fails(pre, a, in.obs)) return refuse(Refusal::Precondition, *why);
-  if (info->cost_steps > in.remaining_steps)
+  // The cost under the θ the command will run with: the library's, else the instance's own.
+  const auto library_cost = in.library_costs.find(a.capability);
+  const std::uint32_t cost = library_cost != in.library_costs.end() ? library_cost->second : info->cost_steps;
+  if (cost > in.remaining_steps)
     return refuse(Refusal::Budget, std::to_string(in.remaining_steps) + " steps remain, '" + a.capability +
-                                       "' costs " + std::to_string(info->cost_steps));
+                                       "' costs " + std::to_string(cost));
   Command c;
   c.command_id = in.command_id;
   c.capability = a.capability;
@@ -112,7 +115,7 @@ GroundingResult ground(const GroundingInput& in) {
   const auto theta = in.library.find(a.capability);
   c.theta = theta != in.library.end() ? theta->second : info->parameters;
   c.start_step = in.obs.step;
-  c.budget_steps = command_budget(info->cost_steps, in.remaining_steps);
+  c.budget_steps = command_budget(cost, in.remaining_steps);
   const std::uint32_t p = std::max<std::uint32_t>(1, in.decision_period);
   c.lease_until_step = (in.obs.step / p + 1) * p;
   return {c, Refusal::PlannerRefused, ""};

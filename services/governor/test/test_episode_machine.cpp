@@ -237,3 +237,48 @@ TEST_F(Machine, ACompletionAtADecisionStepIsFinishedAfterThatStepsDecision) {
   EXPECT_EQ(causes[1], "decision step");
   EXPECT_EQ(causes[2], "command completed");
 }
+
+TEST_F(Machine, ASnapshotRestoresAMachineThatGoesOnAsTheOriginalDoes) {
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  ASSERT_TRUE(fx.command);
+  m->on_status({"ep/c0", "pick_place@a", CommandState::Accepted, "", "", 0, 0, 0}, t0);
+  const MachineSnapshot s = m->snapshot(t0);
+  EXPECT_EQ(s.waits["deadline"].get<std::int64_t>(),
+            std::chrono::duration_cast<std::chrono::nanoseconds>(config.step_stall_timeout).count())
+      << "the next observation is due: a wait kept as time left";
+
+  // Restored on another channel, later: the same state, and the same effects for the same events.
+  const auto t1 = t0 + std::chrono::seconds(50);
+  EvidenceWriter other(file.string() + ".restored");
+  const auto restored = EpisodeMachine::restore(s, 3, config, registry, other, t1);
+  EXPECT_EQ(restored->snapshot(t1).state, s.state);
+  EXPECT_EQ(restored->snapshot(t1).waits, s.waits);
+  EXPECT_EQ(restored->spec().channel, 3u);
+  EXPECT_EQ(restored->decisions(), m->decisions());
+  for (std::uint32_t t = 1; t <= 20; ++t) {
+    const Effects a = m->on_observation(test::scene_observation(t), t0);
+    const Effects b = restored->on_observation(test::scene_observation(t), t1);
+    EXPECT_EQ(a.lease.has_value(), b.lease.has_value()) << t;
+    if (a.lease && b.lease) EXPECT_EQ(a.lease->valid_until_step, b.lease->valid_until_step) << t;
+  }
+  EXPECT_EQ(restored->snapshot(t1).state, m->snapshot(t0).state);
+  EXPECT_TRUE(m->on_tick(t0 + config.step_stall_timeout + 1ms).end.has_value() ==
+              restored->on_tick(t1 + config.step_stall_timeout + 1ms).end.has_value());
+  std::filesystem::remove(file.string() + ".restored");
+
+  // Dispatched again under another library: the command in flight takes its θ and the given budget.
+  const auto again = EpisodeMachine::restore(s, 0, config, registry, other, t1);
+  const Effects r = again->redispatch("lib-x", {{"pick_place", {{"approach_height", 0.09}}}}, {{"pick_place", 150}}, 123, t1);
+  ASSERT_TRUE(r.command);
+  EXPECT_EQ(r.command->command_id, "ep/c0");
+  EXPECT_EQ(r.command->theta.at("approach_height"), 0.09);
+  EXPECT_EQ(r.command->budget_steps, 123u);
+  ASSERT_TRUE(r.lease);
+  EXPECT_EQ(r.lease->budget_until_step, r.command->start_step + 123);
+
+  MachineSnapshot broken = s;
+  broken.state.erase("latch");
+  EXPECT_THROW(EpisodeMachine::restore(broken, 0, config, registry, other, t1), std::invalid_argument);
+  std::filesystem::remove(file.string() + ".restored");
+}

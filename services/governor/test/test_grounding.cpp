@@ -18,10 +18,11 @@ struct Grounding : ::testing::Test {
   Observation obs = test::scene_observation(40);
   std::set<std::string> masked;
   std::map<std::string, std::map<std::string, double>> library;
+  std::map<std::string, std::uint32_t> costs;
   Advice advice{"p0", false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules", false, {}};
   void SetUp() override { registry.announce(test::pick_place_info()); }
   GroundingResult run(std::uint32_t remaining = 260) {
-    return ground({advice, registry, obs, remaining, masked, "ep/c0", 10, library});
+    return ground({advice, registry, obs, remaining, masked, "ep/c0", 10, library, costs});
   }
 };
 }  // namespace
@@ -117,6 +118,20 @@ TEST_F(Grounding, ADrainingInstanceIsSkippedNotRefused) {
   EXPECT_FALSE(g.command) << "no instance takes new commands";
   EXPECT_EQ(g.refusal, Refusal::CapabilityNotAlive) << g.reason;
   EXPECT_TRUE(registry.alive_capabilities().empty()) << "the planner is not offered it";
+}
+
+TEST_F(Grounding, TheLibrarysCostUnderItsThetaBudgetsTheCommandNotTheAnnouncedOne) {
+  // The instance announced 221 steps; the episode's library runs a θ that costs 150: that is what the
+  // command must fit and is budgeted by, as the skill itself checks it under that θ.
+  costs["pick_place"] = 150;
+  auto g = run(200);
+  ASSERT_TRUE(g.command) << g.reason;
+  EXPECT_EQ(g.command->budget_steps, command_budget(150, 200));
+  costs["pick_place"] = 250;
+  g = run(240);
+  EXPECT_FALSE(g.command);
+  EXPECT_EQ(g.refusal, Refusal::Budget);
+  EXPECT_NE(g.reason.find("costs 250"), std::string::npos) << g.reason;
 }
 
 TEST(CommandBudget, NeverMoreThanWhatRemains) {

@@ -91,6 +91,10 @@ Recording read_recording(const std::filesystem::path& evidence) {
         c.budget_steps = e.at("budget_steps").get<std::uint32_t>();
         dispatched[id] = r.commands.size();
         r.commands.push_back(std::move(c));
+      } else if (kind == "snapshot" && e.value("at", "") != "episode_start") {
+        const auto it = dispatched.find(e.at("at").get<std::string>());
+        if (it != dispatched.end())
+          r.commands[it->second].snapshot = gov::MachineSnapshot{e.at("machine"), e.at("waits")};
       } else if (kind == "command_status") {
         const auto it = dispatched.find(e.at("command_id").get<std::string>());
         const std::string state = e.at("state").get<std::string>();
@@ -98,6 +102,9 @@ Recording read_recording(const std::filesystem::path& evidence) {
         r.commands[it->second].end =
             RecordedEnd{state, e.value("failure", "none"), e.value("stage", ""),
                         e.at("step").get<std::uint32_t>(), e.value("steps_used", 0u)};
+      } else if (kind == "episode_end") {
+        r.end = RecordedEpisodeEnd{e.at("success").get<bool>(), e.at("outcome").get<std::string>(),
+                                   e.at("step").get<std::uint32_t>()};
       } else if (kind == "verdict_event") {
         r.verdicts[e.at("step").get<std::uint32_t>()] = e.at("value").get<bool>();
         r.predicates.insert(e.value("predicate", ""));

@@ -8,12 +8,14 @@
 #include "dh/common/config.hpp"
 #include "dh/gov/config.hpp"
 #include "dh/inproc/bus.hpp"
+#include "dh/sim/state_log.hpp"
 #include "dh/sim/scene.hpp"
 
 namespace dh::inproc {
 
 Stack::Stack(const std::filesystem::path& config_dir, const std::filesystem::path& library_dir)
-    : governor_(gov::load_config(config_dir / "governor.yaml"), load_arms(config_dir / "governor.yaml"),
+    : config_(gov::load_config(config_dir / "governor.yaml")), arms_(load_arms(config_dir / "governor.yaml")),
+      governor_(config_, arms_,
                 // Every capability is served before the first request: nothing to wait for.
                 {{}, gov::Clock::time_point{}, std::nullopt}),
       host_({}), library_(cap::load_library_theta(library_dir.empty() ? config_dir / "library" : library_dir)) {
@@ -33,6 +35,7 @@ void Stack::add_capability(cap::CapabilityDef def, const std::filesystem::path& 
   info.cost_steps = static_cast<std::uint32_t>(d.cost_steps);
   info.started_ns = 1;
   governor_.on_announce(info);
+  served_.push_back({def, info.instance});
   host_.serve({std::move(def), info.instance});
 }
 
@@ -44,9 +47,8 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   // Unique per run: the host core keeps a channel's keyframes for as long as its episode id stays the same.
   const std::string episode_id =
       task.suite + "/" + std::to_string(task.id) + "/" + std::to_string(seed) + "#" + std::to_string(++runs_);
-  constexpr std::uint32_t channel = 0;
   gov::EpisodeRequest request;
-  request.channel = channel;
+  request.channel = kChannel;
   request.episode_id = episode_id;
   request.instruction = task.instruction;
   request.arm = arm;
@@ -57,25 +59,78 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   request.budget_steps = task.budget_steps;
   request.library_version = library_.version;
   request.library = library_.theta;
+  request.library_costs = library_.cost_steps;
   request.evidence = evidence_path;
   request.planner_errors = planner_errors_;
-  sim::SeamCore seam(channel, kBusSeam);
-  cap::Clock::time_point now = step_time(0);
-  Observation obs = *seam.start(cell, episode_id, task.budget_steps, goal_text(task.goal), now,
-                                std::filesystem::path(evidence_path).replace_extension(".steps"))
-                         .observation;
+  // The arm's settings travel in the request, as `dh campaign` sends them.
+  const gov::GovernorConfig settings = gov::for_arm(config_, find_arm(arms_, arm));
+  request.decision_period = settings.decision_period;
+  request.grounding = settings.perception ? "perception" : "state";
+  request.perception = settings.perception_limits;
+  sim::SeamCore seam(kChannel, kBusSeam);
+  const cap::Clock::time_point now = step_time(0);
+  const Observation obs = *seam.start(cell, episode_id, task.budget_steps, goal_text(task.goal), now,
+                                      std::filesystem::path(evidence_path).replace_extension(".steps"))
+                               .observation;
+  return drive({cell, seam, obs, now, episode_id, evidence_path, tap, false}, [&] {
+    auto fx = governor_.on_request(request, now);
+    // In process nothing else can be the cause: a refused request (an unknown arm, an arm that grounds
+    // from perception) is the caller's configuration error, not an episode's outcome.
+    for (const auto& e : fx)
+      if (e.fx.end && e.fx.end->outcome == Outcome::Rejected)
+        throw ConfigError("episode " + episode_id + ": " + e.fx.end->reason);
+    return fx;
+  });
+}
 
+EpisodeOutcome Stack::resume(const Resume& r, const std::filesystem::path& evidence_path, const StepTap& tap) {
+  const Recording& rec = r.recording;
+  if (r.command >= rec.commands.size())
+    throw std::invalid_argument("command " + std::to_string(r.command) + ": the episode dispatched " +
+                                std::to_string(rec.commands.size()) + " command(s), numbered from 0");
+  const RecordedCommand& k = rec.commands[r.command];
+  if (!k.snapshot)
+    throw EvidenceError(rec.evidence.string() + ": no snapshot of the governor at the dispatch of " + k.id +
+                        " (evidence written before snapshots were recorded)");
+  const sim::StateRecord* from = r.states.for_command(k.id);
+  if (!from)
+    throw EvidenceError(rec.evidence.string() + ": no state recorded at the start of command " + k.id +
+                        " (its lease never reached the seam, so it never ran)");
+  sim::Workcell& cell = cells_.get(r.task, rec.seed).cell;
+  cell.reset(rec.seed, r.task.goal);
+  std::filesystem::remove(evidence_path);
+  host_ = cap::HostCore(served_);  // the earlier commands' keyframes only, not those of a run before
+  restore_host(host_, cell, rec, r.states, r.command, "inproc");
+  sim::SeamCore seam(kChannel, kBusSeam);
+  const cap::Clock::time_point now = step_time(from->step);
+  const Observation obs = *seam.resume(cell, rec.episode_id, rec.budget_steps, goal_text(r.task.goal), *from, now)
+                               .observation;
+  const gov::EpisodeSpec recorded = gov::snapshot_spec(*k.snapshot);
+  const std::string version = r.library ? r.library->version : recorded.library_version;
+  const auto& library = r.library ? r.library->theta : recorded.library;
+  const auto& costs = r.library ? r.library->cost_steps : recorded.library_costs;
+  return drive({cell, seam, obs, now, rec.episode_id, evidence_path, tap, true}, [&] {
+    return governor_.resume(kChannel, *k.snapshot, evidence_path, version, library, costs, r.budget_steps, now);
+  });
+}
+
+EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>& first) {
+  sim::SeamCore& seam = ep.seam;
+  Observation obs = ep.obs;
+  cap::Clock::time_point now = ep.now;
+  const std::string& episode_id = ep.episode_id;
+  const StepTap& tap = ep.tap;
   std::optional<gov::EpisodeEnd> end;
   std::optional<cap::ActionOut> action;  ///< the host's answer to the current step
   std::map<std::string, gov::Command> dispatched;  ///< by command id
 
-  bool fresh = true;  // the seam stepped: its observation is new to every core
+  bool fresh = !ep.governor_saw_obs;  // the seam stepped: its observation is new to every core
   std::function<void(cap::HostEffects)> from_host;
   // The seam's effects: its refusals, corrections and verdict changes go to the governor (over DDS they are
   // the seam and verdict topics); a new step is seen next round.
   const auto deliver = [&](const sim::SeamEffects& sx) {
-    for (const auto& e : sx.events) governor_.on_seam_event(channel, episode_id, e);
-    if (sx.verdict) governor_.on_verdict(channel, episode_id, sx.verdict->step, sx.verdict->predicate, sx.verdict->value);
+    for (const auto& e : sx.events) governor_.on_seam_event(kChannel, episode_id, e);
+    if (sx.verdict) governor_.on_verdict(kChannel, episode_id, sx.verdict->step, sx.verdict->predicate, sx.verdict->value);
     if (sx.ended) throw std::runtime_error("episode " + episode_id + ": " + *sx.ended);
     if (!sx.observation) return;
     obs = *sx.observation;
@@ -87,7 +142,7 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
     for (const gov::ChannelEffects& e : effects) {
       if (e.episode_id != episode_id) continue;
       const gov::Effects& fx = e.fx;
-      if (fx.cancel_command) from_host(host_.on_cancel({channel, episode_id, *fx.cancel_command, e.cancel_instance}));
+      if (fx.cancel_command) from_host(host_.on_cancel({kChannel, episode_id, *fx.cancel_command, e.cancel_instance}));
       if (fx.lease)
         deliver(seam.on_lease({episode_id, fx.lease->command_id, fx.lease->valid_until_step,
                                fx.lease->budget_until_step, fx.lease->revoked},
@@ -96,27 +151,27 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
       if (fx.command) {
         const gov::Command& g = *fx.command;
         dispatched[g.command_id] = g;
-        cap::CommandStart c{channel, episode_id, g.command_id, g.capability, g.instance, g.args, g.theta,
+        cap::CommandStart c{kChannel, episode_id, g.command_id, g.capability, g.instance, g.args, g.theta,
                             g.start_step, g.budget_steps, g.decision_period, cap::Grounding::State};
         from_host(host_.on_start(c, now));
       }
       if (fx.plan_request) {
         const auto& r = *fx.plan_request;
         const auto answer = std::get<planner::Answer>(planner_.on_request(
-            {channel, r.request_id, episode_id, {r.instruction, r.scene, r.capabilities, r.history}, r.seed, r.index,
+            {kChannel, r.request_id, episode_id, {r.instruction, r.scene, r.capabilities, r.history}, r.seed, r.index,
              r.errors}));
         const planner::PlannerAdvice& a = answer.advice;
         gov::Advice adv{r.request_id, a.refused, a.capability, a.args, a.rationale, a.reason, "rules", a.done, {},
                         answer.injected};
         for (const auto& s : a.rest) adv.rest.push_back({s.capability, s.args});
-        from_governor(governor_.on_advice(channel, episode_id, adv, now));
+        from_governor(governor_.on_advice(kChannel, episode_id, adv, now));
       }
     }
   };
   from_host = [&](cap::HostEffects hx) {
     for (const auto& s : hx.statuses)
       if (s.episode_id == episode_id)  // not a command left over from an earlier episode
-        from_governor(governor_.on_status(channel, episode_id,
+        from_governor(governor_.on_status(kChannel, episode_id,
                                           {s.command_id, s.instance, s.state, s.reason, s.stage, s.step, s.steps_used,
                                            s.progress, s.failure},
                                           now));
@@ -128,10 +183,7 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   from_host(host_.on_observation(obs, now));
   std::uint32_t host_step = obs.step;  ///< the last step the host saw
   try {
-    from_governor(governor_.on_request(request, now));
-    // In process nothing else can be the cause: a refused request (an unknown arm, an arm that grounds
-    // from perception) is the caller's configuration error, not an episode's outcome.
-    if (end && end->outcome == Outcome::Rejected) throw ConfigError("episode " + episode_id + ": " + end->reason);
+    from_governor(first());
     while (!end) {
       if (fresh) {
         fresh = false;
@@ -145,7 +197,7 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
       // Nothing moves this step: wait, as a stalled channel would, for the governor's next deadline (a
       // deadline acts by ending the episode or by changing what runs, so a few waits settle it).
       for (int waits = 0; !end && !(action && action->step == obs.step); ++waits) {
-        const auto deadline = governor_.deadline(channel);
+        const auto deadline = governor_.deadline(kChannel);
         if (waits == 4 || !deadline)
           throw std::logic_error("episode " + episode_id + " stands still at step " + std::to_string(obs.step) +
                                  ": no action and no end after the governor's deadlines");
@@ -160,12 +212,13 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
       if (tap.perturb) tap.perturb(applied.a);
       action.reset();
       deliver(seam.on_action(applied, now));
+      if (fresh && tap.on_step) tap.on_step(obs.step, ep.cell);
     }
   } catch (...) {
-    governor_.forget(channel);
+    governor_.forget(kChannel);
     throw;
   }
-  return {end->success, end->outcome, end->reason, end->steps, end->decisions, end->refusals, evidence_path};
+  return {end->success, end->outcome, end->reason, end->steps, end->decisions, end->refusals, ep.evidence};
 }
 
 }  // namespace dh::inproc

@@ -66,6 +66,7 @@ LibraryTheta load_library_theta(const std::filesystem::path& dir) {
       if (d.name == name) def = &d;
     if (def) {
       Descriptor d = load_descriptor(entry.path(), *def);
+      lib.cost_steps[name] = static_cast<std::uint32_t>(d.cost_steps);
       lib.theta[name] = std::move(d.parameters);
       lib.ranges[name] = std::move(d.ranges);
     } else {

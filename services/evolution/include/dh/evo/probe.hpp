@@ -24,6 +24,19 @@ struct ProbeOptions {
   std::filesystem::path library_dir;  ///< a candidate library; empty: the θ the episode recorded (the parent)
   std::uint32_t command = 0;          ///< K, 0-based in dispatch order
   std::optional<cap::Theta> theta;    ///< without library_dir: a candidate θ of the command's capability
+  /// Runs the rest of the episode after command K, the governor's core restored from its snapshot at K's
+  /// dispatch (inproc::Stack::resume), instead of command K alone. Its evidence goes to `rest_evidence`
+  /// (empty: a temporary file, removed).
+  bool rest = false;
+  std::filesystem::path rest_evidence;
+};
+
+/// How the rest of the episode went, beside how the recording went.
+struct RestReport {
+  bool success = false;
+  std::string outcome, reason;
+  std::uint32_t steps = 0;
+  std::optional<inproc::RecordedEpisodeEnd> recorded;  ///< none: the recording has no episode end
 };
 
 struct ProbeReport {
@@ -42,13 +55,17 @@ struct ProbeReport {
   std::uint32_t steps_compared = 0;             ///< steps whose physics digest was compared with the step log
   std::optional<inproc::Divergence> first_divergence;
   bool reproduces = false;  ///< every compared step identical, and the recorded end (if any) the same
+  std::optional<RestReport> rest;  ///< with ProbeOptions::rest; then `reproduces` also asks the same episode end
+  /// What a probe set counts: with the rest of the episode, its success; else the command's effect.
+  bool passed() const { return rest ? rest->success : effect_held; }
 };
 
 /// Probes command `options.command` of the episode recorded at `evidence` (with its .steps and .states
 /// beside it). Throws inproc::EvidenceError naming the file for missing or corrupt recordings,
 /// std::invalid_argument for a command number out of range or a command the probe cannot re-run (one
 /// grounded in perception, or a capability that is not an analytic or recovery skill of this build),
-/// cap's ConfigError for a candidate library that does not load. A candidate θ whose cost exceeds what
+/// cap's ConfigError for a candidate library that does not load; with `rest`, EvidenceError for evidence
+/// without the governor's snapshot at K. A candidate θ whose cost exceeds what
 /// the episode had left is refused, as the governor refuses it, without running.
 ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& options);
 

@@ -1,6 +1,7 @@
 // A capability's probe set (issue 16): the command states a revision of that capability is judged on.
 // Every command of the capability is probed first under the θ it recorded (the parent library): those
-// whose effect did not hold are the failing states (a typed failure, an expiry, or a completion without
+// whose effect did not hold (or, judged by the rest of the episode, whose episode failed) are the failing
+// states (a typed failure, an expiry, or a completion without
 // its effect), and as many of those whose effect held (at least `min_successes`) are drawn by seed: the
 // successes guard against a revision that fixes one state and breaks others. Probes run in parallel, one
 // workcell per thread.
@@ -20,7 +21,7 @@ namespace dh::evo {
 struct ProbeState {
   std::filesystem::path evidence;
   std::uint32_t command = 0;  ///< K, 0-based in dispatch order
-  bool failing = false;       ///< its effect did not hold under the recorded θ
+  bool failing = false;       ///< it did not pass (ProbeReport::passed) under the recorded θ
   std::string label;          ///< "goal-task/1 seed 21 command 0"
 };
 
@@ -28,6 +29,10 @@ struct ProbeSetOptions {
   std::string capability;
   std::size_t min_successes = 20;
   std::uint64_t draw_seed = 0;
+  /// Judge each state by the rest of its episode run from it (its success), not by the command's effect:
+  /// a θ whose effect was never the trouble (a cost that leaves a later step no budget, an effect a later
+  /// step undoes) is then seen.
+  bool rest = false;
 };
 
 struct ProbeOutcome {
@@ -50,10 +55,11 @@ ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions
                    const std::filesystem::path& config_dir, unsigned jobs);
 
 /// Probes every state under `library_dir`, or else `theta` for the commands' capability, or else each
-/// recording's own θ, on `jobs` threads; results in the states' order.
+/// recording's own θ, on `jobs` threads, with the rest of each episode when `rest`; results in the
+/// states' order.
 std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
                                        const std::filesystem::path& config_dir,
                                        const std::filesystem::path& library_dir, unsigned jobs,
-                                       const std::optional<cap::Theta>& theta = std::nullopt);
+                                       const std::optional<cap::Theta>& theta = std::nullopt, bool rest = false);
 
 }  // namespace dh::evo

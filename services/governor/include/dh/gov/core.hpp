@@ -29,6 +29,7 @@ struct EpisodeRequest {
   std::uint32_t budget_steps = 0;
   std::string library_version;
   std::map<std::string, std::map<std::string, double>> library;  ///< θ by capability
+  std::map<std::string, std::uint32_t> library_costs;            ///< cost under that θ, by capability
   std::optional<std::uint32_t> decision_period;
   std::optional<std::string> grounding;
   std::optional<PerceptionLimits> perception;
@@ -84,6 +85,16 @@ class GovernorCore {
   /// Retries requests waiting for readiness, ends waits that ran out, and rewrites running leases.
   CoreEffects on_tick(Clock::time_point now);
 
+  /// Resumes an episode on `channel` from the snapshot taken when its command in flight was dispatched
+  /// (the probe's rest of an episode): the machine in that state, writing to `evidence`, going on under
+  /// `library` with the command in flight given `budget_steps`; returns that command's lease and start,
+  /// to be carried out again. Throws std::invalid_argument for a snapshot that cannot be restored,
+  /// std::logic_error for a busy channel or a snapshot without a command in flight.
+  CoreEffects resume(std::uint32_t channel, const MachineSnapshot& snapshot, const std::filesystem::path& evidence,
+                     const std::string& library_version,
+                     const std::map<std::string, std::map<std::string, double>>& library,
+                     const std::map<std::string, std::uint32_t>& library_costs, std::uint32_t budget_steps,
+                     Clock::time_point now);
   /// Drops the channel's episode without an end; its evidence stays as written. For a caller whose own
   /// error cut the episode short (the in-process bus), so that the channel is not busy for the next one.
   void forget(std::uint32_t channel) { channels_.erase(channel); }

@@ -18,6 +18,9 @@ class VerdictLatch {
   bool decide(std::uint32_t step);
   bool latched() const { return latched_; }
   std::uint32_t event_step() const { return event_step_; }  ///< first step the predicate held
+  /// Its whole state, for the episode machine's snapshot: {latched, pending, pending_step, event_step}.
+  nlohmann::json state() const;
+  static VerdictLatch from_state(const nlohmann::json& j);
 
  private:
   bool latched_ = false;

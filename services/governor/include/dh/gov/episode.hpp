@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <map>
+#include <memory>
 #include <optional>
 #include <set>
 #include <string>
@@ -53,6 +54,8 @@ struct EpisodeSpec {
   /// empty runs every capability with the θ its instance announced.
   std::string library_version{};
   std::map<std::string, std::map<std::string, double>> library{};
+  /// The cost model under that θ, by capability (steps); a capability without one: its announced cost.
+  std::map<std::string, std::uint32_t> library_costs{};
   /// The request's settings for this episode; unset: the governor's configuration and the arm's.
   std::optional<std::uint32_t> decision_period{};
   std::optional<std::string> grounding{};        ///< "state" | "perception"
@@ -101,6 +104,21 @@ struct DecidedOn {
   bool ended_unrecorded = false;
 };
 
+/// A machine's state at one instant (episode.hpp's snapshot), for the evidence and for resuming an episode
+/// from a command's start (the probe's rest of an episode). `state` is everything but the waits: the
+/// episode's spec, its phase, the last observation, the latch, the step being executed and the plan's rest,
+/// what was tried and failed, the running command, the history and the counters. `waits` holds each
+/// pending wait's time left from the snapshot's instant (ns) and what the current one waits for (its text
+/// names the process it waits on): over DDS that is what the clock and the deployment gave, so comparisons
+/// leave it aside as they do wall-clock stamps. The channel an episode ran on is where it ran, not its
+/// state: a snapshot leaves it out.
+struct MachineSnapshot {
+  nlohmann::json state, waits;
+};
+
+/// The episode's spec in a snapshot (channel 0). Throws std::invalid_argument for one that cannot be read.
+EpisodeSpec snapshot_spec(const MachineSnapshot& s);
+
 class EpisodeMachine {
  public:
   EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, const Registry& registry,
@@ -121,11 +139,32 @@ class EpisodeMachine {
   /// Ends waits whose computed deadline passed (planner, acknowledgement, stalled steps).
   Effects on_tick(Clock::time_point now);
 
+  /// The machine's state at `now`. Under perception grounding the perceived world is not in it, and the
+  /// snapshot says so (`perceived_world: "not recorded"`); restore refuses such a snapshot.
+  MachineSnapshot snapshot(Clock::time_point now) const;
+  /// A machine on `channel` in the state `s` was taken in, its waits counted from `now`, writing from now
+  /// on to `evidence` (it records nothing itself). `config` is the episode's configuration (the arm's and
+  /// the request's, as the governor made it). Throws std::invalid_argument naming what is missing or not
+  /// restorable.
+  static std::unique_ptr<EpisodeMachine> restore(const MachineSnapshot& s, std::uint32_t channel,
+                                                 const GovernorConfig& config, const Registry& registry,
+                                                 EvidenceWriter& evidence, Clock::time_point now);
+  /// The episode goes on under `library` (a candidate's: the probe's rest of an episode): the command in
+  /// flight runs under its θ there and `budget_steps`, and its lease and command are returned to be
+  /// dispatched again; later commands are grounded with the library's θ. Throws std::logic_error when no
+  /// command runs.
+  Effects redispatch(const std::string& library_version,
+                     const std::map<std::string, std::map<std::string, double>>& library,
+                     const std::map<std::string, std::uint32_t>& library_costs, std::uint32_t budget_steps,
+                     Clock::time_point now);
+
   bool ended() const { return phase_ == Phase::Ended; }
   const EpisodeSpec& spec() const { return spec_; }
   std::uint32_t decisions() const { return decisions_; }
 
  private:
+  /// For restore: a machine that records nothing at its construction.
+  EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, const Registry& registry, EvidenceWriter& evidence);
   /// AwaitingCapability: the bare arm's policy has not been announced to this governor yet.
   /// AwaitingPerception: grounding from perception waits for a fresh scene estimate.
   enum class Phase { WaitingFirstObservation, Planning, AwaitingCapability, AwaitingPerception, Running, Ended };

@@ -43,6 +43,8 @@ struct GroundingInput {
   std::uint32_t decision_period;  ///< steps between decisions (the lease length)
   /// θ by capability of the episode's library; a capability it lacks runs with its announced θ.
   const std::map<std::string, std::map<std::string, double>>& library;
+  /// Cost under that θ by capability; a capability it lacks is budgeted by its announced cost.
+  const std::map<std::string, std::uint32_t>& library_costs;
 };
 
 GroundingResult ground(const GroundingInput& in);

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "dh/cap/host_core.hpp"
+#include "dh/gov/episode.hpp"
 #include "dh/sim/state_log.hpp"
 #include "dh/sim/step_log.hpp"
 #include "dh/sim/workcell.hpp"
@@ -52,6 +53,16 @@ struct RecordedCommand {
   nlohmann::json args, theta;
   std::uint32_t start_step = 0, budget_steps = 0;
   std::optional<RecordedEnd> end;  ///< none when the governor moved on before the command ended
+  /// The governor's episode machine just after the dispatch (its evidence's snapshot record); none in
+  /// evidence written before snapshots were recorded.
+  std::optional<gov::MachineSnapshot> snapshot;
+};
+
+/// The episode's end as the governor recorded it (its episode_end record).
+struct RecordedEpisodeEnd {
+  bool success = false;
+  std::string outcome;  ///< to_string of Outcome
+  std::uint32_t steps = 0;
 };
 
 struct Recording {
@@ -63,6 +74,7 @@ struct Recording {
   std::uint32_t budget_steps = 0, decision_period = 10;
   std::vector<RecordedCommand> commands;   ///< in dispatch order
   std::map<std::uint32_t, bool> verdicts;  ///< step -> value of each predicate change
+  std::optional<RecordedEpisodeEnd> end;   ///< none: the evidence stops before the episode's end
 };
 
 /// Reads the governor's evidence; throws EvidenceError naming the file when it is missing, corrupt, or

@@ -10,6 +10,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -19,7 +20,9 @@
 #include "dh/common/arms.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/gov/core.hpp"
+#include "dh/inproc/recording.hpp"
 #include "dh/planner/core.hpp"
+#include "dh/sim/seam_core.hpp"
 #include "dh/sim/workcell_cache.hpp"
 
 namespace dh::inproc {
@@ -30,6 +33,8 @@ namespace dh::inproc {
 struct StepTap {
   std::function<void(const Observation&, const std::string& capability, const std::array<double, 7>&)> on_action;
   std::function<void(std::array<double, 7>&)> perturb;
+  /// Sees the cell after each applied action, in the state of the step it led to.
+  std::function<void(std::uint32_t step, const sim::Workcell& cell)> on_step;
 };
 
 struct EpisodeOutcome {
@@ -49,15 +54,49 @@ class Stack {
   /// Runs one episode of `task` with `seed` under `arm`; evidence goes to `evidence` (JSON lines).
   EpisodeOutcome run(const TaskDef& task, std::uint64_t seed, const std::string& arm,
                      const std::filesystem::path& evidence, const StepTap& tap = {});
+  /// What a resumed episode starts from: a recorded episode (recording.hpp) at its command `command`'s start.
+  struct Resume {
+    const Recording& recording;
+    const sim::StateLog& states;  ///< the recording's state log
+    const TaskDef& task;          ///< the recorded task
+    std::uint32_t command = 0;    ///< K, 0-based in dispatch order
+    /// The library the episode goes on under; none: the one it recorded.
+    std::optional<cap::LibraryTheta> library;
+    std::uint32_t budget_steps = 0;  ///< command K's budget
+  };
+  /// Runs the rest of a recorded episode from command K's start (the probe's rest of an episode): the
+  /// workcell restored to the state recorded there, the capability host core to the keyframes the earlier
+  /// commands left, the governor's core to its snapshot at K's dispatch; K is dispatched again and the
+  /// episode runs to its end as `run` runs one. Evidence from K on goes to `evidence`. Throws
+  /// EvidenceError for a recording without a state or a snapshot at K, std::invalid_argument for a K out
+  /// of range or a snapshot that cannot be restored.
+  EpisodeOutcome resume(const Resume& from, const std::filesystem::path& evidence, const StepTap& tap = {});
   /// The planner-error rates every later episode's planner runs with (none by default).
   void set_planner_errors(const PlannerErrorRates& rates) { planner_errors_ = rates; }
   /// Serves one more capability, described by `library_dir`/<name>.yaml, e.g. vla_act with a loaded policy.
   void add_capability(cap::CapabilityDef def, const std::filesystem::path& library_dir);
 
  private:
+  static constexpr std::uint32_t kChannel = 0;  ///< every episode's
+  /// One episode in flight: what `drive` takes from `run` or `resume`.
+  struct Episode {
+    sim::Workcell& cell;
+    sim::SeamCore& seam;
+    Observation obs;                   ///< the seam's first observation
+    cap::Clock::time_point now;
+    std::string episode_id;
+    std::filesystem::path evidence;
+    const StepTap& tap;
+    bool governor_saw_obs = false;     ///< a resumed governor decided on `obs` before its snapshot
+  };
+  /// Drives an episode to its end over the bus; `first` gives the governor's effects that start it.
+  EpisodeOutcome drive(Episode episode, const std::function<gov::CoreEffects()>& first);
 
+  gov::GovernorConfig config_;  ///< configs/governor.yaml: the arms' settings the requests carry
+  std::map<std::string, ArmSpec> arms_;
   gov::GovernorCore governor_;  ///< every episode on channel 0
-  cap::HostCore host_;  ///< every capability's instance "<name>@inproc"
+  std::vector<cap::ServedCapability> served_;  ///< every capability's instance "<name>@inproc"
+  cap::HostCore host_;
   planner::PlannerCore planner_{planner::PlannerCore::Backend::Rules};
   cap::LibraryTheta library_;
   std::uint64_t runs_ = 0;  ///< episodes run, for unique episode ids

@@ -17,6 +17,9 @@ struct LibraryTheta {
   std::string version;                 ///< "lib-" + 16 hex digits of the hash over every capability's θ
   std::map<std::string, Theta> theta;  ///< by capability
   std::map<std::string, ThetaRanges> ranges;  ///< by capability: where θ may go (the version ignores them)
+  /// By capability this build serves in process: its cost model under this θ (steps), which the governor
+  /// budgets its commands by. A capability without one is budgeted by its instance's announced cost.
+  std::map<std::string, std::uint32_t> cost_steps;
 };
 
 /// Every descriptor (*.yaml) in `dir`. The θ of a capability this build serves in process is checked as

@@ -1,0 +1,381 @@
+// The episode machine's snapshot and restore (episode.hpp). Enumerations are stored as their values: a
+// snapshot is read by the build that wrote it (replay and the probe refuse another build's evidence).
+// Doubles round-trip exactly through nlohmann::json, so a restored machine decides as the original would.
+#include <stdexcept>
+
+#include "dh/gov/episode.hpp"
+
+namespace dh::gov {
+
+namespace {
+
+using nlohmann::json;
+
+json bindings_state(const Bindings& b) {
+  json j = json::array();
+  for (const auto& [role, entity] : b) j.push_back({role, entity});
+  return j;
+}
+
+Bindings bindings_from(const json& j) {
+  Bindings b;
+  for (const auto& pair : j) b.emplace_back(pair.at(0).get<std::string>(), pair.at(1).get<std::string>());
+  return b;
+}
+
+json entity_state(const EntityState& e) {
+  return {{"name", e.name},
+          {"kind", e.kind},
+          {"p", e.p},
+          {"q", e.q},
+          {"half_extents", e.half_extents},
+          {"joint", e.joint},
+          {"category", e.category},
+          {"colour", e.colour},
+          {"owner", e.owner},
+          {"relation", e.relation}};
+}
+
+EntityState entity_from(const json& j) {
+  EntityState e;
+  e.name = j.at("name");
+  e.kind = j.at("kind");
+  e.p = j.at("p");
+  e.q = j.at("q");
+  e.half_extents = j.at("half_extents");
+  e.joint = j.at("joint");
+  e.category = j.at("category");
+  e.colour = j.at("colour");
+  e.owner = j.at("owner");
+  e.relation = j.at("relation");
+  return e;
+}
+
+json observation_state(const Observation& o) {
+  json entities = json::array();
+  for (const auto& e : o.entities) entities.push_back(entity_state(e));
+  return {{"step", o.step},
+          {"budget_steps", o.budget_steps},
+          {"ee_p", o.ee_p},
+          {"ee_q", o.ee_q},
+          {"gripper_opening", o.gripper_opening},
+          {"contacts", {o.contact_left, o.contact_right}},
+          {"q", o.q},
+          {"dq", o.dq},
+          {"entities", std::move(entities)},
+          {"goal_holds", o.goal_holds},
+          {"episode_id", o.episode_id}};
+}
+
+Observation observation_from(const json& j) {
+  Observation o;
+  o.step = j.at("step");
+  o.budget_steps = j.at("budget_steps");
+  o.ee_p = j.at("ee_p");
+  o.ee_q = j.at("ee_q");
+  o.gripper_opening = j.at("gripper_opening");
+  o.contact_left = j.at("contacts").at(0);
+  o.contact_right = j.at("contacts").at(1);
+  o.q = j.at("q");
+  o.dq = j.at("dq");
+  for (const auto& e : j.at("entities")) o.entities.push_back(entity_from(e));
+  o.goal_holds = j.at("goal_holds");
+  o.episode_id = j.at("episode_id");
+  return o;
+}
+
+json plan_steps_state(const std::vector<PlanStep>& steps) {
+  json j = json::array();
+  for (const auto& s : steps) j.push_back({{"capability", s.capability}, {"args", bindings_state(s.args)}});
+  return j;
+}
+
+std::vector<PlanStep> plan_steps_from(const json& j) {
+  std::vector<PlanStep> steps;
+  for (const auto& s : j) steps.push_back({s.at("capability"), bindings_from(s.at("args"))});
+  return steps;
+}
+
+json advice_state(const Advice& a) {
+  return {{"request_id", a.request_id},
+          {"refused", a.refused},
+          {"capability", a.capability},
+          {"args", bindings_state(a.args)},
+          {"rationale", a.rationale},
+          {"reason", a.reason},
+          {"backend", a.backend},
+          {"done", a.done},
+          {"rest", plan_steps_state(a.rest)},
+          {"injected", static_cast<int>(a.injected)}};
+}
+
+Advice advice_from(const json& j) {
+  Advice a;
+  a.request_id = j.at("request_id");
+  a.refused = j.at("refused");
+  a.capability = j.at("capability");
+  a.args = bindings_from(j.at("args"));
+  a.rationale = j.at("rationale");
+  a.reason = j.at("reason");
+  a.backend = j.at("backend");
+  a.done = j.at("done");
+  a.rest = plan_steps_from(j.at("rest"));
+  a.injected = static_cast<PlannerError>(j.at("injected").get<int>());
+  return a;
+}
+
+json command_state(const Command& c) {
+  return {{"command_id", c.command_id},
+          {"capability", c.capability},
+          {"instance", c.instance},
+          {"version", c.version},
+          {"args", bindings_state(c.args)},
+          {"theta", c.theta},
+          {"start_step", c.start_step},
+          {"budget_steps", c.budget_steps},
+          {"lease_until_step", c.lease_until_step},
+          {"decision_period", c.decision_period}};
+}
+
+Command command_from(const json& j) {
+  Command c;
+  c.command_id = j.at("command_id");
+  c.capability = j.at("capability");
+  c.instance = j.at("instance");
+  c.version = j.at("version");
+  c.args = bindings_from(j.at("args"));
+  c.theta = j.at("theta").get<std::map<std::string, double>>();
+  c.start_step = j.at("start_step");
+  c.budget_steps = j.at("budget_steps");
+  c.lease_until_step = j.at("lease_until_step");
+  c.decision_period = j.at("decision_period");
+  return c;
+}
+
+json status_state(const CommandStatus& s) {
+  return {{"command_id", s.command_id}, {"instance", s.instance}, {"state", static_cast<int>(s.state)},
+          {"reason", s.reason},         {"stage", s.stage},       {"step", s.step},
+          {"steps_used", s.steps_used}, {"progress", s.progress}, {"failure", static_cast<int>(s.failure)}};
+}
+
+CommandStatus status_from(const json& j) {
+  CommandStatus s;
+  s.command_id = j.at("command_id");
+  s.instance = j.at("instance");
+  s.state = static_cast<CommandState>(j.at("state").get<int>());
+  s.reason = j.at("reason");
+  s.stage = j.at("stage");
+  s.step = j.at("step");
+  s.steps_used = j.at("steps_used");
+  s.progress = j.at("progress");
+  s.failure = static_cast<FailureCode>(j.at("failure").get<int>());
+  return s;
+}
+
+json spec_state(const EpisodeSpec& s) {
+  const PlannerErrorRates& e = s.planner_errors;
+  json j{{"episode_id", s.episode_id},
+         {"instruction", s.instruction},
+         {"arm", s.arm},
+         {"budget_steps", s.budget_steps},
+         {"library_version", s.library_version},
+         {"library", s.library},
+         {"library_costs", s.library_costs},
+         {"error_seed", s.error_seed},
+         {"planner_errors", {e.wrong_capability, e.wrong_argument, e.dropped_step, e.repeated_step}}};
+  if (s.decision_period) j["decision_period"] = *s.decision_period;
+  if (s.grounding) j["grounding"] = *s.grounding;
+  if (s.perception)
+    j["perception"] = {{"max_age_steps", s.perception->max_age_steps},
+                       {"min_confidence", s.perception->min_confidence},
+                       {"wait_ms", s.perception->wait.count()}};
+  return j;
+}
+
+EpisodeSpec spec_from(const json& j) {
+  EpisodeSpec s;
+  s.episode_id = j.at("episode_id");
+  s.instruction = j.at("instruction");
+  s.arm = j.at("arm");
+  s.budget_steps = j.at("budget_steps");
+  s.library_version = j.at("library_version");
+  s.library = j.at("library").get<std::map<std::string, std::map<std::string, double>>>();
+  s.library_costs = j.at("library_costs").get<std::map<std::string, std::uint32_t>>();
+  s.error_seed = j.at("error_seed");
+  const json& e = j.at("planner_errors");
+  s.planner_errors = {e.at(0), e.at(1), e.at(2), e.at(3)};
+  if (j.contains("decision_period")) s.decision_period = j.at("decision_period").get<std::uint32_t>();
+  if (j.contains("grounding")) s.grounding = j.at("grounding").get<std::string>();
+  if (j.contains("perception")) {
+    const json& p = j.at("perception");
+    s.perception = PerceptionLimits{p.at("max_age_steps"), p.at("min_confidence"),
+                                    std::chrono::milliseconds(p.at("wait_ms").get<std::int64_t>())};
+  }
+  return s;
+}
+
+template <class T>
+json optional_state(const std::optional<T>& v, json (*f)(const T&)) {
+  return v ? f(*v) : json(nullptr);
+}
+
+template <class T>
+std::optional<T> optional_from(const json& j, T (*f)(const json&)) {
+  return j.is_null() ? std::nullopt : std::optional<T>(f(j));
+}
+
+std::int64_t left_ns(Clock::time_point until, Clock::time_point now) {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(until - now).count();
+}
+
+Clock::time_point at(const json& waits, const char* key, Clock::time_point now) {  // key: ns left
+  return now + std::chrono::duration_cast<Clock::duration>(
+                   std::chrono::nanoseconds(waits.at(key).get<std::int64_t>()));
+}
+
+}  // namespace
+
+MachineSnapshot EpisodeMachine::snapshot(Clock::time_point now) const {
+  json progress = json::array();
+  for (const auto& [step, p] : progress_reports_) progress.push_back({step, p});
+  json s{{"format", 1},
+         {"spec", spec_state(spec_)},
+         {"phase", static_cast<int>(phase_)},
+         {"deadline_wait", deadline_wait_},
+         {"last_obs", have_obs_ ? observation_state(last_obs_) : json(nullptr)},
+         {"awaiting_perception", optional_state(awaiting_perception_, advice_state)},
+         {"latch", latch_.state()},
+         {"last_advice", optional_state(last_advice_, advice_state)},
+         {"step_signature", step_signature_},
+         {"step_key", step_key_},
+         {"resume", optional_state(resume_, advice_state)},
+         {"sequence", plan_steps_state(sequence_)},
+         {"tried", tried_},
+         {"recoveries", recoveries_},
+         {"recovering", recovering_},
+         {"running", optional_state(running_, command_state)},
+         {"deferred_end", optional_state(deferred_end_, status_state)},
+         {"acknowledged", acknowledged_},
+         {"last_progress", last_progress_},
+         {"progress_at_decision", progress_at_decision_},
+         {"progress_reports", std::move(progress)},
+         {"stagnant", stagnant_},
+         {"failures", failures_},
+         {"last_failure", static_cast<int>(last_failure_)},
+         {"history", history_},
+         {"pending_request", pending_request_},
+         {"decisions", decisions_},
+         {"refusals_total", refusals_total_},
+         {"refusals_in_row", refusals_in_row_},
+         {"replans", replans_},
+         {"plans", plans_},
+         {"commands", commands_}};
+  if (world_) s["perceived_world"] = "not recorded";
+  return {std::move(s),
+          {{"deadline", left_ns(deadline_, now)},
+           {"deadline_what", deadline_what_},
+           {"capability_wait_until", left_ns(capability_wait_until_, now)},
+           {"perception_wait_until", left_ns(perception_wait_until_, now)}}};
+}
+
+EpisodeMachine::EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, const Registry& registry,
+                               EvidenceWriter& evidence)
+    : spec_(std::move(spec)), config_(config), registry_(registry), evidence_(evidence) {}
+
+EpisodeSpec snapshot_spec(const MachineSnapshot& snap) {
+  try {
+    if (snap.state.at("format").get<int>() != 1)
+      throw std::invalid_argument("snapshot format " + snap.state.at("format").dump() +
+                                  " is not this build's (1)");
+    return spec_from(snap.state.at("spec"));
+  } catch (const json::exception& e) {
+    throw std::invalid_argument(std::string("an episode machine's snapshot that cannot be read: ") +
+                                e.what());
+  }
+}
+
+std::unique_ptr<EpisodeMachine> EpisodeMachine::restore(const MachineSnapshot& snap, std::uint32_t channel,
+                                                        const GovernorConfig& config,
+                                                        const Registry& registry, EvidenceWriter& evidence,
+                                                        Clock::time_point now) {
+  EpisodeSpec spec = snapshot_spec(snap);
+  spec.channel = channel;
+  const json& s = snap.state;
+  try {
+    if (s.contains("perceived_world") || config.perception)
+      throw std::invalid_argument(
+          "the snapshot of " + spec.episode_id +
+          " was taken under perception grounding, whose perceived world it does not hold");
+    std::unique_ptr<EpisodeMachine> m(new EpisodeMachine(std::move(spec), config, registry, evidence));
+    m->phase_ = static_cast<Phase>(s.at("phase").get<int>());
+    m->deadline_what_ = snap.waits.at("deadline_what");
+    m->deadline_wait_ = s.at("deadline_wait");
+    m->have_obs_ = !s.at("last_obs").is_null();
+    if (m->have_obs_) {
+      m->last_obs_ = observation_from(s.at("last_obs"));
+      m->last_obs_.channel = channel;
+    }
+    m->awaiting_perception_ = optional_from(s.at("awaiting_perception"), advice_from);
+    m->latch_ = VerdictLatch::from_state(s.at("latch"));
+    m->last_advice_ = optional_from(s.at("last_advice"), advice_from);
+    m->step_signature_ = s.at("step_signature");
+    m->step_key_ = s.at("step_key");
+    m->resume_ = optional_from(s.at("resume"), advice_from);
+    m->sequence_ = plan_steps_from(s.at("sequence"));
+    m->tried_ = s.at("tried").get<std::map<std::string, std::set<std::string>>>();
+    m->recoveries_ = s.at("recoveries").get<std::map<std::string, int>>();
+    m->recovering_ = s.at("recovering");
+    m->running_ = optional_from(s.at("running"), command_from);
+    m->deferred_end_ = optional_from(s.at("deferred_end"), status_from);
+    m->acknowledged_ = s.at("acknowledged");
+    m->last_progress_ = s.at("last_progress");
+    m->progress_at_decision_ = s.at("progress_at_decision");
+    for (const auto& r : s.at("progress_reports")) m->progress_reports_.emplace_back(r.at(0), r.at(1));
+    m->stagnant_ = s.at("stagnant");
+    m->failures_ = s.at("failures").get<std::map<std::string, int>>();
+    m->last_failure_ = static_cast<FailureCode>(s.at("last_failure").get<int>());
+    m->history_ = s.at("history").get<std::vector<std::string>>();
+    m->pending_request_ = s.at("pending_request");
+    m->decisions_ = s.at("decisions");
+    m->refusals_total_ = s.at("refusals_total");
+    m->refusals_in_row_ = s.at("refusals_in_row");
+    m->replans_ = s.at("replans");
+    m->plans_ = s.at("plans");
+    m->commands_ = s.at("commands");
+    m->deadline_ = at(snap.waits, "deadline", now);
+    m->capability_wait_until_ = at(snap.waits, "capability_wait_until", now);
+    m->perception_wait_until_ = at(snap.waits, "perception_wait_until", now);
+    return m;
+  } catch (const json::exception& e) {
+    throw std::invalid_argument(std::string("an episode machine's snapshot that cannot be read: ") +
+                                e.what());
+  }
+}
+
+Effects EpisodeMachine::redispatch(const std::string& library_version,
+                                   const std::map<std::string, std::map<std::string, double>>& library,
+                                   const std::map<std::string, std::uint32_t>& library_costs,
+                                   std::uint32_t budget_steps, Clock::time_point now) {
+  if (phase_ != Phase::Running || !running_)
+    throw std::logic_error("redispatch: episode " + spec_.episode_id + " runs no command");
+  spec_.library_version = library_version;
+  spec_.library = library;
+  spec_.library_costs = library_costs;
+  if (const auto theta = library.find(running_->capability); theta != library.end())
+    running_->theta = theta->second;
+  running_->budget_steps = budget_steps;
+  // The recording's instance ran in another process: the command goes to this registry's.
+  const CapabilityInfo* info = registry_.newest_alive(running_->capability);
+  if (!info) throw std::logic_error("redispatch: no live instance of '" + running_->capability + "'");
+  running_->instance = info->instance;
+  running_->version = info->version;
+  acknowledged_ = false;
+  deadline_ = now + config_.ack_timeout;
+  Effects fx;
+  fx.lease =
+      Lease{running_->command_id, running_->lease_until_step, running_->start_step + budget_steps, false};
+  fx.command = running_;
+  return fx;
+}
+
+}  // namespace dh::gov
