@@ -18,6 +18,9 @@
 #include "dh/common/paths.hpp"
 #include "dh/common/shutdown.hpp"
 #include "dh/common/suite.hpp"
+#include "dh/common/evidence.hpp"
+#include "dh/evo/attribution.hpp"
+#include "dh/evo/facts.hpp"
 #include "dh/evo/registry.hpp"
 #include "dh/evo/transfer.hpp"
 #include "dh/report/climb.hpp"
@@ -327,8 +330,42 @@ class Climb {
                         r.value("registry_id", ""), r["wall_s"].get<double>(), r.value("reason", ""));
     }
     if (!(*state_)["stop"].is_null()) md << "\nThe climb stopped: " << (*state_)["stop"].get<std::string>() << "\n";
+    write_layers(md);
     const std::string why_not = report::draw_climb(climb_points(), out_);
     md << "\n" << (why_not.empty() ? "![The climb](climb.png)" : "No plot of the climb: " + why_not + ".") << "\n";
+  }
+
+  /// Each round's library's failed episodes by the first layer that explains them (Eq. 5,
+  /// configs/attribution.yaml), from its campaign's evidence; an episode no layer matches, or whose
+  /// evidence does not read, is counted apart ("dh attribute --db" names it).
+  void write_layers(std::ostream& md) const {
+    const auto config = evo::load_attribution(paths::config_dir() / "attribution.yaml");
+    md << "\n## Failures by layer, per round\n\nEach round's library on the development seeds; harness layers "
+          "(counted by u_d) are marked *.\n\n| Round | Failed |";
+    for (const auto& l : config.layers) md << " " << l.name << (l.harness ? "*" : "") << " |";
+    md << " unlabelled |\n|---|---|";
+    for (std::size_t i = 0; i <= config.layers.size(); ++i) md << "---|";
+    md << "\n";
+    for (const auto& r : (*state_)["rounds"]) {
+      if (!r.contains("success")) break;
+      std::vector<unsigned> counts(config.layers.size(), 0);
+      unsigned failed = 0, unlabelled = 0;
+      for (const EpisodeRecord& e : campaign::CampaignDb::read_rows(str(r["parent_db"]))) {
+        if (e.arm != a_.arm || (e.success && !e.infrastructure)) continue;
+        ++failed;
+        try {
+          const std::vector<json> records = fs::exists(e.evidence_path) ? read_evidence(e.evidence_path)
+                                                                         : std::vector<json>{};
+          const auto label = evo::attribute(evo::read_facts(records, e.infrastructure), config);
+          label ? ++counts[static_cast<std::size_t>(label->layer)] : ++unlabelled;
+        } catch (const std::exception&) {
+          ++unlabelled;
+        }
+      }
+      md << "| " << r["round"].get<unsigned>() << " | " << failed << " |";
+      for (unsigned c : counts) md << " " << c << " |";
+      md << " " << unlabelled << " |\n";
+    }
   }
 
   /// Each round's library on the development seeds (its parent campaign), then the last admitted

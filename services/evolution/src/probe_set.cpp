@@ -11,6 +11,20 @@
 
 namespace dh::evo {
 
+namespace {
+
+/// `k` of `n` indices drawn by `seed`, in order (all of them when there are fewer).
+std::vector<std::size_t> draw(std::size_t n, std::size_t k, std::uint64_t seed) {
+  std::vector<std::size_t> order(n);
+  for (std::size_t i = 0; i < n; ++i) order[i] = i;
+  std::shuffle(order.begin(), order.end(), std::mt19937_64(seed));
+  order.resize(std::min(n, k));
+  std::sort(order.begin(), order.end());
+  return order;
+}
+
+}  // namespace
+
 ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions& o,
                    const std::filesystem::path& config_dir, unsigned jobs) {
   if (!cap::find_capability(cap::all_capabilities(), o.capability))
@@ -25,12 +39,32 @@ ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions
     const inproc::Recording rec = inproc::read_recording(r.evidence_path);
     for (std::size_t k = 0; k < rec.commands.size(); ++k)
       if (rec.commands[k].capability == o.capability)
-        all.push_back({r.evidence_path, static_cast<std::uint32_t>(k), false,
+        all.push_back({r.evidence_path, static_cast<std::uint32_t>(k), o.rest && !r.success,
                        r.cell + "/" + std::to_string(r.task) + " seed " + std::to_string(r.seed) +
                            " command " + std::to_string(k)});
   }
-  std::vector<ProbeOutcome> parent = probe_states(all, config_dir, {}, jobs, std::nullopt, o.rest);
   ProbeSet set;
+  if (o.rest) {
+    // Judged by the rest of the episode: under the recorded θ that is the recorded episode (a rest
+    // reproduces it bit for bit), so the states are classed by the recorded outcome and only those
+    // chosen are probed; a probe's own result still decides.
+    std::vector<ProbeState> chosen, won;
+    for (auto& s : all) (s.failing ? chosen : won).push_back(std::move(s));
+    for (std::size_t i : draw(won.size(), std::max(o.min_successes, chosen.size()), o.draw_seed))
+      chosen.push_back(std::move(won[i]));
+    for (auto& p : probe_states(chosen, config_dir, {}, jobs, std::nullopt, true)) {
+      if (!p.report) {
+        set.skipped.push_back(std::move(p));
+        continue;
+      }
+      p.state.failing = !p.report->passed();
+      set.states.push_back(std::move(p));
+    }
+    std::stable_partition(set.states.begin(), set.states.end(),
+                          [](const ProbeOutcome& p) { return p.state.failing; });
+    return set;
+  }
+  std::vector<ProbeOutcome> parent = probe_states(all, config_dir, {}, jobs);
   std::vector<ProbeOutcome> failing, held;
   for (auto& p : parent) {
     if (!p.report) {
@@ -41,12 +75,8 @@ ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions
     (p.state.failing ? failing : held).push_back(std::move(p));
   }
   // The successes kept: a draw by seed, listed in the rows' order.
-  std::vector<std::size_t> order(held.size());
-  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::shuffle(order.begin(), order.end(), std::mt19937_64(o.draw_seed));
-  order.resize(std::min(order.size(), std::max(o.min_successes, failing.size())));
-  std::sort(order.begin(), order.end());
-  for (std::size_t i : order) failing.push_back(std::move(held[i]));
+  for (std::size_t i : draw(held.size(), std::max(o.min_successes, failing.size()), o.draw_seed))
+    failing.push_back(std::move(held[i]));
   set.states = std::move(failing);
   return set;
 }

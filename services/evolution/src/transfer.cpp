@@ -21,7 +21,7 @@ std::string rate(unsigned k, unsigned n, const stats::ClusteredRate& c) {
 
 stats::ClusteredRate clustered_success(const std::vector<EpisodeRecord>& rows, unsigned resamples) {
   std::vector<stats::ClusteredOutcome> outcomes;
-  for (const auto& r : rows) outcomes.push_back({r.cell + "/" + std::to_string(r.task), r.success});
+  for (const auto& r : rows) outcomes.push_back({r.cluster(), r.success});
   return stats::clustered_rate(outcomes, resamples);
 }
 

@@ -38,7 +38,7 @@ struct Tally {
     successes += success;
     infrastructure += r.infrastructure;
     tick_limit += r.tick_limit;
-    outcomes.push_back({r.cell + "/" + std::to_string(r.task), success});
+    outcomes.push_back({r.cluster(), success});
   }
   json to_json(const ReportOptions& options) const {
     const stats::Interval w = stats::wilson(successes, episodes);
@@ -89,7 +89,7 @@ json paired_comparisons(const std::vector<std::string>& arms, const std::vector<
         const auto it = b.find(key);
         if (it == b.end()) continue;
         const auto& [cell, task, seed] = key;
-        stats::PairedOutcome o{cell + "/" + std::to_string(task), success_a, it->second};
+        stats::PairedOutcome o{EpisodeRecord::cluster_of(cell, task), success_a, it->second};
         all.push_back(o);
         by_cell[cell].push_back(std::move(o));
       }

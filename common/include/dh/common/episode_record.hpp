@@ -35,6 +35,9 @@ struct EpisodeRecord {
   bool sim_goal_at_end = false;  ///< the goal held in the state the episode ended in
   /// The simulator and the governor disagree on the episode's success.
   bool verdict_disagrees() const { return sim_success && *sim_success != success; }
+  /// The cluster its interval is clustered by: "cell/task" (a task's seeds share a layout).
+  std::string cluster() const { return cluster_of(cell, task); }
+  static std::string cluster_of(const std::string& cell, unsigned task) { return cell + "/" + std::to_string(task); }
 };
 
 }  // namespace dh

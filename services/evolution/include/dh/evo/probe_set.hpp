@@ -31,7 +31,8 @@ struct ProbeSetOptions {
   std::uint64_t draw_seed = 0;
   /// Judge each state by the rest of its episode run from it (its success), not by the command's effect:
   /// a θ whose effect was never the trouble (a cost that leaves a later step no budget, an effect a later
-  /// step undoes) is then seen.
+  /// step undoes) is then seen. The states are then drawn by their episodes' recorded outcomes and only
+  /// those drawn are probed (under the recorded θ the rest reproduces the recorded episode).
   bool rest = false;
 };
 
