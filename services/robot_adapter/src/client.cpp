@@ -1,0 +1,180 @@
+#include "dh/rtde/client.hpp"
+
+#include <array>
+#include <boost/asio/connect.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/read.hpp>
+#include <boost/asio/write.hpp>
+#include <optional>
+
+namespace dh::rtde {
+
+namespace asio = boost::asio;
+using tcp = asio::ip::tcp;
+
+struct Client::Io {
+  asio::io_context context;
+  tcp::socket socket{context};
+  /// Runs the operation started before it until it completes or `timeout` passes; on timeout the socket
+  /// is closed (the operation then completes with an error) and false is returned.
+  bool run(std::chrono::milliseconds timeout) {
+    context.restart();
+    context.run_for(timeout);
+    if (context.stopped()) return true;
+    socket.close();
+    context.restart();
+    context.run();
+    return false;
+  }
+};
+
+Client::Client() : io_(std::make_unique<Io>()) {}
+Client::~Client() = default;
+
+bool Client::connected() const { return io_->socket.is_open(); }
+
+void Client::close() {
+  boost::system::error_code ignored;
+  io_->socket.close(ignored);
+  // Cancelled operations' handlers run now, while what they write to still exists.
+  io_->context.restart();
+  io_->context.run();
+  reader_ = PackageReader{};
+}
+
+void Client::fail(const std::string& why) {
+  close();
+  throw ClientError(why);
+}
+
+void Client::connect(const std::string& host, std::uint16_t port, std::chrono::milliseconds timeout) {
+  close();
+  const std::string where = host + ":" + std::to_string(port);
+  boost::system::error_code ec;
+  tcp::resolver resolver(io_->context);
+  const auto endpoints = resolver.resolve(host, std::to_string(port), ec);
+  if (ec) fail("connect: cannot resolve " + where + ": " + ec.message());
+  asio::async_connect(io_->socket, endpoints,
+                      [&](const boost::system::error_code& e, const tcp::endpoint&) { ec = e; });
+  if (!io_->run(timeout))
+    fail("connect: no answer from " + where + " within " + std::to_string(timeout.count()) + " ms");
+  if (ec) fail("connect: " + where + ": " + ec.message() + " (is the controller on and RTDE enabled?)");
+  io_->socket.set_option(tcp::no_delay(true));
+  if (!accepted(exchange(request_protocol_version(), "negotiate", timeout),
+                PackageType::RequestProtocolVersion))
+    fail("negotiate: " + where + " does not speak RTDE protocol version " + std::to_string(kProtocolVersion));
+}
+
+ControllerVersion Client::controller_version(std::chrono::milliseconds timeout) {
+  return urcontrol_version(exchange(get_urcontrol_version(), "controller version", timeout));
+}
+
+Recipe Client::setup_outputs(double frequency, const std::vector<std::string>& names,
+                             std::chrono::milliseconds timeout) {
+  try {
+    return recipe(exchange(rtde::setup_outputs(frequency, names), "setup outputs", timeout),
+                  PackageType::SetupOutputs, names);
+  } catch (const ProtocolError& e) {
+    fail(std::string("setup outputs: ") + e.what());
+  }
+}
+
+Recipe Client::setup_inputs(const std::vector<std::string>& names, std::chrono::milliseconds timeout) {
+  try {
+    return recipe(exchange(rtde::setup_inputs(names), "setup inputs", timeout), PackageType::SetupInputs,
+                  names);
+  } catch (const ProtocolError& e) {
+    fail(std::string("setup inputs: ") + e.what());
+  }
+}
+
+void Client::start(std::chrono::milliseconds timeout) {
+  if (!accepted(exchange(request_start(), "start", timeout), PackageType::Start))
+    fail("start: the controller refused to start the data exchange (a recipe not set up?)");
+}
+
+void Client::pause(std::chrono::milliseconds timeout) {
+  if (!accepted(exchange(request_pause(), "pause", timeout), PackageType::Pause))
+    fail("pause: the controller refused to pause the data exchange");
+}
+
+std::vector<Value> Client::receive(const Recipe& outputs, std::chrono::milliseconds timeout) {
+  const Package p = next("receive", timeout);
+  if (p.type != PackageType::DataPackage)
+    fail("receive: a " + to_string(p.type) + " package where data was expected");
+  try {
+    return data_values(p, outputs);
+  } catch (const ProtocolError& e) {
+    fail(std::string("receive: ") + e.what());
+  }
+}
+
+void Client::send(const Recipe& inputs, const std::vector<Value>& values, std::chrono::milliseconds timeout) {
+  write(data_package(inputs, values), "send", timeout);
+}
+
+Package Client::exchange(const Package& request, const char* step, std::chrono::milliseconds timeout) {
+  write(request, step, timeout);
+  for (;;) {
+    Package p = next(step, timeout);
+    if (p.type == request.type) return p;
+    // Output data may still be on its way after a pause; anything else answers nothing we asked.
+    if (p.type != PackageType::DataPackage)
+      fail(std::string(step) + ": a " + to_string(p.type) + " package where " + to_string(request.type) +
+           " was expected");
+  }
+}
+
+void Client::write(const Package& p, const char* step, std::chrono::milliseconds timeout) {
+  if (!connected()) throw ClientError(std::string(step) + ": not connected");
+  const std::vector<std::uint8_t> bytes = encode(p);
+  boost::system::error_code ec;
+  asio::async_write(io_->socket, asio::buffer(bytes),
+                    [&](const boost::system::error_code& e, std::size_t) { ec = e; });
+  if (!io_->run(timeout))
+    fail(std::string(step) + ": the controller took no data within " + std::to_string(timeout.count()) +
+         " ms");
+  if (ec) fail(std::string(step) + ": " + ec.message());
+}
+
+Package Client::next(const char* step, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    std::optional<Package> p;
+    try {
+      p = reader_.next();
+    } catch (const ProtocolError& e) {
+      fail(std::string(step) + ": " + e.what());
+    }
+    if (p) {
+      if (p->type != PackageType::TextMessage) return *p;
+      try {
+        messages_.push_back(text_message(*p));
+      } catch (const ProtocolError& e) {
+        fail(std::string(step) + ": " + e.what());
+      }
+      continue;
+    }
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    if (!connected()) fail(std::string(step) + ": not connected");
+    if (left.count() <= 0)
+      fail(std::string(step) + ": no answer from the controller within " + std::to_string(timeout.count()) +
+           " ms");
+    std::array<std::uint8_t, 4096> buffer;
+    std::size_t got = 0;
+    boost::system::error_code ec;
+    io_->socket.async_read_some(asio::buffer(buffer), [&](const boost::system::error_code& e, std::size_t n) {
+      ec = e;
+      got = n;
+    });
+    if (!io_->run(left))
+      fail(std::string(step) + ": no answer from the controller within " + std::to_string(timeout.count()) +
+           " ms");
+    if (ec) fail(std::string(step) + ": the controller closed the connection (" + ec.message() + ")");
+    reader_.feed(std::span(buffer.data(), got));
+  }
+}
+
+}  // namespace dh::rtde

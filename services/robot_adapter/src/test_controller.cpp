@@ -1,0 +1,228 @@
+#include "dh/rtde/test_controller.hpp"
+
+#include <array>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/write.hpp>
+#include <deque>
+#include <thread>
+
+namespace dh::rtde {
+
+namespace asio = boost::asio;
+using tcp = asio::ip::tcp;
+
+Package ControllerCore::error(const std::string& message) {
+  return text_message_package({message.substr(0, 255), "test controller", 1});
+}
+
+std::vector<Package> ControllerCore::on_package(const Package& p) {
+  switch (p.type) {
+    case PackageType::RequestProtocolVersion: {
+      const bool ok = p.payload.size() == 2 && ((p.payload[0] << 8) | p.payload[1]) == kProtocolVersion;
+      negotiated_ = ok;
+      return {accepted_reply(p.type, ok)};
+    }
+    case PackageType::GetUrcontrolVersion:
+      return {urcontrol_version_reply(model_.version)};
+    case PackageType::SetupOutputs:
+    case PackageType::SetupInputs: {
+      if (!negotiated_) return {error(to_string(p.type) + " before the protocol version was agreed")};
+      const bool out = p.type == PackageType::SetupOutputs;
+      double frequency = 0;
+      const std::vector<std::string> names = setup_names(p, out ? &frequency : nullptr);
+      const auto& served = out ? model_.outputs : model_.inputs;
+      Recipe r{next_id_, {}, {}};
+      std::vector<std::optional<FieldType>> types;
+      bool complete = true;
+      for (const auto& n : names) {
+        const auto it = served.find(n);
+        types.push_back(it == served.end() ? std::nullopt : std::optional(it->second));
+        complete = complete && it != served.end();
+        if (it != served.end()) {
+          r.names.push_back(n);
+          r.types.push_back(it->second);
+        }
+      }
+      if (complete) {
+        ++next_id_;
+        if (out) {
+          outputs_ = r;
+          frequency_ = frequency;
+        } else {
+          input_recipes_[r.id] = r;
+        }
+      }
+      return {setup_reply(p.type, complete ? r.id : 0, types)};
+    }
+    case PackageType::Start:
+      streaming_ = outputs_.has_value() && frequency_ > 0;
+      return {accepted_reply(p.type, streaming_)};
+    case PackageType::Pause:
+      streaming_ = false;
+      return {accepted_reply(p.type, true)};
+    case PackageType::DataPackage: {
+      if (p.payload.empty()) return {error("a data package without a recipe id")};
+      const auto it = input_recipes_.find(p.payload[0]);
+      if (it == input_recipes_.end())
+        return {error("a data package of input recipe " + std::to_string(p.payload[0]) +
+                      ", which was never set up")};
+      const std::vector<Value> values = data_values(p, it->second);
+      for (std::size_t i = 0; i < values.size(); ++i) inputs_[it->second.names[i]] = values[i];
+      return {};
+    }
+    case PackageType::TextMessage:
+      return {};
+  }
+  return {error("a package of " + to_string(p.type) + ", which RTDE does not define")};
+}
+
+Package ControllerCore::output(const std::function<Value(const std::string&)>& read) const {
+  std::vector<Value> values;
+  for (const auto& n : outputs_->names) values.push_back(read(n));
+  return data_package(*outputs_, values);
+}
+
+struct TestController::Impl {
+  Impl(ControllerModel model, std::function<Value(const std::string&)> read, std::uint16_t port)
+      : model(std::move(model)),
+        read(std::move(read)),
+        acceptor(context, tcp::endpoint(asio::ip::make_address("127.0.0.1"), port)) {}
+
+  void accept() {
+    acceptor.async_accept([this](const boost::system::error_code& ec, tcp::socket s) {
+      if (ec) return;  // the acceptor closed: the controller is stopping
+      std::lock_guard lock(mutex);
+      socket.emplace(std::move(s));
+      socket->set_option(tcp::no_delay(true));
+      core.emplace(model);
+      reader = PackageReader{};
+      sent = 0;
+      read_some();
+    });
+  }
+
+  void read_some() {
+    socket->async_read_some(asio::buffer(buffer), [this](const boost::system::error_code& ec, std::size_t n) {
+      if (ec) return end_session();
+      std::vector<Package> replies;
+      bool rtde = true;
+      {
+        std::lock_guard lock(mutex);
+        reader.feed(std::span(buffer.data(), n));
+        try {
+          while (auto p = reader.next()) {
+            if (silent) continue;
+            const bool was_streaming = core->streaming();
+            for (auto& r : core->on_package(*p)) replies.push_back(std::move(r));
+            if (core->streaming() && !was_streaming) schedule_output(std::chrono::steady_clock::now());
+          }
+        } catch (const ProtocolError&) {
+          rtde = false;
+        }
+      }
+      if (!rtde) return end_session();  // bytes that are not RTDE: a controller drops such a client
+      for (auto& r : replies) send(std::move(r));
+      read_some();
+    });
+  }
+
+  void schedule_output(std::chrono::steady_clock::time_point at) {
+    timer.expires_at(at);
+    timer.async_wait([this, at](const boost::system::error_code& ec) {
+      if (ec) return;
+      std::optional<Package> p;
+      double frequency = 0;
+      {
+        std::lock_guard lock(mutex);
+        if (!socket || !core || !core->streaming()) return;
+        frequency = core->frequency();
+        if (!silent) {
+          p = core->output(read);
+          ++sent;
+        }
+      }
+      if (p) send(std::move(*p));
+      schedule_output(at + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                               std::chrono::duration<double>(1.0 / frequency)));
+    });
+  }
+
+  void send(Package p) {
+    const bool idle = writes.empty();
+    writes.push_back(encode(p));
+    if (idle) write_front();
+  }
+
+  void write_front() {
+    if (!socket) return writes.clear();
+    asio::async_write(*socket, asio::buffer(writes.front()),
+                      [this](const boost::system::error_code& ec, std::size_t) {
+                        if (ec) return end_session();
+                        writes.pop_front();
+                        if (!writes.empty()) write_front();
+                      });
+  }
+
+  void end_session() {
+    std::lock_guard lock(mutex);
+    if (!socket) return;
+    boost::system::error_code ignored;
+    socket->close(ignored);
+    socket.reset();
+    timer.cancel();
+    writes.clear();
+    accept();
+  }
+
+  ControllerModel model;
+  std::function<Value(const std::string&)> read;
+  asio::io_context context;
+  tcp::acceptor acceptor;
+  asio::steady_timer timer{context};
+  std::optional<tcp::socket> socket;
+  std::optional<ControllerCore> core;
+  PackageReader reader;
+  std::array<std::uint8_t, 4096> buffer{};
+  std::deque<std::vector<std::uint8_t>> writes;  ///< the controller's thread only
+  mutable std::mutex mutex;                      ///< core, sent, silent: read from the caller's thread
+  std::size_t sent = 0;
+  bool silent = false;
+  std::thread thread;
+};
+
+TestController::TestController(ControllerModel model, std::function<Value(const std::string&)> read,
+                               std::uint16_t port)
+    : impl_(std::make_unique<Impl>(std::move(model), std::move(read), port)) {
+  port_ = impl_->acceptor.local_endpoint().port();
+  impl_->accept();
+  impl_->thread = std::thread([this] { impl_->context.run(); });
+}
+
+TestController::~TestController() {
+  impl_->context.stop();
+  impl_->thread.join();
+}
+
+std::map<std::string, Value> TestController::inputs() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->core ? impl_->core->inputs() : std::map<std::string, Value>{};
+}
+
+std::size_t TestController::outputs_sent() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->sent;
+}
+
+void TestController::set_silent(bool silent) {
+  std::lock_guard lock(impl_->mutex);
+  impl_->silent = silent;
+}
+
+void TestController::drop_client() {
+  asio::post(impl_->context, [this] { impl_->end_session(); });
+}
+
+}  // namespace dh::rtde
