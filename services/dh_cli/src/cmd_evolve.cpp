@@ -34,7 +34,7 @@ using nlohmann::json;
 
 /// What a resumed climb must share with the one it resumes.
 json plan_of(const EvolveArgs& a, const std::string& start_version) {
-  return {{"start_library", fs::absolute(a.library).lexically_normal().string()},
+  json plan{{"start_library", fs::absolute(a.library).lexically_normal().string()},
           {"start_version", start_version},
           {"cells", a.cells},
           {"tasks", a.tasks},
@@ -43,8 +43,10 @@ json plan_of(const EvolveArgs& a, const std::string& start_version) {
           {"arm", a.arm},
           {"bare", a.bare},
           {"max_evals", a.max_evals},
-          {"successes", a.successes},
-          {"rest", a.rest}};
+          {"successes", a.successes}};
+  // With --rest the plan says so; without, it stays as climbs before --rest wrote it, so they resume.
+  if (a.rest) plan["rest"] = true;
+  return plan;
 }
 
 class State {

@@ -184,6 +184,8 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
                  "' under this θ costs " + std::to_string(cost);
       cell.restore(from->state);
       r.effect_held = !effect.empty() && cell.holds(effect);
+      // With the rest of the episode: not run, and not won (the governor would not dispatch K under it).
+      if (o.rest) r.rest = RestReport{false, to_string(CommandState::Refused), r.reason, from->step, rec.end};
       return r;
     }
     r.budget_steps = gov::command_budget(cost, remaining);

@@ -90,12 +90,21 @@ CoreEffects GovernorCore::resume(std::uint32_t channel, const MachineSnapshot& s
     throw std::logic_error("resume: channel " + std::to_string(channel) + " is busy with episode " +
                            ch.machine->spec().episode_id);
   const EpisodeSpec spec = snapshot_spec(snapshot);
-  const GovernorConfig config = for_request(for_arm(config_, find_arm(arms_, spec.arm)), spec);
+  GovernorConfig config;
+  try {
+    config = for_request(for_arm(config_, find_arm(arms_, spec.arm)), spec);
+  } catch (const ConfigError& e) {
+    throw std::invalid_argument("the snapshot of " + spec.episode_id + " cannot run here: " + e.what());
+  }
+  // Made aside and installed once the command is dispatched again: a failure leaves the channel as it was.
+  auto writer = std::make_unique<EvidenceWriter>(evidence);
+  auto machine = EpisodeMachine::restore(snapshot, channel, config, registry_, *writer, now);
+  Effects fx = machine->redispatch(library_version, library, library_costs, budget_steps, now);
   ch = Channel{};
-  ch.evidence = std::make_unique<EvidenceWriter>(evidence);
-  ch.machine = EpisodeMachine::restore(snapshot, channel, config, registry_, *ch.evidence, now);
+  ch.evidence = std::move(writer);
+  ch.machine = std::move(machine);
   CoreEffects out;
-  emit(channel, ch.machine->redispatch(library_version, library, library_costs, budget_steps, now), now, out);
+  emit(channel, std::move(fx), now, out);
   return out;
 }
 

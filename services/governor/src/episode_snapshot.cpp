@@ -358,19 +358,22 @@ Effects EpisodeMachine::redispatch(const std::string& library_version,
                                    std::uint32_t budget_steps, Clock::time_point now) {
   if (phase_ != Phase::Running || !running_)
     throw std::logic_error("redispatch: episode " + spec_.episode_id + " runs no command");
-  spec_.library_version = library_version;
-  spec_.library = library;
-  spec_.library_costs = library_costs;
-  if (const auto theta = library.find(running_->capability); theta != library.end())
-    running_->theta = theta->second;
-  running_->budget_steps = budget_steps;
   // The recording's instance ran in another process: the command goes to this registry's.
   const CapabilityInfo* info = registry_.newest_alive(running_->capability);
   if (!info) throw std::logic_error("redispatch: no live instance of '" + running_->capability + "'");
+  spec_.library_version = library_version;
+  spec_.library = library;
+  spec_.library_costs = library_costs;
+  // As grounding does: the library's θ, else the instance's own.
+  const auto theta = library.find(running_->capability);
+  running_->theta = theta != library.end() ? theta->second : info->parameters;
+  running_->budget_steps = budget_steps;
   running_->instance = info->instance;
   running_->version = info->version;
   acknowledged_ = false;
   deadline_ = now + config_.ack_timeout;
+  deadline_what_ = "acknowledgement of '" + running_->command_id + "' from " + running_->instance;
+  deadline_wait_ = "acknowledgement";
   Effects fx;
   fx.lease =
       Lease{running_->command_id, running_->lease_until_step, running_->start_step + budget_steps, false};

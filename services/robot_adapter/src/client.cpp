@@ -1,5 +1,6 @@
 #include "dh/rtde/client.hpp"
 
+#include <algorithm>
 #include <array>
 #include <boost/asio/connect.hpp>
 #include <boost/asio/io_context.hpp>
@@ -22,7 +23,8 @@ struct Client::Io {
     context.restart();
     context.run_for(timeout);
     if (context.stopped()) return true;
-    socket.close();
+    boost::system::error_code ignored;
+    socket.close(ignored);
     context.restart();
     context.run();
     return false;
@@ -60,14 +62,27 @@ void Client::connect(const std::string& host, std::uint16_t port, std::chrono::m
   if (!io_->run(timeout))
     fail("connect: no answer from " + where + " within " + std::to_string(timeout.count()) + " ms");
   if (ec) fail("connect: " + where + ": " + ec.message() + " (is the controller on and RTDE enabled?)");
-  io_->socket.set_option(tcp::no_delay(true));
-  if (!accepted(exchange(request_protocol_version(), "negotiate", timeout),
-                PackageType::RequestProtocolVersion))
+  io_->socket.set_option(tcp::no_delay(true), ec);
+  if (!accepted_reply_of(request_protocol_version(), "negotiate", timeout))
     fail("negotiate: " + where + " does not speak RTDE protocol version " + std::to_string(kProtocolVersion));
 }
 
+bool Client::accepted_reply_of(const Package& request, const char* step, std::chrono::milliseconds timeout) {
+  const Package reply = exchange(request, step, timeout);
+  try {
+    return accepted(reply, request.type);
+  } catch (const ProtocolError& e) {
+    fail(std::string(step) + ": " + e.what());
+  }
+}
+
 ControllerVersion Client::controller_version(std::chrono::milliseconds timeout) {
-  return urcontrol_version(exchange(get_urcontrol_version(), "controller version", timeout));
+  const Package reply = exchange(get_urcontrol_version(), "controller version", timeout);
+  try {
+    return urcontrol_version(reply);
+  } catch (const ProtocolError& e) {
+    fail(std::string("controller version: ") + e.what());
+  }
 }
 
 Recipe Client::setup_outputs(double frequency, const std::vector<std::string>& names,
@@ -90,12 +105,12 @@ Recipe Client::setup_inputs(const std::vector<std::string>& names, std::chrono::
 }
 
 void Client::start(std::chrono::milliseconds timeout) {
-  if (!accepted(exchange(request_start(), "start", timeout), PackageType::Start))
+  if (!accepted_reply_of(request_start(), "start", timeout))
     fail("start: the controller refused to start the data exchange (a recipe not set up?)");
 }
 
 void Client::pause(std::chrono::milliseconds timeout) {
-  if (!accepted(exchange(request_pause(), "pause", timeout), PackageType::Pause))
+  if (!accepted_reply_of(request_pause(), "pause", timeout))
     fail("pause: the controller refused to pause the data exchange");
 }
 
@@ -115,9 +130,13 @@ void Client::send(const Recipe& inputs, const std::vector<Value>& values, std::c
 }
 
 Package Client::exchange(const Package& request, const char* step, std::chrono::milliseconds timeout) {
+  // One deadline for the whole exchange: outputs streamed before the reply do not extend it.
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
   write(request, step, timeout);
   for (;;) {
-    Package p = next(step, timeout);
+    const auto left =
+        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
+    Package p = next(step, std::max(left, std::chrono::milliseconds(0)));
     if (p.type == request.type) return p;
     // Output data may still be on its way after a pause; anything else answers nothing we asked.
     if (p.type != PackageType::DataPackage)

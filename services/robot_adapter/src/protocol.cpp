@@ -196,8 +196,9 @@ std::vector<std::uint8_t> encode(const Package& p) {
 }
 
 void PackageReader::feed(std::span<const std::uint8_t> bytes) {
-  if (at_ > 0 && at_ == buffer_.size()) {
-    buffer_.clear();
+  // What was read is dropped once it is half the buffer, so a stream read mid-package keeps it bounded.
+  if (at_ > 0 && 2 * at_ >= buffer_.size()) {
+    buffer_.erase(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(at_));
     at_ = 0;
   }
   buffer_.insert(buffer_.end(), bytes.begin(), bytes.end());

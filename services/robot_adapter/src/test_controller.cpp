@@ -30,9 +30,13 @@ std::vector<Package> ControllerCore::on_package(const Package& p) {
     case PackageType::SetupOutputs:
     case PackageType::SetupInputs: {
       if (!negotiated_) return {error(to_string(p.type) + " before the protocol version was agreed")};
+      if (streaming_) return {error(to_string(p.type) + " while streaming: pause first")};
       const bool out = p.type == PackageType::SetupOutputs;
       double frequency = 0;
       const std::vector<std::string> names = setup_names(p, out ? &frequency : nullptr);
+      if (out && !(frequency > 0 && frequency <= 500))
+        return {error("output frequency " + std::to_string(frequency) +
+                      " Hz: a controller sends at 0 < f <= 500 Hz")};
       const auto& served = out ? model_.outputs : model_.inputs;
       Recipe r{next_id_, {}, {}};
       std::vector<std::optional<FieldType>> types;
@@ -79,96 +83,110 @@ std::vector<Package> ControllerCore::on_package(const Package& p) {
   return {error("a package of " + to_string(p.type) + ", which RTDE does not define")};
 }
 
-Package ControllerCore::output(const std::function<Value(const std::string&)>& read) const {
-  std::vector<Value> values;
-  for (const auto& n : outputs_->names) values.push_back(read(n));
-  return data_package(*outputs_, values);
-}
-
 struct TestController::Impl {
   Impl(ControllerModel model, std::function<Value(const std::string&)> read, std::uint16_t port)
       : model(std::move(model)),
         read(std::move(read)),
         acceptor(context, tcp::endpoint(asio::ip::make_address("127.0.0.1"), port)) {}
 
+  // Every handler below runs on the controller's thread and carries the session it was started in: one
+  // that completes after its session ended (a dropped client, a new one accepted) does nothing.
+
   void accept() {
     acceptor.async_accept([this](const boost::system::error_code& ec, tcp::socket s) {
       if (ec) return;  // the acceptor closed: the controller is stopping
       std::lock_guard lock(mutex);
+      ++session;
       socket.emplace(std::move(s));
-      socket->set_option(tcp::no_delay(true));
+      boost::system::error_code ignored;
+      socket->set_option(tcp::no_delay(true), ignored);
       core.emplace(model);
       reader = PackageReader{};
       sent = 0;
-      read_some();
+      read_some(session);
     });
   }
 
-  void read_some() {
-    socket->async_read_some(asio::buffer(buffer), [this](const boost::system::error_code& ec, std::size_t n) {
-      if (ec) return end_session();
-      std::vector<Package> replies;
-      bool rtde = true;
-      {
-        std::lock_guard lock(mutex);
-        reader.feed(std::span(buffer.data(), n));
-        try {
-          while (auto p = reader.next()) {
-            if (silent) continue;
-            const bool was_streaming = core->streaming();
-            for (auto& r : core->on_package(*p)) replies.push_back(std::move(r));
-            if (core->streaming() && !was_streaming) schedule_output(std::chrono::steady_clock::now());
+  bool current(std::uint64_t id) const { return id == session && socket.has_value(); }
+
+  void read_some(std::uint64_t id) {
+    socket->async_read_some(
+        asio::buffer(buffer), [this, id](const boost::system::error_code& ec, std::size_t n) {
+          if (!current(id)) return;
+          if (ec) return end_session(id);
+          std::vector<Package> replies;
+          bool rtde = true, started = false;
+          {
+            std::lock_guard lock(mutex);
+            reader.feed(std::span(buffer.data(), n));
+            try {
+              while (auto p = reader.next()) {
+                if (silent) continue;
+                const bool was_streaming = core->streaming();
+                for (auto& r : core->on_package(*p)) replies.push_back(std::move(r));
+                started = started || (core->streaming() && !was_streaming);
+              }
+            } catch (const ProtocolError&) {
+              rtde = false;
+            }
           }
-        } catch (const ProtocolError&) {
-          rtde = false;
-        }
-      }
-      if (!rtde) return end_session();  // bytes that are not RTDE: a controller drops such a client
-      for (auto& r : replies) send(std::move(r));
-      read_some();
-    });
+          if (!rtde) return end_session(id);  // bytes that are not RTDE: a controller drops such a client
+          for (auto& r : replies) send(id, std::move(r));
+          if (started) schedule_output(id, std::chrono::steady_clock::now());
+          read_some(id);
+        });
   }
 
-  void schedule_output(std::chrono::steady_clock::time_point at) {
+  void schedule_output(std::uint64_t id, std::chrono::steady_clock::time_point at) {
     timer.expires_at(at);
-    timer.async_wait([this, at](const boost::system::error_code& ec) {
-      if (ec) return;
-      std::optional<Package> p;
+    timer.async_wait([this, id, at](const boost::system::error_code& ec) {
+      if (ec || !current(id)) return;
+      Recipe recipe;
       double frequency = 0;
+      bool quiet = false;
       {
         std::lock_guard lock(mutex);
-        if (!socket || !core || !core->streaming()) return;
+        if (!core->streaming()) return;
+        recipe = *core->output_recipe();
         frequency = core->frequency();
-        if (!silent) {
-          p = core->output(read);
-          ++sent;
-        }
+        quiet = silent;
       }
-      if (p) send(std::move(*p));
-      schedule_output(at + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                               std::chrono::duration<double>(1.0 / frequency)));
+      if (!quiet) {
+        // The caller's values, read without the lock (its `read` may ask for the inputs).
+        try {
+          std::vector<Value> values;
+          for (const auto& name : recipe.names) values.push_back(read(name));
+          send(id, data_package(recipe, values));
+        } catch (const std::exception&) {
+          return end_session(id);  // a value the recipe cannot carry: the session cannot go on
+        }
+        std::lock_guard lock(mutex);
+        ++sent;
+      }
+      schedule_output(id, at + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                   std::chrono::duration<double>(1.0 / frequency)));
     });
   }
 
-  void send(Package p) {
+  void send(std::uint64_t id, Package p) {
     const bool idle = writes.empty();
     writes.push_back(encode(p));
-    if (idle) write_front();
+    if (idle) write_front(id);
   }
 
-  void write_front() {
-    if (!socket) return writes.clear();
+  void write_front(std::uint64_t id) {
     asio::async_write(*socket, asio::buffer(writes.front()),
-                      [this](const boost::system::error_code& ec, std::size_t) {
-                        if (ec) return end_session();
+                      [this, id](const boost::system::error_code& ec, std::size_t) {
+                        if (!current(id)) return;
+                        if (ec) return end_session(id);
                         writes.pop_front();
-                        if (!writes.empty()) write_front();
+                        if (!writes.empty()) write_front(id);
                       });
   }
 
-  void end_session() {
+  void end_session(std::uint64_t id) {
+    if (!current(id)) return;
     std::lock_guard lock(mutex);
-    if (!socket) return;
     boost::system::error_code ignored;
     socket->close(ignored);
     socket.reset();
@@ -187,6 +205,7 @@ struct TestController::Impl {
   PackageReader reader;
   std::array<std::uint8_t, 4096> buffer{};
   std::deque<std::vector<std::uint8_t>> writes;  ///< the controller's thread only
+  std::uint64_t session = 0;                     ///< accepted connections; the controller's thread only
   mutable std::mutex mutex;                      ///< core, sent, silent: read from the caller's thread
   std::size_t sent = 0;
   bool silent = false;
@@ -222,7 +241,7 @@ void TestController::set_silent(bool silent) {
 }
 
 void TestController::drop_client() {
-  asio::post(impl_->context, [this] { impl_->end_session(); });
+  asio::post(impl_->context, [this] { impl_->end_session(impl_->session); });
 }
 
 }  // namespace dh::rtde

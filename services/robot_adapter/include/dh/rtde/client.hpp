@@ -50,8 +50,10 @@ class Client {
   /// The next package that is not a text message; ClientError (closing) on timeout or a closed link.
   Package next(const char* step, std::chrono::milliseconds timeout);
   void write(const Package& p, const char* step, std::chrono::milliseconds timeout);
-  /// Sends `request` and returns the reply of its type.
+  /// Sends `request` and returns the reply of its type, all within `timeout`.
   Package exchange(const Package& request, const char* step, std::chrono::milliseconds timeout);
+  /// The accepted flag of the reply to `request`.
+  bool accepted_reply_of(const Package& request, const char* step, std::chrono::milliseconds timeout);
   [[noreturn]] void fail(const std::string& why);
 
   std::unique_ptr<Io> io_;

@@ -33,8 +33,8 @@ class ControllerCore {
   std::vector<Package> on_package(const Package& p);
   bool streaming() const { return streaming_; }
   double frequency() const { return frequency_; }
-  /// The output data package with each field's value from `read` (name → value of the field's type).
-  Package output(const std::function<Value(const std::string&)>& read) const;
+  /// The output recipe the client set up, or null.
+  const Recipe* output_recipe() const { return outputs_ ? &*outputs_ : nullptr; }
   /// The inputs written last, by name.
   const std::map<std::string, Value>& inputs() const { return inputs_; }
 
