@@ -1,7 +1,6 @@
 #include "dh/evo/probe.hpp"
 
 #include <mujoco/mujoco.h>
-
 #include <unistd.h>
 
 #include <functional>
@@ -13,10 +12,10 @@
 #include "dh/cap/library.hpp"
 #include "dh/cap/library_theta.hpp"
 #include "dh/common/arms.hpp"
+#include "dh/common/evidence.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/evo/effect.hpp"
 #include "dh/gov/grounding.hpp"
-#include "dh/common/evidence.hpp"
 #include "dh/inproc/bus.hpp"
 #include "dh/inproc/stack.hpp"
 #include "dh/sim/scene.hpp"
@@ -29,6 +28,19 @@ namespace {
 using nlohmann::json;
 constexpr const char* kHost = "probe";
 
+/// Counts the cell's state at `step` against the step log's; the first difference is kept.
+void compare_step(ProbeReport& r, const sim::Workcell& cell, std::uint32_t step, const sim::StepLog& log) {
+  ++r.steps_compared;
+  if (!r.first_divergence && cell.digest() != log.records[step].digest)
+    r.first_divergence = inproc::divergence_at(cell, step, log.records[step].digest);
+}
+
+/// The probe's end is the recorded one: state, failure code, stage and step.
+bool same_end(const inproc::RecordedCommand& k, const ProbeReport& r) {
+  return k.end && k.end->state == r.state && k.end->failure == r.failure && k.end->stage == r.stage &&
+         k.end->step == r.end_step;
+}
+
 /// The rest of the episode from command K on the in-process stack (ProbeOptions::rest): K's end and
 /// effect, every step against the step log, and the episode's end beside the recorded one.
 void rest_of_episode(ProbeReport& r, const inproc::Stack::Resume& from, const sim::StepLog& log,
@@ -39,10 +51,7 @@ void rest_of_episode(ProbeReport& r, const inproc::Stack::Resume& from, const si
   inproc::StepTap tap;
   tap.on_step = [&](std::uint32_t step, const sim::Workcell& cell) {
     if (!effect.empty()) held[step] = cell.holds(effect);
-    if (step >= log.records.size()) return;
-    ++r.steps_compared;
-    if (!r.first_divergence && cell.digest() != log.records[step].digest)
-      r.first_divergence = inproc::divergence_at(cell, step, log.records[step].digest);
+    if (step < log.records.size()) compare_step(r, cell, step, log);
   };
   const bool temporary = o.rest_evidence.empty();
   const std::filesystem::path out =
@@ -57,13 +66,13 @@ void rest_of_episode(ProbeReport& r, const inproc::Stack::Resume& from, const si
   r.end_step = end.steps;
   for (const auto& e : read_evidence(out)) {
     if (e.value("kind", "") != "command_status" || e.value("command_id", "") != k.id) continue;
-    const std::string state = e.value("state", "");
-    if (state == "accepted" || state == "running") continue;
-    r.state = state;
-    r.failure = e.value("failure", "none");
-    r.stage = e.value("stage", "");
+    const std::optional<inproc::RecordedEnd> ended = inproc::recorded_end(e);
+    if (!ended) continue;
+    r.state = ended->state;
+    r.failure = ended->failure;
+    r.stage = ended->stage;
+    r.end_step = ended->step;
     r.reason = e.value("reason", "");
-    r.end_step = e.value("step", 0u);
   }
   if (temporary) std::filesystem::remove(out);
   if (effect.empty()) {
@@ -72,12 +81,12 @@ void rest_of_episode(ProbeReport& r, const inproc::Stack::Resume& from, const si
     const auto at = held.upper_bound(r.end_step);  // the state after the end step's action, or before
     r.effect_held = at != held.begin() && std::prev(at)->second;
   }
-  r.same_end = k.end && k.end->state == r.state && k.end->failure == r.failure && k.end->stage == r.stage &&
-               k.end->step == r.end_step;
+  r.same_end = same_end(k, r);
   r.rest = RestReport{end.success, to_string(end.outcome), end.reason, end.steps, from.recording.end};
   const auto& rec_end = from.recording.end;
-  r.reproduces = !r.first_divergence && (!k.end || r.same_end) && rec_end && rec_end->success == end.success &&
-                 rec_end->outcome == to_string(end.outcome) && rec_end->steps == end.steps;
+  r.reproduces = !r.first_divergence && (!k.end || r.same_end) && rec_end &&
+                 rec_end->success == end.success && rec_end->outcome == to_string(end.outcome) &&
+                 rec_end->steps == end.steps;
 }
 
 }  // namespace
@@ -156,8 +165,8 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
     r.library = "theta " + cap::library_version({{k.capability, *o.theta}});
     if (o.rest) {
       if (!k.snapshot)
-        throw inproc::EvidenceError(evidence.string() + ": no snapshot of the governor at the dispatch of " + k.id +
-                                    " (evidence written before snapshots were recorded)");
+        throw inproc::EvidenceError(evidence.string() + ": no snapshot of the governor at the dispatch of " +
+                                    k.id + " (evidence written before snapshots were recorded)");
       const gov::EpisodeSpec recorded = gov::snapshot_spec(*k.snapshot);
       library.emplace();
       library->theta = recorded.library;
@@ -206,10 +215,7 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
   runner.resume_episode(rec.episode_id, goal_text(task.goal), *from);
   // Each step's physics against the step log, while the recording ran this command.
   runner.after_step = [&](std::uint32_t step) {
-    if (step >= log.records.size() || log.records[step].command_id != k.id) return;
-    ++r.steps_compared;
-    if (!r.first_divergence && cell.digest() != log.records[step].digest)
-      r.first_divergence = inproc::divergence_at(cell, step, log.records[step].digest);
+    if (step < log.records.size() && log.records[step].command_id == k.id) compare_step(r, cell, step, log);
   };
   cap::CommandStart start = inproc::command_start(rec, k, from->step, theta, kHost);
   start.budget_steps = r.budget_steps;
@@ -223,8 +229,7 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
   // The effect is the world's state at the command's end, however the command ended; a command whose
   // arguments name none is judged by its completion.
   r.effect_held = effect.empty() ? out.state == CommandState::Completed : cell.holds(effect);
-  r.same_end = k.end && k.end->state == r.state && k.end->failure == r.failure && k.end->stage == r.stage &&
-               k.end->step == r.end_step;
+  r.same_end = same_end(k, r);
   // Reproduced: every recorded step of the command the same, and its recorded end (if any) the same; a
   // command with neither recorded steps nor a recorded end has nothing to reproduce.
   r.reproduces = !r.first_divergence && (k.end ? r.same_end : r.steps_compared > 0);
@@ -253,8 +258,11 @@ json to_json(const ProbeReport& r) {
          {"reproduces", r.reproduces},
          {"rest", nullptr}};
   if (r.rest) {
-    j["rest"] = {{"success", r.rest->success}, {"outcome", r.rest->outcome}, {"reason", r.rest->reason},
-                 {"steps", r.rest->steps}, {"recorded", nullptr}};
+    j["rest"] = {{"success", r.rest->success},
+                 {"outcome", r.rest->outcome},
+                 {"reason", r.rest->reason},
+                 {"steps", r.rest->steps},
+                 {"recorded", nullptr}};
     if (r.rest->recorded)
       j["rest"]["recorded"] = {{"success", r.rest->recorded->success},
                                {"outcome", r.rest->recorded->outcome},

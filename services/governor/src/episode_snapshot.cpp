@@ -5,55 +5,30 @@
 
 #include "dh/gov/episode.hpp"
 
+// The plain messages the machine holds, field by field under their own names (nlohmann's macros; a
+// Bindings is an array of [role, entity] pairs, an enumeration its value).
+namespace dh {
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(EntityState, name, kind, p, q, half_extents, joint, category, colour,
+                                   owner, relation)
+}  // namespace dh
+
 namespace dh::gov {
+
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(PlanStep, capability, args)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(Advice, request_id, refused, capability, args, rationale, reason, backend,
+                                   done, rest, injected)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(CommandStatus, command_id, instance, state, reason, stage, step,
+                                   steps_used, progress, failure)
+// A command's perception limits are left out: a snapshot under perception grounding is not restored.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(Command, command_id, capability, instance, version, args, theta,
+                                   start_step, budget_steps, lease_until_step, decision_period)
 
 namespace {
 
 using nlohmann::json;
 
-json bindings_state(const Bindings& b) {
-  json j = json::array();
-  for (const auto& [role, entity] : b) j.push_back({role, entity});
-  return j;
-}
-
-Bindings bindings_from(const json& j) {
-  Bindings b;
-  for (const auto& pair : j) b.emplace_back(pair.at(0).get<std::string>(), pair.at(1).get<std::string>());
-  return b;
-}
-
-json entity_state(const EntityState& e) {
-  return {{"name", e.name},
-          {"kind", e.kind},
-          {"p", e.p},
-          {"q", e.q},
-          {"half_extents", e.half_extents},
-          {"joint", e.joint},
-          {"category", e.category},
-          {"colour", e.colour},
-          {"owner", e.owner},
-          {"relation", e.relation}};
-}
-
-EntityState entity_from(const json& j) {
-  EntityState e;
-  e.name = j.at("name");
-  e.kind = j.at("kind");
-  e.p = j.at("p");
-  e.q = j.at("q");
-  e.half_extents = j.at("half_extents");
-  e.joint = j.at("joint");
-  e.category = j.at("category");
-  e.colour = j.at("colour");
-  e.owner = j.at("owner");
-  e.relation = j.at("relation");
-  return e;
-}
-
+// The channel is where the episode ran, not its state: left out.
 json observation_state(const Observation& o) {
-  json entities = json::array();
-  for (const auto& e : o.entities) entities.push_back(entity_state(e));
   return {{"step", o.step},
           {"budget_steps", o.budget_steps},
           {"ee_p", o.ee_p},
@@ -62,7 +37,7 @@ json observation_state(const Observation& o) {
           {"contacts", {o.contact_left, o.contact_right}},
           {"q", o.q},
           {"dq", o.dq},
-          {"entities", std::move(entities)},
+          {"entities", o.entities},
           {"goal_holds", o.goal_holds},
           {"episode_id", o.episode_id}};
 }
@@ -78,98 +53,10 @@ Observation observation_from(const json& j) {
   o.contact_right = j.at("contacts").at(1);
   o.q = j.at("q");
   o.dq = j.at("dq");
-  for (const auto& e : j.at("entities")) o.entities.push_back(entity_from(e));
+  o.entities = j.at("entities").get<std::vector<EntityState>>();
   o.goal_holds = j.at("goal_holds");
   o.episode_id = j.at("episode_id");
   return o;
-}
-
-json plan_steps_state(const std::vector<PlanStep>& steps) {
-  json j = json::array();
-  for (const auto& s : steps) j.push_back({{"capability", s.capability}, {"args", bindings_state(s.args)}});
-  return j;
-}
-
-std::vector<PlanStep> plan_steps_from(const json& j) {
-  std::vector<PlanStep> steps;
-  for (const auto& s : j) steps.push_back({s.at("capability"), bindings_from(s.at("args"))});
-  return steps;
-}
-
-json advice_state(const Advice& a) {
-  return {{"request_id", a.request_id},
-          {"refused", a.refused},
-          {"capability", a.capability},
-          {"args", bindings_state(a.args)},
-          {"rationale", a.rationale},
-          {"reason", a.reason},
-          {"backend", a.backend},
-          {"done", a.done},
-          {"rest", plan_steps_state(a.rest)},
-          {"injected", static_cast<int>(a.injected)}};
-}
-
-Advice advice_from(const json& j) {
-  Advice a;
-  a.request_id = j.at("request_id");
-  a.refused = j.at("refused");
-  a.capability = j.at("capability");
-  a.args = bindings_from(j.at("args"));
-  a.rationale = j.at("rationale");
-  a.reason = j.at("reason");
-  a.backend = j.at("backend");
-  a.done = j.at("done");
-  a.rest = plan_steps_from(j.at("rest"));
-  a.injected = static_cast<PlannerError>(j.at("injected").get<int>());
-  return a;
-}
-
-json command_state(const Command& c) {
-  return {{"command_id", c.command_id},
-          {"capability", c.capability},
-          {"instance", c.instance},
-          {"version", c.version},
-          {"args", bindings_state(c.args)},
-          {"theta", c.theta},
-          {"start_step", c.start_step},
-          {"budget_steps", c.budget_steps},
-          {"lease_until_step", c.lease_until_step},
-          {"decision_period", c.decision_period}};
-}
-
-Command command_from(const json& j) {
-  Command c;
-  c.command_id = j.at("command_id");
-  c.capability = j.at("capability");
-  c.instance = j.at("instance");
-  c.version = j.at("version");
-  c.args = bindings_from(j.at("args"));
-  c.theta = j.at("theta").get<std::map<std::string, double>>();
-  c.start_step = j.at("start_step");
-  c.budget_steps = j.at("budget_steps");
-  c.lease_until_step = j.at("lease_until_step");
-  c.decision_period = j.at("decision_period");
-  return c;
-}
-
-json status_state(const CommandStatus& s) {
-  return {{"command_id", s.command_id}, {"instance", s.instance}, {"state", static_cast<int>(s.state)},
-          {"reason", s.reason},         {"stage", s.stage},       {"step", s.step},
-          {"steps_used", s.steps_used}, {"progress", s.progress}, {"failure", static_cast<int>(s.failure)}};
-}
-
-CommandStatus status_from(const json& j) {
-  CommandStatus s;
-  s.command_id = j.at("command_id");
-  s.instance = j.at("instance");
-  s.state = static_cast<CommandState>(j.at("state").get<int>());
-  s.reason = j.at("reason");
-  s.stage = j.at("stage");
-  s.step = j.at("step");
-  s.steps_used = j.at("steps_used");
-  s.progress = j.at("progress");
-  s.failure = static_cast<FailureCode>(j.at("failure").get<int>());
-  return s;
 }
 
 json spec_state(const EpisodeSpec& s) {
@@ -215,13 +102,13 @@ EpisodeSpec spec_from(const json& j) {
 }
 
 template <class T>
-json optional_state(const std::optional<T>& v, json (*f)(const T&)) {
-  return v ? f(*v) : json(nullptr);
+json optional_state(const std::optional<T>& v) {
+  return v ? json(*v) : json(nullptr);
 }
 
 template <class T>
-std::optional<T> optional_from(const json& j, T (*f)(const json&)) {
-  return j.is_null() ? std::nullopt : std::optional<T>(f(j));
+std::optional<T> optional_from(const json& j) {
+  return j.is_null() ? std::nullopt : std::optional<T>(j.get<T>());
 }
 
 std::int64_t left_ns(Clock::time_point until, Clock::time_point now) {
@@ -243,18 +130,18 @@ MachineSnapshot EpisodeMachine::snapshot(Clock::time_point now) const {
          {"phase", static_cast<int>(phase_)},
          {"deadline_wait", deadline_wait_},
          {"last_obs", have_obs_ ? observation_state(last_obs_) : json(nullptr)},
-         {"awaiting_perception", optional_state(awaiting_perception_, advice_state)},
+         {"awaiting_perception", optional_state(awaiting_perception_)},
          {"latch", latch_.state()},
-         {"last_advice", optional_state(last_advice_, advice_state)},
+         {"last_advice", optional_state(last_advice_)},
          {"step_signature", step_signature_},
          {"step_key", step_key_},
-         {"resume", optional_state(resume_, advice_state)},
-         {"sequence", plan_steps_state(sequence_)},
+         {"resume", optional_state(resume_)},
+         {"sequence", sequence_},
          {"tried", tried_},
          {"recoveries", recoveries_},
          {"recovering", recovering_},
-         {"running", optional_state(running_, command_state)},
-         {"deferred_end", optional_state(deferred_end_, status_state)},
+         {"running", optional_state(running_)},
+         {"deferred_end", optional_state(deferred_end_)},
          {"acknowledged", acknowledged_},
          {"last_progress", last_progress_},
          {"progress_at_decision", progress_at_decision_},
@@ -315,18 +202,18 @@ std::unique_ptr<EpisodeMachine> EpisodeMachine::restore(const MachineSnapshot& s
       m->last_obs_ = observation_from(s.at("last_obs"));
       m->last_obs_.channel = channel;
     }
-    m->awaiting_perception_ = optional_from(s.at("awaiting_perception"), advice_from);
+    m->awaiting_perception_ = optional_from<Advice>(s.at("awaiting_perception"));
     m->latch_ = VerdictLatch::from_state(s.at("latch"));
-    m->last_advice_ = optional_from(s.at("last_advice"), advice_from);
+    m->last_advice_ = optional_from<Advice>(s.at("last_advice"));
     m->step_signature_ = s.at("step_signature");
     m->step_key_ = s.at("step_key");
-    m->resume_ = optional_from(s.at("resume"), advice_from);
-    m->sequence_ = plan_steps_from(s.at("sequence"));
+    m->resume_ = optional_from<Advice>(s.at("resume"));
+    m->sequence_ = s.at("sequence").get<std::vector<PlanStep>>();
     m->tried_ = s.at("tried").get<std::map<std::string, std::set<std::string>>>();
     m->recoveries_ = s.at("recoveries").get<std::map<std::string, int>>();
     m->recovering_ = s.at("recovering");
-    m->running_ = optional_from(s.at("running"), command_from);
-    m->deferred_end_ = optional_from(s.at("deferred_end"), status_from);
+    m->running_ = optional_from<Command>(s.at("running"));
+    m->deferred_end_ = optional_from<CommandStatus>(s.at("deferred_end"));
     m->acknowledged_ = s.at("acknowledged");
     m->last_progress_ = s.at("last_progress");
     m->progress_at_decision_ = s.at("progress_at_decision");

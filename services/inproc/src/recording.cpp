@@ -97,11 +97,8 @@ Recording read_recording(const std::filesystem::path& evidence) {
           r.commands[it->second].snapshot = gov::MachineSnapshot{e.at("machine"), e.at("waits")};
       } else if (kind == "command_status") {
         const auto it = dispatched.find(e.at("command_id").get<std::string>());
-        const std::string state = e.at("state").get<std::string>();
-        if (it == dispatched.end() || state == "accepted" || state == "running") continue;
-        r.commands[it->second].end =
-            RecordedEnd{state, e.value("failure", "none"), e.value("stage", ""),
-                        e.at("step").get<std::uint32_t>(), e.value("steps_used", 0u)};
+        std::optional<RecordedEnd> end = recorded_end(e);  // read for every status record, dispatched or not
+        if (it != dispatched.end() && end) r.commands[it->second].end = std::move(end);
       } else if (kind == "episode_end") {
         r.end = RecordedEpisodeEnd{e.at("success").get<bool>(), e.at("outcome").get<std::string>(),
                                    e.at("step").get<std::uint32_t>()};
@@ -116,6 +113,13 @@ Recording read_recording(const std::filesystem::path& evidence) {
   if (!request || !start)
     bad(evidence, "no episode_request or episode_start record (not a governor's evidence?)");
   return r;
+}
+
+std::optional<RecordedEnd> recorded_end(const json& status) {
+  const std::string state = status.at("state").get<std::string>();
+  if (state == "accepted" || state == "running") return std::nullopt;
+  return RecordedEnd{state, status.value("failure", "none"), status.value("stage", ""),
+                     status.at("step").get<std::uint32_t>(), status.value("steps_used", 0u)};
 }
 
 cap::Bindings bindings(const json& args) {

@@ -67,41 +67,34 @@ void Client::connect(const std::string& host, std::uint16_t port, std::chrono::m
     fail("negotiate: " + where + " does not speak RTDE protocol version " + std::to_string(kProtocolVersion));
 }
 
-bool Client::accepted_reply_of(const Package& request, const char* step, std::chrono::milliseconds timeout) {
-  const Package reply = exchange(request, step, timeout);
+template <class Read>
+auto Client::decoded(const char* step, Read&& read) -> decltype(read()) {
   try {
-    return accepted(reply, request.type);
+    return read();
   } catch (const ProtocolError& e) {
     fail(std::string(step) + ": " + e.what());
   }
 }
 
+bool Client::accepted_reply_of(const Package& request, const char* step, std::chrono::milliseconds timeout) {
+  const Package reply = exchange(request, step, timeout);
+  return decoded(step, [&] { return accepted(reply, request.type); });
+}
+
 ControllerVersion Client::controller_version(std::chrono::milliseconds timeout) {
   const Package reply = exchange(get_urcontrol_version(), "controller version", timeout);
-  try {
-    return urcontrol_version(reply);
-  } catch (const ProtocolError& e) {
-    fail(std::string("controller version: ") + e.what());
-  }
+  return decoded("controller version", [&] { return urcontrol_version(reply); });
 }
 
 Recipe Client::setup_outputs(double frequency, const std::vector<std::string>& names,
                              std::chrono::milliseconds timeout) {
-  try {
-    return recipe(exchange(rtde::setup_outputs(frequency, names), "setup outputs", timeout),
-                  PackageType::SetupOutputs, names);
-  } catch (const ProtocolError& e) {
-    fail(std::string("setup outputs: ") + e.what());
-  }
+  const Package reply = exchange(rtde::setup_outputs(frequency, names), "setup outputs", timeout);
+  return decoded("setup outputs", [&] { return recipe(reply, PackageType::SetupOutputs, names); });
 }
 
 Recipe Client::setup_inputs(const std::vector<std::string>& names, std::chrono::milliseconds timeout) {
-  try {
-    return recipe(exchange(rtde::setup_inputs(names), "setup inputs", timeout), PackageType::SetupInputs,
-                  names);
-  } catch (const ProtocolError& e) {
-    fail(std::string("setup inputs: ") + e.what());
-  }
+  const Package reply = exchange(rtde::setup_inputs(names), "setup inputs", timeout);
+  return decoded("setup inputs", [&] { return recipe(reply, PackageType::SetupInputs, names); });
 }
 
 void Client::start(std::chrono::milliseconds timeout) {
@@ -118,11 +111,7 @@ std::vector<Value> Client::receive(const Recipe& outputs, std::chrono::milliseco
   const Package p = next("receive", timeout);
   if (p.type != PackageType::DataPackage)
     fail("receive: a " + to_string(p.type) + " package where data was expected");
-  try {
-    return data_values(p, outputs);
-  } catch (const ProtocolError& e) {
-    fail(std::string("receive: ") + e.what());
-  }
+  return decoded("receive", [&] { return data_values(p, outputs); });
 }
 
 void Client::send(const Recipe& inputs, const std::vector<Value>& values, std::chrono::milliseconds timeout) {
@@ -160,19 +149,10 @@ void Client::write(const Package& p, const char* step, std::chrono::milliseconds
 Package Client::next(const char* step, std::chrono::milliseconds timeout) {
   const auto deadline = std::chrono::steady_clock::now() + timeout;
   for (;;) {
-    std::optional<Package> p;
-    try {
-      p = reader_.next();
-    } catch (const ProtocolError& e) {
-      fail(std::string(step) + ": " + e.what());
-    }
+    const std::optional<Package> p = decoded(step, [&] { return reader_.next(); });
     if (p) {
       if (p->type != PackageType::TextMessage) return *p;
-      try {
-        messages_.push_back(text_message(*p));
-      } catch (const ProtocolError& e) {
-        fail(std::string(step) + ": " + e.what());
-      }
+      messages_.push_back(decoded(step, [&] { return text_message(*p); }));
       continue;
     }
     const auto left =

@@ -81,6 +81,10 @@ struct Recording {
 /// lacks what a re-run needs.
 Recording read_recording(const std::filesystem::path& evidence);
 
+/// A command_status record's end, or nullopt while it says the command is accepted or running. Throws
+/// nlohmann::json::exception for a record without its state or step.
+std::optional<RecordedEnd> recorded_end(const nlohmann::json& command_status);
+
 cap::Bindings bindings(const nlohmann::json& args);
 cap::Theta theta_of(const nlohmann::json& theta);
 

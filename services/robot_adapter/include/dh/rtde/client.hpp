@@ -55,6 +55,9 @@ class Client {
   /// The accepted flag of the reply to `request`.
   bool accepted_reply_of(const Package& request, const char* step, std::chrono::milliseconds timeout);
   [[noreturn]] void fail(const std::string& why);
+  /// What `read` makes of the controller's bytes; a ProtocolError ends the session as `step`'s ClientError.
+  template <class Read>
+  auto decoded(const char* step, Read&& read) -> decltype(read());
 
   std::unique_ptr<Io> io_;
   PackageReader reader_;
