@@ -87,9 +87,7 @@ int cmd_probe(const ProbeArgs& a) {
   if (a.evidence.empty() || !a.command)
     throw std::invalid_argument(
         "give --evidence FILE --command K (one command) or --db FILE --capability C (a probe set)");
-  evo::ProbeOptions o{paths::config_dir(), a.library, *a.command, std::nullopt};
-  o.rest = a.rest;
-  o.rest_evidence = a.rest_evidence;
+  const evo::ProbeOptions o{paths::config_dir(), a.library, *a.command, std::nullopt, a.rest, a.rest_evidence};
   evo::ProbeReport r;
   try {
     r = evo::probe(a.evidence, o);

@@ -84,7 +84,7 @@ inproc::EpisodeOutcome* Probe::missed = nullptr;
 
 TEST_F(Probe, UnderTheRecordedThetaACompletedCommandReproducesBitForBit) {
   ASSERT_TRUE(outcome->success) << outcome->reason;
-  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 1, std::nullopt});
+  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 1, std::nullopt, false, {}});
   EXPECT_EQ(r.capability, "pick_place");
   EXPECT_EQ(r.library, "recorded");
   EXPECT_EQ(r.state, "completed");
@@ -104,7 +104,7 @@ TEST_F(Probe, UnderTheRecordedThetaACompletedCommandReproducesBitForBit) {
 }
 
 TEST_F(Probe, UnderTheRecordedThetaARefusedCommandIsRefusedAgainAtItsStep) {
-  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 0, std::nullopt});
+  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 0, std::nullopt, false, {}});
   EXPECT_EQ(r.capability, "push");
   EXPECT_EQ(r.state, "refused");
   EXPECT_FALSE(r.effect_held);
@@ -117,7 +117,7 @@ TEST_F(Probe, UnderTheRecordedThetaARefusedCommandIsRefusedAgainAtItsStep) {
 }
 
 TEST_F(Probe, UnderTheRecordedThetaAFailedCommandFailsAgainBitForBit) {
-  const auto r = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 1, std::nullopt});
+  const auto r = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 1, std::nullopt, false, {}});
   EXPECT_EQ(r.capability, "pick_place");
   EXPECT_EQ(r.state, "failed");
   EXPECT_EQ(r.failure, "grasp_slipped");
@@ -131,7 +131,7 @@ TEST_F(Probe, UnderTheRecordedThetaAFailedCommandFailsAgainBitForBit) {
   EXPECT_FALSE(r.first_divergence);
   EXPECT_TRUE(r.reproduces);
   // The command after the regrasp, from the state the regrasp left: it completes again.
-  const auto retry = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 3, std::nullopt});
+  const auto retry = evo::probe(*dir / "missed.jsonl", {paths::config_dir(), {}, 3, std::nullopt, false, {}});
   EXPECT_EQ(retry.capability, "pick_place");
   EXPECT_EQ(retry.state, "completed");
   EXPECT_TRUE(retry.reproduces);
@@ -140,7 +140,7 @@ TEST_F(Probe, UnderTheRecordedThetaAFailedCommandFailsAgainBitForBit) {
 TEST_F(Probe, ACandidateLibraryRunsItsThetaAndDepartsFromTheRecording) {
   // A slower carry: the same command, other actions, so the physics leaves the recording.
   const auto lib = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
-  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), lib, 1, std::nullopt});
+  const auto r = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), lib, 1, std::nullopt, false, {}});
   EXPECT_NE(r.library, "recorded");
   EXPECT_EQ(r.library.rfind("lib-", 0), 0u) << r.library;
   EXPECT_DOUBLE_EQ(r.theta["max_speed"].get<double>(), 0.2);
@@ -152,7 +152,7 @@ TEST_F(Probe, TheRestOfAnEpisodeUnderTheRecordedThetaEndsAsRecordedBitForBit) {
   // From each command of the slipped grasp's episode: the governor restored from its snapshot at that
   // dispatch decides again, recovery and all, to the recorded end.
   for (std::uint32_t k = 0; k < 4; ++k) {
-    evo::ProbeOptions o{paths::config_dir(), {}, k, std::nullopt};
+    evo::ProbeOptions o{paths::config_dir(), {}, k, std::nullopt, false, {}};
     o.rest = true;
     const auto r = evo::probe(*dir / "missed.jsonl", o);
     ASSERT_TRUE(r.rest) << k;
@@ -165,7 +165,7 @@ TEST_F(Probe, TheRestOfAnEpisodeUnderTheRecordedThetaEndsAsRecordedBitForBit) {
     EXPECT_TRUE(r.same_end) << k;
     EXPECT_TRUE(r.reproduces) << k;
   }
-  evo::ProbeOptions o{paths::config_dir(), {}, 1, std::nullopt};
+  evo::ProbeOptions o{paths::config_dir(), {}, 1, std::nullopt, false, {}};
   o.rest = true;
   const auto slipped = evo::probe(*dir / "missed.jsonl", o);
   EXPECT_EQ(slipped.failure, "grasp_slipped");
@@ -178,7 +178,7 @@ TEST_F(Probe, TheRestOfAnEpisodeUnderTheRecordedThetaEndsAsRecordedBitForBit) {
 
 TEST_F(Probe, TheRestOfAnEpisodeGoesOnUnderACandidate) {
   const auto lib = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
-  evo::ProbeOptions o{paths::config_dir(), lib, 1, std::nullopt};
+  evo::ProbeOptions o{paths::config_dir(), lib, 1, std::nullopt, false, {}};
   o.rest = true;
   o.rest_evidence = *dir / "rest.jsonl";
   const auto r = evo::probe(*dir / "ep.jsonl", o);
@@ -204,7 +204,7 @@ TEST_F(Probe, TheRestOfAnEpisodeNeedsTheGovernorsSnapshot) {
   for (const char* ext : {".steps", ".states"})
     fs::copy_file(*dir / (std::string("missed") + ext), *dir / (std::string("old") + ext),
                   fs::copy_options::overwrite_existing);
-  evo::ProbeOptions o{paths::config_dir(), {}, 1, std::nullopt};
+  evo::ProbeOptions o{paths::config_dir(), {}, 1, std::nullopt, false, {}};
   EXPECT_NO_THROW(evo::probe(*dir / "old.jsonl", o)) << "a single command needs no snapshot";
   o.rest = true;
   try {
@@ -217,13 +217,13 @@ TEST_F(Probe, TheRestOfAnEpisodeNeedsTheGovernorsSnapshot) {
 }
 
 TEST_F(Probe, BadInputIsNamed) {
-  EXPECT_THROW(evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 2, std::nullopt}),
+  EXPECT_THROW(evo::probe(*dir / "ep.jsonl", {paths::config_dir(), {}, 2, std::nullopt, false, {}}),
                std::invalid_argument);
-  EXPECT_THROW(evo::probe(*dir / "missing.jsonl", {paths::config_dir(), {}, 0, std::nullopt}),
+  EXPECT_THROW(evo::probe(*dir / "missing.jsonl", {paths::config_dir(), {}, 0, std::nullopt, false, {}}),
                std::runtime_error);
   const auto lib = library_with("pick_place", "max_speed: 0.35", "max_speed: 3.5");  // outside its range
   try {
-    evo::probe(*dir / "ep.jsonl", {paths::config_dir(), lib, 1, std::nullopt});
+    evo::probe(*dir / "ep.jsonl", {paths::config_dir(), lib, 1, std::nullopt, false, {}});
     ADD_FAILURE() << "a θ outside its range was run";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("max_speed"), std::string::npos) << e.what();
@@ -232,7 +232,7 @@ TEST_F(Probe, BadInputIsNamed) {
   fs::copy_file(*dir / "ep.jsonl", *dir / "nostates.jsonl", fs::copy_options::overwrite_existing);
   fs::copy_file(*dir / "ep.steps", *dir / "nostates.steps", fs::copy_options::overwrite_existing);
   try {
-    evo::probe(*dir / "nostates.jsonl", {paths::config_dir(), {}, 1, std::nullopt});
+    evo::probe(*dir / "nostates.jsonl", {paths::config_dir(), {}, 1, std::nullopt, false, {}});
     ADD_FAILURE() << "probed without a state log";
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("nostates.states"), std::string::npos) << e.what();
@@ -292,7 +292,7 @@ TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParents
   const auto set = evo::probe_set({row("ep"), row("missed")}, {"pick_place", 1, 0}, paths::config_dir(), 2).states;
   ASSERT_EQ(set.size(), 3u);
   const auto parent = paths::config_dir() / "library";
-  const evo::Revision rev = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 0, {}});
+  const evo::Revision rev = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 0, false, {}});
   EXPECT_LE(rev.evals, 4u);
   EXPECT_GE(rev.evals, 1u);
   EXPECT_EQ(rev.states, 3u);
@@ -308,10 +308,10 @@ TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParents
   }
   // A set recorded under other θ than the parent library's is refused.
   const auto other = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
-  EXPECT_THROW(evo::revise(set, {"pick_place", paths::config_dir(), other, 4, 2, 0, {}}), std::invalid_argument);
-  EXPECT_THROW(evo::revise({}, {"pick_place", paths::config_dir(), parent, 4, 2, 0, {}}), std::invalid_argument);
+  EXPECT_THROW(evo::revise(set, {"pick_place", paths::config_dir(), other, 4, 2, 0, false, {}}), std::invalid_argument);
+  EXPECT_THROW(evo::revise({}, {"pick_place", paths::config_dir(), parent, 4, 2, 0, false, {}}), std::invalid_argument);
   // --max-probes bounds the round: three states per candidate, three probes at most, so one candidate.
-  const evo::Revision bounded = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 3, {}});
+  const evo::Revision bounded = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 3, false, {}});
   EXPECT_EQ(bounded.max_evals, 1u);
   EXPECT_EQ(bounded.evals, 1u);
 }
@@ -336,7 +336,7 @@ TEST_F(Probe, TheRevisionSearchFindsAThetaThatMakesAFailedEffectHold) {
   EXPECT_TRUE(set.skipped.empty());
   ASSERT_EQ(set.states.size(), 3u);
   const evo::Revision rev =
-      evo::revise(set.states, {"pick_place", paths::config_dir(), paths::config_dir() / "library", 4, 2, 0, {}});
+      evo::revise(set.states, {"pick_place", paths::config_dir(), paths::config_dir() / "library", 4, 2, 0, false, {}});
   EXPECT_EQ(rev.failing, 2u);
   EXPECT_EQ(rev.parent_held, 1u);
   EXPECT_TRUE(rev.improved()) << rev.best_held << " held, the parent " << rev.parent_held;

@@ -176,4 +176,29 @@ Package Client::next(const char* step, std::chrono::milliseconds timeout) {
   }
 }
 
+void send_script(const std::string& host, std::uint16_t port, const std::string& script,
+                 std::chrono::milliseconds timeout) {
+  const std::string where = host + ":" + std::to_string(port);
+  asio::io_context context;
+  tcp::socket socket(context);
+  boost::system::error_code ec;
+  const auto endpoints = tcp::resolver(context).resolve(host, std::to_string(port), ec);
+  if (ec) throw ClientError("send script: cannot resolve " + where + ": " + ec.message());
+  bool sent = false;
+  asio::async_connect(socket, endpoints, [&](const boost::system::error_code& e, const tcp::endpoint&) {
+    if ((ec = e)) return;
+    asio::async_write(socket, asio::buffer(script), [&](const boost::system::error_code& w, std::size_t) {
+      ec = w;
+      sent = !w;
+    });
+  });
+  context.run_for(timeout);
+  if (!sent)
+    throw ClientError("send script: " + where + ": " +
+                      (ec ? ec.message() : "no answer within " + std::to_string(timeout.count()) + " ms") +
+                      " (is the controller's secondary interface reachable and in remote control?)");
+  socket.shutdown(tcp::socket::shutdown_send, ec);
+  socket.close(ec);
+}
+
 }  // namespace dh::rtde

@@ -84,10 +84,34 @@ std::vector<Package> ControllerCore::on_package(const Package& p) {
 }
 
 struct TestController::Impl {
-  Impl(ControllerModel model, std::function<Value(const std::string&)> read, std::uint16_t port)
+  Impl(ControllerModel model, std::function<Value(const std::string&)> read,
+       std::function<void(const std::string&)> on_script, std::uint16_t port)
       : model(std::move(model)),
         read(std::move(read)),
-        acceptor(context, tcp::endpoint(asio::ip::make_address("127.0.0.1"), port)) {}
+        on_script(std::move(on_script)),
+        acceptor(context, tcp::endpoint(asio::ip::make_address("127.0.0.1"), port)),
+        script_acceptor(context, tcp::endpoint(asio::ip::make_address("127.0.0.1"), 0)) {}
+
+  /// One script connection at a time: its bytes up to the client's close are the program.
+  void accept_script() {
+    script_acceptor.async_accept([this](const boost::system::error_code& ec, tcp::socket s) {
+      if (ec) return;
+      script_socket.emplace(std::move(s));
+      script.clear();
+      read_script();
+    });
+  }
+
+  void read_script() {
+    script_socket->async_read_some(asio::buffer(buffer_script),
+                                   [this](const boost::system::error_code& ec, std::size_t n) {
+                                     script.append(reinterpret_cast<const char*>(buffer_script.data()), n);
+                                     if (!ec && script.size() < kMaxScriptBytes) return read_script();
+                                     if (ec == asio::error::eof && on_script) on_script(script);
+                                     script_socket.reset();
+                                     accept_script();
+                                   });
+  }
 
   // Every handler below runs on the controller's thread and carries the session it was started in: one
   // that completes after its session ended (a dropped client, a new one accepted) does nothing.
@@ -195,10 +219,15 @@ struct TestController::Impl {
     accept();
   }
 
+  static constexpr std::size_t kMaxScriptBytes = 1 << 20;  ///< longer is not a program we sent
   ControllerModel model;
   std::function<Value(const std::string&)> read;
+  std::function<void(const std::string&)> on_script;
   asio::io_context context;
-  tcp::acceptor acceptor;
+  tcp::acceptor acceptor, script_acceptor;
+  std::optional<tcp::socket> script_socket;
+  std::string script;
+  std::array<std::uint8_t, 4096> buffer_script{};
   asio::steady_timer timer{context};
   std::optional<tcp::socket> socket;
   std::optional<ControllerCore> core;
@@ -213,10 +242,12 @@ struct TestController::Impl {
 };
 
 TestController::TestController(ControllerModel model, std::function<Value(const std::string&)> read,
-                               std::uint16_t port)
-    : impl_(std::make_unique<Impl>(std::move(model), std::move(read), port)) {
+                               std::function<void(const std::string&)> on_script, std::uint16_t port)
+    : impl_(std::make_unique<Impl>(std::move(model), std::move(read), std::move(on_script), port)) {
   port_ = impl_->acceptor.local_endpoint().port();
+  script_port_ = impl_->script_acceptor.local_endpoint().port();
   impl_->accept();
+  impl_->accept_script();
   impl_->thread = std::thread([this] { impl_->context.run(); });
 }
 

@@ -127,8 +127,8 @@ RobotSpec load_robot(const std::filesystem::path& urdf_path) {
       stack.push_back(*it);
     }
   }
-  if (spec.arm.size() != 7)
-    throw ConfigError(urdf_path.string() + ": expected 7 revolute arm joints, found " +
+  if (spec.arm.size() != 6 && spec.arm.size() != 7)
+    throw ConfigError(urdf_path.string() + ": expected 6 or 7 revolute arm joints, found " +
                       std::to_string(spec.arm.size()));
   if (spec.fingers.empty())
     throw ConfigError(urdf_path.string() + ": expected prismatic finger joints, found none");

@@ -170,6 +170,9 @@ SceneSpec load_scene(const std::filesystem::path& file) {
   if (table.has("rgba")) s.table_rgba = get_array<4>(table, "rgba");
   const ConfigNode robot = root.child("robot");
   s.robot = load_robot(root.dir() / robot.get<std::string>("urdf"));
+  if (s.robot.arm.size() != 7)
+    throw ConfigError(s.file.string() + ": the workcell drives 7-joint arms (the observation carries 7 joints); " +
+                      s.robot.urdf.string() + " has " + std::to_string(s.robot.arm.size()));
   s.robot_base = get_array<3>(robot, "base");
   s.ready_q = get_array<7>(robot, "ready_q");
   s.finger_friction = robot.get_or<double>("finger_friction", 1.5);

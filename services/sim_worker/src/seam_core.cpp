@@ -1,9 +1,6 @@
 #include "dh/sim/seam_core.hpp"
 
-#include <mujoco/mujoco.h>
-
 #include "dh/common/build_info.hpp"
-#include "dh/sim/workcell.hpp"
 
 namespace dh::sim {
 
@@ -12,7 +9,8 @@ SeamCore::SeamCore(std::uint32_t channel, SeamSettings settings) : channel_(chan
 const Ports& SeamCore::ports() {
   static const Ports p{
       in_port<port::EpisodeRequest>("reset the channel to suite/task/seed"),
-      in_port<port::Lease>("the governor's grant for the running command; its deadline says the writer went silent"),
+      in_port<port::Lease>(
+          "the governor's grant for the running command; its deadline says the writer went silent"),
       in_port<port::Action>("one 7-d action per step, lock-step"),
       in_port<port::EpisodeResult>("the channel goes idle"),
       out_port<port::Observation>("after the reset (step 0) and after every applied action"),
@@ -22,38 +20,46 @@ const Ports& SeamCore::ports() {
   return p;
 }
 
-SeamEffects SeamCore::start(Workcell& cell, std::string episode_id, std::uint32_t budget_steps,
+SeamEffects SeamCore::start(SeamCell& cell, std::string episode_id, std::uint32_t budget_steps,
                             std::string predicate, SeamClock::time_point now,
                             const std::filesystem::path& steps_file) {
   begin(cell, std::move(episode_id), budget_steps, std::move(predicate), now);
   if (!steps_file.empty()) {
-    const auto mj = static_cast<std::uint32_t>(mj_version());
+    const RecordableState* rec = cell.recordable();
+    if (!rec)
+      throw std::invalid_argument("a step log was asked for (" + steps_file.string() +
+                                  ") but this cell's state cannot be recorded; run it without one");
+    const auto engine = rec->engine_version();
     log_ = std::make_unique<StepLogWriter>(
-        steps_file, StepLogHeader{cell.model_hash(), mj, static_cast<std::uint32_t>(cell.digest().joints.size() / 2),
-                                 build_info().str()});
+        steps_file,
+        StepLogHeader{rec->model_hash(), engine, static_cast<std::uint32_t>(rec->digest().joints.size() / 2),
+                      build_info().str()});
     states_ = std::make_unique<StateLogWriter>(std::filesystem::path(steps_file).replace_extension(".states"),
-                                               StateLogHeader{cell.model_hash(), mj, cell.shape()});
-    states_->append({0, {}, cell.physics_state()});
+                                               StateLogHeader{rec->model_hash(), engine, rec->shape()});
+    states_->append({0, {}, rec->physics_state()});
   }
   SeamEffects fx;
   observe(fx, nullptr);
   return fx;
 }
 
-SeamEffects SeamCore::resume(Workcell& cell, std::string episode_id, std::uint32_t budget_steps,
+SeamEffects SeamCore::resume(SeamCell& cell, std::string episode_id, std::uint32_t budget_steps,
                              std::string predicate, const StateRecord& from, SeamClock::time_point now) {
+  RecordableState* rec = cell.recordable();
+  if (!rec)
+    throw std::invalid_argument("this cell's state cannot be restored: an episode cannot resume on it");
   begin(cell, std::move(episode_id), budget_steps, std::move(predicate), now);
-  cell.restore(from.state);
+  rec->restore(from.state);
   step_ = from.step;
   started_ = {from.command_id};
-  predicate_ = cell.goal_holds();
+  predicate_ = cell.observe().goal_holds;
   SeamEffects fx;
   observe(fx, nullptr);
   return fx;
 }
 
-void SeamCore::begin(Workcell& cell, std::string episode_id, std::uint32_t budget_steps, std::string predicate,
-                     SeamClock::time_point now) {
+void SeamCore::begin(SeamCell& cell, std::string episode_id, std::uint32_t budget_steps,
+                     std::string predicate, SeamClock::time_point now) {
   cell_ = &cell;
   episode_ = std::move(episode_id);
   predicate_text_ = std::move(predicate);
@@ -85,10 +91,11 @@ SeamEffects SeamCore::on_lease(const LeaseGrant& l, SeamClock::time_point now) {
   // A command's first lease comes before any of its actions can apply (admission needs it): the state
   // now is the one the command starts from. Leases are rewritten, so only a new command id counts.
   if (states_ && !l.revoked && started_.insert(l.command_id).second) {
-    states_->append({step_, l.command_id, cell_->physics_state()});
+    states_->append({step_, l.command_id, cell_->recordable()->physics_state()});
   }
   // The governor has moved on from a command it revokes or whose lease it gives to another.
-  if (l.revoked) handed_over_.insert(l.command_id);
+  if (l.revoked)
+    handed_over_.insert(l.command_id);
   else {
     handed_over_.erase(l.command_id);
     if (lease_.known && lease_.command_id != l.command_id) handed_over_.insert(lease_.command_id);
@@ -121,8 +128,11 @@ SeamEffects SeamCore::on_action(const ActionIn& a, SeamClock::time_point now) {
   std::optional<SeamEvent> superseded;
   auto it = pending_.find(a.command_id);
   if (it != pending_.end() && it->second.action.step != a.step)
-    superseded = SeamEvent{it->second.action.step, a.command_id, SeamEventKind::RejectedStep,
-                           "superseded by the same command's action for step " + std::to_string(a.step), {}};
+    superseded = SeamEvent{it->second.action.step,
+                           a.command_id,
+                           SeamEventKind::RejectedStep,
+                           "superseded by the same command's action for step " + std::to_string(a.step),
+                           {}};
   // The same command answering the same step again (a re-send) keeps its place in the grace period.
   const auto since = it != pending_.end() && it->second.action.step == a.step ? it->second.since : now;
   pending_[a.command_id] = {a, since};
@@ -142,9 +152,10 @@ SeamEffects SeamCore::on_tick(SeamClock::time_point now) {
   if (!running()) return {};
   if (now - last_sign_of_life_ >= settings_.abandon_after) {
     SeamEffects fx;
-    fx.ended = "no lease, request or applied action for " +
-               std::to_string(std::chrono::duration_cast<std::chrono::seconds>(settings_.abandon_after).count()) +
-               " s (governor gone?); episode abandoned at step " + std::to_string(step_);
+    fx.ended =
+        "no lease, request or applied action for " +
+        std::to_string(std::chrono::duration_cast<std::chrono::seconds>(settings_.abandon_after).count()) +
+        " s (governor gone?); episode abandoned at step " + std::to_string(step_);
     end();
     return fx;
   }
@@ -155,8 +166,8 @@ SeamEffects SeamCore::admit(SeamClock::time_point now) {
   SeamEffects fx;
   for (auto it = pending_.begin(); running() && it != pending_.end();) {
     const ActionIn& a = it->second.action;
-    const auto r = admit_action(a.command_id, a.step, step_, budget_, lease_,
-                                now - it->second.since >= settings_.grace);
+    const auto r =
+        admit_action(a.command_id, a.step, step_, budget_, lease_, now - it->second.since >= settings_.grace);
     if (r.decision == Admission::WaitForLease) {
       ++it;
       continue;
@@ -173,9 +184,9 @@ SeamEffects SeamCore::admit(SeamClock::time_point now) {
     try {
       corrections = cell_->step(applied.a);
     } catch (const std::exception& e) {
-      // The physics cannot go on (e.g. MuJoCo's contact buffer overflowed): the episode is lost to
-      // infrastructure; the governor's stalled-step deadline ends it and the channel says why.
-      fx.ended = "physics failed at step " + std::to_string(step_) + ": " + e.what();
+      // The cell cannot go on (MuJoCo's contact buffer overflowed, the controller stopped the arm): the
+      // episode is lost; the governor's stalled-step deadline ends it and the channel says why.
+      fx.ended = "the cell failed at step " + std::to_string(step_) + ": " + e.what();
       end();
       return fx;
     }
@@ -192,8 +203,9 @@ SeamEffects SeamCore::admit(SeamClock::time_point now) {
 }
 
 void SeamCore::observe(SeamEffects& fx, const ActionIn* applied) {
-  if (log_) log_->append({step_, applied ? applied->command_id : std::string(), applied ? applied->a : std::array<double, 7>{},
-                          cell_->digest()});
+  if (log_)
+    log_->append({step_, applied ? applied->command_id : std::string(),
+                  applied ? applied->a : std::array<double, 7>{}, cell_->recordable()->digest()});
   observation_ = cell_->observe();
   observation_.channel = channel_;
   observation_.episode_id = episode_;

@@ -363,6 +363,8 @@ StateDigest Workcell::digest() const {
   return g;
 }
 
+std::uint32_t Workcell::engine_version() const { return static_cast<std::uint32_t>(mj_version()); }
+
 StateShape Workcell::shape() const {
   const auto u = [](int n) { return static_cast<std::uint32_t>(n); };
   return {u(m_->nq), u(m_->nv), u(m_->na), u(m_->nu), u(m_->nmocap), u(m_->nbody), u(m_->nuserdata)};

@@ -64,4 +64,9 @@ class Client {
   std::vector<TextMessage> messages_;
 };
 
+/// Sends a URScript program to the controller's secondary interface (`port`, 30002 on a UR) and closes:
+/// the controller runs it. Throws ClientError naming the step (connect, send) within `timeout`.
+void send_script(const std::string& host, std::uint16_t port, const std::string& script,
+                 std::chrono::milliseconds timeout);
+
 }  // namespace dh::rtde

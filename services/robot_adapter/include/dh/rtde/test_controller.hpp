@@ -1,8 +1,10 @@
 // The RTDE test controller: a test double for the metal, not a robot. It speaks RTDE on loopback as a UR
 // controller does (docs/ur-rtde.md) for the adapter's tests and the cell's dry run: ControllerCore holds
 // the session's rules (versions, recipes, start and pause, input data), TestController serves it over
-// TCP on 127.0.0.1 and streams the outputs at the recipe's frequency. What the outputs say comes from
-// its caller (the MuJoCo UR7e model is to back it; not built yet).
+// TCP on 127.0.0.1 and streams the outputs at the recipe's frequency; a second port stands for the
+// secondary interface (30002), where a client sends a URScript program and closes. What the outputs say
+// and what a program does come from its caller: SimulatedController (simulated_ur.hpp) backs it with the
+// UR7e in MuJoCo.
 #pragma once
 
 #include <chrono>
@@ -53,14 +55,16 @@ class ControllerCore {
 class TestController {
  public:
   /// Listens on `port` (0: one the system picks); `read` gives each output field's value when a data
-  /// package is sent (called on the controller's thread).
+  /// package is sent, `on_script` each script received whole (both called on the controller's thread).
   TestController(ControllerModel model, std::function<Value(const std::string&)> read,
-                 std::uint16_t port = 0);
+                 std::function<void(const std::string&)> on_script = {}, std::uint16_t port = 0);
   ~TestController();
   TestController(const TestController&) = delete;
   TestController& operator=(const TestController&) = delete;
 
   std::uint16_t port() const { return port_; }
+  /// The secondary interface's stand-in: a script is the bytes a client sends before it closes.
+  std::uint16_t script_port() const { return script_port_; }
   /// The inputs the client wrote last, by name.
   std::map<std::string, Value> inputs() const;
   /// Output data packages sent in this session.
@@ -73,7 +77,7 @@ class TestController {
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
-  std::uint16_t port_ = 0;
+  std::uint16_t port_ = 0, script_port_ = 0;
 };
 
 }  // namespace dh::rtde

@@ -19,13 +19,13 @@ struct RobotSpec {
   std::filesystem::path urdf;
   std::string urdf_xml;              ///< the file's text, read once
   std::string name;
-  std::vector<JointLimits> arm;      ///< the 7 revolute joints, base to tip
+  std::vector<JointLimits> arm;      ///< the 6 or 7 revolute joints, base to tip
   std::vector<JointLimits> fingers;  ///< prismatic finger joints (the first drives, the rest mimic)
   std::string tcp_link = "tcp";
 };
 
 /// Reads the URDF with urdfdom; throws ConfigError naming the file when it cannot be parsed or does
-/// not have 7 revolute joints, prismatic fingers and a `tcp` link.
+/// not have 6 or 7 revolute joints, prismatic fingers and a `tcp` link.
 RobotSpec load_robot(const std::filesystem::path& urdf);
 
 struct MjcfFragments {

@@ -20,7 +20,7 @@ struct SafetyVerdict {
   std::string reason;
 };
 
-/// Checks |dq_i| <= limit for the 7 arm joints.
+/// Checks |dq_i| <= limit for the arm joints (a 6-joint arm leaves the seventh at 0).
 SafetyVerdict check_joint_speeds(const std::array<double, 7>& dq, const SafetyLimits& limits);
 
 /// Clamps a position target into the workspace box; returns true when it had to.

@@ -27,12 +27,11 @@
 #include "dh/common/ports.hpp"
 #include "dh/common/seam_event.hpp"
 #include "dh/sim/seam.hpp"
+#include "dh/sim/seam_cell.hpp"
 #include "dh/sim/state_log.hpp"
 #include "dh/sim/step_log.hpp"
 
 namespace dh::sim {
-
-class Workcell;
 
 using SeamClock = std::chrono::steady_clock;
 
@@ -82,12 +81,12 @@ class SeamCore {
   /// `steps_file`: where the step log goes (step_log.hpp; beside the episode's evidence), or empty for
   /// none; the state log (state_log.hpp) goes beside it, `.states` for `.steps`. The state is recorded
   /// at step 0 and whenever a lease names a command not seen before in the episode: its start.
-  SeamEffects start(Workcell& cell, std::string episode_id, std::uint32_t budget_steps, std::string predicate,
+  SeamEffects start(SeamCell& cell, std::string episode_id, std::uint32_t budget_steps, std::string predicate,
                     SeamClock::time_point now, const std::filesystem::path& steps_file = {});
   /// An episode taken up from a recorded state (a replay or a probe from a command's start): `cell` is
   /// reset to the task and seed, then the state is restored and the seam stands at its step. Nothing is
   /// logged. Returns the observation of that step; the predicate's value there is not a change.
-  SeamEffects resume(Workcell& cell, std::string episode_id, std::uint32_t budget_steps, std::string predicate,
+  SeamEffects resume(SeamCell& cell, std::string episode_id, std::uint32_t budget_steps, std::string predicate,
                      const StateRecord& from, SeamClock::time_point now);
   /// The governor ended the episode (or the seam did): the channel goes idle. episode_id() and step()
   /// keep saying what ran last.
@@ -113,7 +112,6 @@ class SeamCore {
   double physics_s() const { return physics_s_; }  ///< wall time inside MuJoCo this episode
   /// The simulator's own verdict: the first step at which the task's goal held this episode (none: never).
   std::optional<std::uint32_t> goal_step() const { return goal_step_; }
-  Workcell* cell() const { return cell_; }
 
  private:
   struct Pending {
@@ -121,7 +119,7 @@ class SeamCore {
     SeamClock::time_point since;
   };
   /// The episode's fields as at its start, logs closed.
-  void begin(Workcell& cell, std::string episode_id, std::uint32_t budget_steps, std::string predicate,
+  void begin(SeamCell& cell, std::string episode_id, std::uint32_t budget_steps, std::string predicate,
              SeamClock::time_point now);
   /// Admits what can be admitted, refuses what must be refused, applies at most one action per step.
   SeamEffects admit(SeamClock::time_point now);
@@ -130,7 +128,7 @@ class SeamCore {
 
   std::uint32_t channel_;
   SeamSettings settings_;
-  Workcell* cell_ = nullptr;
+  SeamCell* cell_ = nullptr;
   std::string episode_, predicate_text_;
   std::uint32_t budget_ = 0, step_ = 0;
   LeaseState lease_;

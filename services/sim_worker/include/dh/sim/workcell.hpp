@@ -11,12 +11,12 @@
 #include <vector>
 
 #include "dh/common/observation.hpp"
-#include "dh/common/seam_event.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/sim/joint_ik.hpp"
 #include "dh/sim/osc_pose.hpp"
 #include "dh/sim/predicates.hpp"
 #include "dh/sim/safety.hpp"
+#include "dh/sim/seam_cell.hpp"
 #include "dh/sim/state_log.hpp"
 #include "dh/sim/step_log.hpp"
 #include "dh/sim/scene.hpp"
@@ -29,19 +29,7 @@ namespace dh::sim {
 inline constexpr int kSubsteps = 25;          ///< 20 Hz control over 2 ms physics
 inline constexpr int kSafetyEvery = 10;       ///< substeps between safety checks: 50 Hz
 
-struct StepEvent {
-  enum Kind { SafetyHold, WorkspaceClamp, ActionClamped, SpeedLimited } kind;
-  std::string reason;
-};
-
-inline SeamEventKind seam_event_kind(StepEvent::Kind k) {
-  return k == StepEvent::SafetyHold       ? SeamEventKind::SafetyHold
-         : k == StepEvent::WorkspaceClamp ? SeamEventKind::WorkspaceClamp
-         : k == StepEvent::SpeedLimited   ? SeamEventKind::SpeedLimited
-                                          : SeamEventKind::ActionClamped;
-}
-
-class Workcell {
+class Workcell final : public SeamCell, public RecordableState {
  public:
   /// Compiles the scene's model once; throws ConfigError/runtime_error with MuJoCo's message.
   explicit Workcell(SceneSpec scene);
@@ -55,9 +43,10 @@ class Workcell {
   void reset(std::uint64_t seed, const std::vector<PredicateSpec>& goal);
   /// Applies one 7-d action for one control step (50 ms); returns what the seam corrected. Throws
   /// std::runtime_error when MuJoCo's contact or constraint buffer overflowed during the step.
-  std::vector<StepEvent> step(const std::array<double, 7>& action);
+  std::vector<StepEvent> step(const std::array<double, 7>& action) override;
   /// The observation after the last step (step and budget fields are the caller's to fill).
-  Observation observe() const;
+  Observation observe() const override;
+  RecordableState* recordable() override { return this; }
   bool goal_holds() const;
   /// Whether another goal holds in the current state (throws like reset() for a goal the scene lacks).
   bool holds(const std::vector<PredicateSpec>& goal) const;
@@ -71,16 +60,17 @@ class Workcell {
   /// restore() puts back. It is taken before the step's closing mj_forward, which renormalises free
   /// joints' quaternions in qpos (not idempotent in the last bit): restoring it and running mj_forward
   /// again makes the same qpos, derived quantities and warm start as the recorded run had.
-  const PhysicsState& physics_state() const { return ended_; }
-  StateShape shape() const;
+  const PhysicsState& physics_state() const override { return ended_; }
+  StateShape shape() const override;
   /// Puts a recorded state back (after reset() to the same task, for the goal) and recomputes what
   /// follows from it; stepping on is then bit-identical to the recording. Throws std::invalid_argument
   /// naming both shapes when the state is not of this model.
-  void restore(const PhysicsState& s);
+  void restore(const PhysicsState& s) override;
   /// The physics state in hashes (step_log.hpp): what `dh replay` compares step by step.
-  StateDigest digest() const;
+  StateDigest digest() const override;
   /// A hash of the compiled model (scene, assets, options): a replay runs on the same model or says so.
-  std::uint64_t model_hash() const { return model_hash_; }
+  std::uint64_t model_hash() const override { return model_hash_; }
+  std::uint32_t engine_version() const override;
   /// The compiled model and its state, read by the camera renderer (camera.hpp).
   const mjModel_* model() const { return m_; }
   const mjData_* data() const { return d_; }

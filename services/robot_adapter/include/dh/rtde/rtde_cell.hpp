@@ -1,0 +1,91 @@
+// A UR arm over RTDE as the seam's cell (dh/sim/seam_cell.hpp): the seam core admits an action, and this
+// turns it into servo targets for the controller's program (servo_program.hpp) for one 50 ms control
+// step, watching the controller's outputs meanwhile.
+//
+// In one step:
+// - the target is servo_target() of the measured TCP pose (servo.hpp), in the world frame, clamped into
+//   the workspace box (a WorkspaceClamp correction), then put into the arm's base frame and written with
+//   the next sequence number and the gripper command (a[6] > 0 closes);
+// - outputs are read until the controller's clock has moved on by a control step; every one is checked
+//   against the joint-speed envelope (2 rad/s): over it, the program is told to stop (sequence 0) and the
+//   step ends as a SafetyHold, the arm held for the rest of it;
+// - a protective stop (or any safety stop) in the outputs, the program no longer running, or the link
+//   lost: the program is told to stop where the link allows, and step() throws CellStopped with what the
+//   controller said. If the link itself is gone, the program's watchdog stops the arm within 0.1 s.
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dh/rtde/client.hpp"
+#include "dh/rtde/servo_program.hpp"
+#include "dh/sim/safety.hpp"
+#include "dh/sim/seam_cell.hpp"
+
+namespace dh::rtde {
+
+struct RtdeCellConfig {
+  std::string host = "127.0.0.1";
+  std::uint16_t rtde_port = 30004;
+  std::uint16_t script_port = 30002;
+  double output_hz = 125;  ///< the output recipe's rate: 2.5 packages per 50 Hz envelope check
+  std::chrono::milliseconds timeout{500};         ///< per exchange with the controller
+  std::chrono::milliseconds program_start{2000};  ///< the program must be running within this
+  /// The arm's base in the world (table top at z 0): position and yaw (the base stands upright).
+  std::array<double, 3> base_xyz{};
+  double base_yaw = 0;
+  sim::SafetyLimits limits;  ///< the envelope and the workspace box, world frame
+  ServoProgram program;
+  double gripper_stroke_m = 0.085;  ///< the gap a fully open jaw reports
+};
+
+/// The cell cannot go on: a protective or other safety stop, the program not running, the link lost.
+struct CellStopped : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+class RtdeCell final : public sim::SeamCell {
+ public:
+  explicit RtdeCell(RtdeCellConfig config);
+  ~RtdeCell() override;
+
+  /// Connects, sets up the recipes, starts the program and waits for it to run with the arm in normal
+  /// safety. Throws ClientError or CellStopped naming what failed and what to do.
+  void connect();
+  /// Tells the program to stop the arm (sequence 0); never throws (the watchdog stops it on a lost link).
+  void stop() noexcept;
+
+  std::vector<sim::StepEvent> step(const std::array<double, 7>& action) override;
+  Observation observe() const override;
+
+  /// Outputs, as read last.
+  struct State {
+    double time = 0;                         ///< the controller's clock (s)
+    std::array<double, 6> q{}, qd{}, tcp{};  ///< tcp: base frame, x y z + rotation vector
+    std::int32_t safety_mode = 0, applied = 0;
+    std::uint32_t safety_bits = 0, runtime_state = 0;
+    bool gripper_closed = false;
+  };
+  const State& state() const { return state_; }
+  bool connected() const { return client_.connected(); }
+
+ private:
+  /// The next output package, decoded.
+  void receive();
+  /// CellStopped when the controller reports a stop or the program is not running.
+  void check_running(const char* when);
+  void send_target(const std::array<double, 6>& base_pose, bool grip, std::int32_t seq);
+
+  RtdeCellConfig config_;
+  Client client_;
+  std::optional<Recipe> outputs_, inputs_;
+  State state_;
+  std::int32_t seq_ = 0;
+  bool grip_ = false;
+};
+
+}  // namespace dh::rtde

@@ -1,0 +1,203 @@
+#include "dh/rtde/rtde_cell.hpp"
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <cstdio>
+
+#include "dh/common/robot_contract.hpp"
+
+namespace dh::rtde {
+namespace {
+
+constexpr std::uint32_t kRuntimePlaying = 2;
+constexpr std::int32_t kSafetyNormal = 1, kSafetyReduced = 2;
+constexpr std::uint64_t kToolOutputBits = 16;  ///< actual_digital_output_bits: tool outputs from bit 16
+
+const std::vector<std::string>& output_names() {
+  static const std::vector<std::string> n{"timestamp",
+                                          "actual_q",
+                                          "actual_qd",
+                                          "actual_TCP_pose",
+                                          "safety_mode",
+                                          "safety_status_bits",
+                                          "runtime_state",
+                                          "actual_digital_output_bits",
+                                          ServoProgram::kAppliedRegister};
+  return n;
+}
+
+std::vector<std::string> input_names() {
+  std::vector<std::string> n(ServoProgram::kTargetRegisters.begin(), ServoProgram::kTargetRegisters.end());
+  n.push_back(ServoProgram::kSequenceRegister);
+  n.push_back(ServoProgram::kGripperRegister);
+  return n;
+}
+
+Eigen::Matrix3d rotation(double rx, double ry, double rz) {
+  const Eigen::Vector3d rv(rx, ry, rz);
+  const double angle = rv.norm();
+  return angle > 0 ? Eigen::AngleAxisd(angle, rv / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+}
+
+std::array<double, 6> pose(const Eigen::Vector3d& p, const Eigen::Matrix3d& r) {
+  const Eigen::AngleAxisd aa(r);
+  const Eigen::Vector3d rv = aa.angle() * aa.axis();
+  return {p.x(), p.y(), p.z(), rv.x(), rv.y(), rv.z()};
+}
+
+std::string safety_text(std::int32_t mode, std::uint32_t bits) {
+  static const char* names[] = {"",
+                                "normal",
+                                "reduced",
+                                "protective stop",
+                                "recovery",
+                                "safeguard stop",
+                                "system emergency stop",
+                                "robot emergency stop",
+                                "violation",
+                                "fault"};
+  const std::string name = mode >= 1 && mode <= 9 ? names[mode] : "safety mode " + std::to_string(mode);
+  char b[24];
+  std::snprintf(b, sizeof b, "0x%x", bits);
+  return name + " (safety_status_bits " + b + ")";
+}
+
+}  // namespace
+
+RtdeCell::RtdeCell(RtdeCellConfig config) : config_(std::move(config)) {}
+
+RtdeCell::~RtdeCell() { stop(); }
+
+void RtdeCell::connect() {
+  client_.connect(config_.host, config_.rtde_port, config_.timeout);
+  const auto version = client_.controller_version(config_.timeout);
+  if (version.major < 5)
+    throw ClientError("setup: controller software " + std::to_string(version.major) + "." +
+                      std::to_string(version.minor) +
+                      " is older than the e-Series' 5.x this adapter is written for");
+  outputs_ = client_.setup_outputs(config_.output_hz, output_names(), config_.timeout);
+  inputs_ = client_.setup_inputs(input_names(), config_.timeout);
+  // Sequence 0 first: the program, when it starts, holds the arm until the first target.
+  seq_ = 0;
+  client_.start(config_.timeout);
+  receive();
+  send_target(state_.tcp, false, 0);
+  send_script(config_.host, config_.script_port, servo_program_text(config_.program), config_.timeout);
+  const auto deadline = std::chrono::steady_clock::now() + config_.program_start;
+  while (true) {
+    receive();
+    if (state_.safety_mode != kSafetyNormal && state_.safety_mode != kSafetyReduced)
+      throw CellStopped("the arm is in " + safety_text(state_.safety_mode, state_.safety_bits) +
+                        ": release it on the teach pendant, then start the adapter again");
+    if (state_.runtime_state == kRuntimePlaying) break;
+    if (std::chrono::steady_clock::now() > deadline)
+      throw CellStopped("the controller did not run the " + std::string(ServoProgram::kName) +
+                        " program within " + std::to_string(config_.program_start.count()) +
+                        " ms (runtime_state " + std::to_string(state_.runtime_state) +
+                        "): is the arm in remote control, powered on and its brakes released?");
+  }
+  grip_ = state_.gripper_closed;
+}
+
+void RtdeCell::stop() noexcept {
+  if (!client_.connected() || !inputs_) return;
+  try {
+    send_target(state_.tcp, grip_, 0);
+  } catch (const std::exception&) {
+    // The link is gone: the program's watchdog stops the arm.
+  }
+}
+
+void RtdeCell::receive() {
+  const auto v = client_.receive(*outputs_, config_.timeout);
+  State s;
+  s.time = std::get<double>(v[0]);
+  s.q = std::get<std::array<double, 6>>(v[1]);
+  s.qd = std::get<std::array<double, 6>>(v[2]);
+  s.tcp = std::get<std::array<double, 6>>(v[3]);
+  s.safety_mode = std::get<std::int32_t>(v[4]);
+  s.safety_bits = std::get<std::uint32_t>(v[5]);
+  s.runtime_state = std::get<std::uint32_t>(v[6]);
+  s.gripper_closed =
+      (std::get<std::uint64_t>(v[7]) >> (kToolOutputBits + config_.program.gripper_output)) & 1u;
+  s.applied = std::get<std::int32_t>(v[8]);
+  state_ = s;
+}
+
+void RtdeCell::check_running(const char* when) {
+  if (state_.safety_mode != kSafetyNormal && state_.safety_mode != kSafetyReduced) {
+    stop();
+    throw CellStopped(std::string(when) + ": the controller reports " +
+                      safety_text(state_.safety_mode, state_.safety_bits) + " at its t " +
+                      std::to_string(state_.time) + " s; the arm is stopped");
+  }
+  if (state_.runtime_state != kRuntimePlaying)
+    throw CellStopped(std::string(when) + ": the " + ServoProgram::kName +
+                      " program is no longer running (runtime_state " + std::to_string(state_.runtime_state) +
+                      "); the arm is stopped");
+}
+
+void RtdeCell::send_target(const std::array<double, 6>& base_pose, bool grip, std::int32_t seq) {
+  std::vector<Value> values(base_pose.begin(), base_pose.end());
+  values.emplace_back(seq);
+  values.emplace_back(std::int32_t{grip ? 1 : 0});
+  client_.send(*inputs_, values, config_.timeout);
+}
+
+std::vector<sim::StepEvent> RtdeCell::step(const std::array<double, 7>& a) {
+  std::vector<sim::StepEvent> events;
+  try {
+    check_running("before the step");
+    // World frame: the contract's offsets are world-frame.
+    const Eigen::AngleAxisd yaw(config_.base_yaw, Eigen::Vector3d::UnitZ());
+    const Eigen::Vector3d base(config_.base_xyz[0], config_.base_xyz[1], config_.base_xyz[2]);
+    const Eigen::Vector3d p_w = yaw * Eigen::Vector3d(state_.tcp[0], state_.tcp[1], state_.tcp[2]) + base;
+    const Eigen::Matrix3d r_w = yaw * rotation(state_.tcp[3], state_.tcp[4], state_.tcp[5]);
+    UrPose target = servo_target(pose(p_w, r_w), a);
+    std::array<double, 3> xyz{target[0], target[1], target[2]};
+    if (sim::clamp_to_workspace(xyz, config_.limits))
+      events.push_back({sim::StepEvent::WorkspaceClamp, "target clamped into the workspace box"});
+    const Eigen::Vector3d t_b = yaw.inverse() * (Eigen::Vector3d(xyz[0], xyz[1], xyz[2]) - base);
+    const Eigen::Matrix3d r_b = yaw.inverse() * rotation(target[3], target[4], target[5]);
+    grip_ = a[6] > 0;
+    send_target(pose(t_b, r_b), grip_, ++seq_);
+    // One control step of the controller's clock, every output checked.
+    const double until = state_.time + robot::kControlPeriodS - 1e-9;
+    bool held = false;
+    do {
+      receive();
+      check_running("during the step");
+      std::array<double, 7> qd{};
+      std::copy(state_.qd.begin(), state_.qd.end(), qd.begin());
+      const auto v = sim::check_joint_speeds(qd, config_.limits);
+      if (!v.ok && !held) {
+        held = true;
+        send_target(state_.tcp, grip_, 0);
+        events.push_back(
+            {sim::StepEvent::SafetyHold, v.reason + "; the arm is held for the rest of the step"});
+      }
+    } while (state_.time < until);
+  } catch (const ClientError& e) {
+    throw CellStopped(std::string("the link to the controller was lost (") + e.what() +
+                      "); the program's watchdog stops the arm within " +
+                      std::to_string(config_.program.watchdog_s) + " s");
+  }
+  return events;
+}
+
+Observation RtdeCell::observe() const {
+  Observation o;
+  const Eigen::AngleAxisd yaw(config_.base_yaw, Eigen::Vector3d::UnitZ());
+  const Eigen::Vector3d p = yaw * Eigen::Vector3d(state_.tcp[0], state_.tcp[1], state_.tcp[2]) +
+                            Eigen::Vector3d(config_.base_xyz[0], config_.base_xyz[1], config_.base_xyz[2]);
+  const Eigen::Quaterniond q(yaw * rotation(state_.tcp[3], state_.tcp[4], state_.tcp[5]));
+  o.ee_p = {p.x(), p.y(), p.z()};
+  o.ee_q = {q.w(), q.x(), q.y(), q.z()};
+  std::copy(state_.q.begin(), state_.q.end(), o.q.begin());
+  std::copy(state_.qd.begin(), state_.qd.end(), o.dq.begin());
+  // A gripper on a digital output reports its command, not its gap or contacts.
+  o.gripper_opening = state_.gripper_closed ? 0.0 : config_.gripper_stroke_m;
+  return o;
+}
+
+}  // namespace dh::rtde

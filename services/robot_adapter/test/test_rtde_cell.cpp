@@ -1,0 +1,146 @@
+// The UR arm as the seam's cell, end to end over loopback: RtdeCell sends the servo program and its
+// targets over RTDE to the test controller, whose UR7e in MuJoCo runs the program's contract. What a
+// step does to the tool, and what stops the arm: a silent adapter, a protective stop, a cut link, the
+// envelope.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "dh/common/paths.hpp"
+#include "dh/rtde/rtde_cell.hpp"
+#include "dh/rtde/simulated_ur.hpp"
+
+namespace dh::rtde {
+namespace {
+
+using namespace std::chrono_literals;
+
+// Tool down, 0.5 m in front of the base (x < 0: the UR's zero points its arm along -x).
+constexpr std::array<double, 6> kReady{0, -1.3, 1.6, -1.87, -1.5708, 0};
+
+struct Cell : ::testing::Test {
+  SimulatedController controller{paths::config_dir() / "robots" / "ur7e.urdf", kReady};
+  RtdeCellConfig config() {
+    RtdeCellConfig c;
+    c.rtde_port = controller.port();
+    c.script_port = controller.script_port();
+    return c;
+  }
+  static double peak_over(SimulatedController& c, std::chrono::milliseconds window) {
+    c.with_arm([](SimulatedUr& a) { a.reset_peak(); });
+    std::this_thread::sleep_for(window);
+    return c.with_arm([](SimulatedUr& a) { return a.peak_speed(); });
+  }
+};
+
+TEST_F(Cell, StartsTheProgramAndMovesTheToolAsFarPerStepAsTheSimulator) {
+  RtdeCell cell(config());
+  cell.connect();
+  EXPECT_TRUE(controller.with_arm([](SimulatedUr& a) { return a.program_running(); }));
+  const Observation start = cell.observe();
+  constexpr int kSteps = 10;
+  for (int i = 0; i < kSteps; ++i) {
+    const auto events = cell.step({0, 0.5, 0, 0, 0, 0, -1});
+    EXPECT_TRUE(events.empty()) << events.front().reason;
+  }
+  const Observation end = cell.observe();
+  // servo.hpp: 0.0133 m per step at |a| = 1, so 10 steps at a = 0.5 cover 0.066 m; the arm lags the
+  // last target by part of a step.
+  EXPECT_NEAR(end.ee_p[1] - start.ee_p[1], kSteps * 0.5 * 0.05 * 0.2655, 0.02);
+  EXPECT_NEAR(end.ee_p[0], start.ee_p[0], 0.01);
+  EXPECT_NEAR(end.ee_p[2], start.ee_p[2], 0.01);
+  EXPECT_GT(cell.state().applied, 0);
+  cell.step({0, 0, 0, 0, 0, 0, 1});
+  EXPECT_TRUE(cell.state().gripper_closed);
+  EXPECT_EQ(cell.observe().gripper_opening, 0.0);
+}
+
+TEST_F(Cell, AnAdapterThatFallsSilentLeavesTheArmStoppedByTheWatchdog) {
+  RtdeCell cell(config());
+  cell.connect();
+  for (int i = 0; i < 6; ++i) cell.step({0, 1, 0, 0, 0, 0, -1});
+  EXPECT_GT(controller.with_arm([](SimulatedUr& a) { return a.peak_speed(); }), 0.05);
+  // No target for longer than the watchdog (0.1 s) and the arm has come to rest: no motion after.
+  std::this_thread::sleep_for(300ms);
+  EXPECT_LT(peak_over(controller, 300ms), 1e-3);
+  EXPECT_EQ(std::get<std::int32_t>(
+                controller.with_arm([](SimulatedUr& a) { return a.output(ServoProgram::kAppliedRegister); })),
+            0);
+}
+
+TEST_F(Cell, AProtectiveStopEndsTheStepWithItsReasonAndTheArmStays) {
+  RtdeCell cell(config());
+  cell.connect();
+  cell.step({0, 1, 0, 0, 0, 0, -1});
+  controller.with_arm([](SimulatedUr& a) { a.protective_stop(); });
+  try {
+    cell.step({0, 1, 0, 0, 0, 0, -1});
+    FAIL() << "a step ran through a protective stop";
+  } catch (const CellStopped& e) {
+    EXPECT_NE(std::string(e.what()).find("protective stop (safety_status_bits 0x4)"), std::string::npos)
+        << e.what();
+  }
+  std::this_thread::sleep_for(200ms);
+  EXPECT_LT(peak_over(controller, 300ms), 1e-3);
+}
+
+TEST_F(Cell, ACutLinkEndsTheStepNamingItAndTheWatchdogStopsTheArm) {
+  RtdeCell cell(config());
+  cell.connect();
+  for (int i = 0; i < 3; ++i) cell.step({0, 1, 0, 0, 0, 0, -1});
+  controller.controller().drop_client();
+  try {
+    for (int i = 0; i < 5; ++i) cell.step({0, 1, 0, 0, 0, 0, -1});
+    FAIL() << "steps went on over a cut link";
+  } catch (const CellStopped& e) {
+    EXPECT_NE(std::string(e.what()).find("the link to the controller was lost"), std::string::npos)
+        << e.what();
+  }
+  std::this_thread::sleep_for(300ms);
+  EXPECT_LT(peak_over(controller, 300ms), 1e-3);
+}
+
+TEST_F(Cell, AnArmInAProtectiveStopIsNamedAtConnect) {
+  controller.with_arm([](SimulatedUr& a) { a.protective_stop(); });
+  RtdeCell cell(config());
+  try {
+    cell.connect();
+    FAIL() << "connected to an arm in a protective stop";
+  } catch (const CellStopped& e) {
+    EXPECT_NE(std::string(e.what()).find("release it on the teach pendant"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(Cell, TheEnvelopeHoldsTheArm) {
+  auto c = config();
+  c.limits.joint_speed = 0.02;  // rad/s: any real motion breaches it
+  RtdeCell cell(c);
+  cell.connect();
+  bool held = false;
+  for (int i = 0; i < 4 && !held; ++i)
+    for (const auto& e : cell.step({0, 1, 0, 0, 0, 0, -1})) held |= e.kind == sim::StepEvent::SafetyHold;
+  EXPECT_TRUE(held);
+}
+
+TEST_F(Cell, TheWorkspaceBoxClampsTheTarget) {
+  auto w = config();
+  double y = 0;
+  {
+    RtdeCell probe(w);  // one client at a time: it disconnects at the scope's end
+    probe.connect();
+    y = probe.observe().ee_p[1];
+  }
+  w.limits.workspace_max[1] = y + 0.005;
+  RtdeCell cell(w);
+  cell.connect();
+  const auto events = cell.step({0, 1, 0, 0, 0, 0, -1});
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, sim::StepEvent::WorkspaceClamp);
+  cell.step({0, 1, 0, 0, 0, 0, -1});
+  EXPECT_LT(cell.observe().ee_p[1], y + 0.005 + 0.003);
+}
+
+}  // namespace
+}  // namespace dh::rtde

@@ -1,0 +1,50 @@
+// The servo program's text says what servo_program.hpp declares: the registers, the timing, the
+// watchdog, the gripper output; a controller recognises it by its first two lines and nothing else.
+#include <gtest/gtest.h>
+
+#include "dh/rtde/servo_program.hpp"
+
+namespace dh::rtde {
+namespace {
+
+bool has(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+TEST(ServoProgram, ReadsTheDeclaredRegistersAndServosWithTheDeclaredTiming) {
+  ServoProgram p;
+  p.timing = {0.002, 0.05, 500};
+  p.watchdog_s = 0.15;
+  p.gripper_output = 1;
+  const std::string text = servo_program_text(p);
+  EXPECT_EQ(text.rfind("def dh_servo():\n  # dh_servo version 1\n", 0), 0u) << text;
+  EXPECT_TRUE(has(text, "seq = read_input_integer_register(24)"));
+  EXPECT_TRUE(has(text,
+                  "p[read_input_float_register(24), read_input_float_register(25), "
+                  "read_input_float_register(26), read_input_float_register(27), "
+                  "read_input_float_register(28), read_input_float_register(29)]"));
+  EXPECT_TRUE(has(text, "write_output_integer_register(24, seq)"));
+  EXPECT_TRUE(has(text, "set_tool_digital_out(1, read_input_integer_register(25) == 1)"));
+  EXPECT_TRUE(has(text,
+                  "servoj(get_inverse_kin(target, qnear=get_actual_joint_positions()), t=0.002, "
+                  "lookahead_time=0.05, gain=500)"));
+  EXPECT_TRUE(has(text, "idle >= 0.15"));
+  EXPECT_TRUE(has(text, "stopj(4)"));
+  // Every block is closed: as many `end`s as openers, and the program is called at the end.
+  auto count = [&](const std::string& w) {
+    std::size_t n = 0;
+    for (std::size_t at = text.find(w); at != std::string::npos; at = text.find(w, at + 1)) ++n;
+    return n;
+  };
+  EXPECT_EQ(count("\n  end\n") + count("\n    end\n") + count("\nend\n"),
+            count("def ") + count(" if ") + count("while "));
+  EXPECT_TRUE(text.ends_with("end\ndh_servo()\n"));
+}
+
+TEST(ServoProgram, IsRecognisedByItsNameAndVersionOnly) {
+  EXPECT_TRUE(is_servo_program(servo_program_text({})));
+  EXPECT_FALSE(is_servo_program("def dh_servo():\n  # dh_servo version 2\n"));
+  EXPECT_FALSE(is_servo_program("def other():\n  # dh_servo version 1\n"));
+  EXPECT_FALSE(is_servo_program(""));
+}
+
+}  // namespace
+}  // namespace dh::rtde

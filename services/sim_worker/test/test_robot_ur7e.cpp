@@ -1,0 +1,126 @@
+// The UR7e model (configs/robots/ur7e.urdf) against UR's published kinematics: the MuJoCo model built
+// from the URDF puts the flange where the standard DH chain (docs/ur7e-model.md) puts it, at any joint
+// values, and the gripper's stroke is the 2F-85's.
+#include <gtest/gtest.h>
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Geometry>
+#include <cmath>
+#include <fstream>
+#include <random>
+
+#include "dh/common/config.hpp"
+#include "dh/common/paths.hpp"
+#include "dh/sim/model.hpp"
+#include "dh/sim/robot_model.hpp"
+
+namespace dh {
+namespace {
+
+// UR5e = UR7e, standard DH: a, d, alpha per joint.
+constexpr double kA[6] = {0, -0.425, -0.3922, 0, 0, 0};
+constexpr double kD[6] = {0.1625, 0, 0, 0.1333, 0.0997, 0.0996};
+constexpr double kAlpha[6] = {M_PI / 2, 0, 0, M_PI / 2, -M_PI / 2, 0};
+
+Eigen::Isometry3d dh_flange(const std::array<double, 6>& q) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  for (int i = 0; i < 6; ++i)
+    t = t * Eigen::AngleAxisd(q[i], Eigen::Vector3d::UnitZ()) * Eigen::Translation3d(kA[i], 0, kD[i]) *
+        Eigen::AngleAxisd(kAlpha[i], Eigen::Vector3d::UnitX());
+  return t;
+}
+
+struct Ur7e : ::testing::Test {
+  static void SetUpTestSuite() {
+    spec = new sim::RobotSpec(sim::load_robot(paths::config_dir() / "robots" / "ur7e.urdf"));
+    const double base[3] = {0, 0, 0};
+    const auto f = sim::robot_mjcf(*spec, base, 1.5);
+    model = sim::compile_model("<mujoco><compiler angle=\"radian\"/><worldbody>" + f.body +
+                                   "</worldbody><actuator>" + f.actuators + "</actuator><equality>" +
+                                   f.equalities + "</equality></mujoco>",
+                               "ur7e.urdf")
+                .release();
+  }
+  static void TearDownTestSuite() {
+    sim::ModelDeleter{}(model);
+    delete spec;
+  }
+  static sim::RobotSpec* spec;
+  static mjModel* model;
+};
+sim::RobotSpec* Ur7e::spec = nullptr;
+mjModel* Ur7e::model = nullptr;
+
+TEST_F(Ur7e, HasSixArmJointsWithUrsLimitsAndTwoFingers) {
+  ASSERT_EQ(spec->arm.size(), 6u);
+  EXPECT_EQ(spec->arm[0].name, "shoulder_pan");
+  EXPECT_EQ(spec->arm[5].name, "wrist_3");
+  for (const auto& j : spec->arm) EXPECT_NEAR(j.velocity, M_PI, 1e-9) << j.name;
+  EXPECT_NEAR(spec->arm[2].upper, M_PI, 1e-9);  // the elbow
+  EXPECT_NEAR(spec->arm[0].upper, 2 * M_PI, 1e-9);
+  EXPECT_EQ(spec->arm[1].effort, 150);
+  EXPECT_EQ(spec->arm[4].effort, 28);
+  ASSERT_EQ(spec->fingers.size(), 2u);
+  EXPECT_NEAR(2 * spec->fingers[0].upper, 0.085, 1e-12);  // the 2F-85's stroke
+  // In the compiled model too (MJCF reads angles in degrees unless told otherwise).
+  EXPECT_NEAR(model->jnt_range[2 * mj_name2id(model, mjOBJ_JOINT, "elbow") + 1], M_PI, 1e-9);
+}
+
+TEST_F(Ur7e, TheFlangeIsWhereUrsDhChainPutsItAtAnyJointValues) {
+  auto d = sim::make_data(model);
+  const int hand = mj_name2id(model, mjOBJ_BODY, "hand");
+  const int tcp = mj_name2id(model, mjOBJ_SITE, "tcp");
+  ASSERT_GE(hand, 0);
+  ASSERT_GE(tcp, 0);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-M_PI, M_PI);
+  for (int trial = 0; trial < 50; ++trial) {
+    std::array<double, 6> q{};
+    for (int i = 0; i < 6; ++i) {
+      q[i] = trial == 0 ? 0.0 : u(rng);
+      d->qpos[model->jnt_qposadr[mj_name2id(model, mjOBJ_JOINT, spec->arm[i].name.c_str())]] = q[i];
+    }
+    mj_kinematics(model, d.get());
+    const Eigen::Isometry3d want = dh_flange(q);
+    const Eigen::Vector3d p(d->xpos[3 * hand], d->xpos[3 * hand + 1], d->xpos[3 * hand + 2]);
+    EXPECT_LT((p - want.translation()).norm(), 1e-9) << "trial " << trial;
+    Eigen::Matrix3d r;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) r(i, j) = d->xmat[9 * hand + 3 * i + j];
+    EXPECT_LT((r - want.linear()).norm(), 1e-9) << "trial " << trial;
+    // The tool centre point: the pads' centre, 0.1415 m out along the flange's z axis.
+    const Eigen::Vector3d tool = want * Eigen::Vector3d(0, 0, 0.1415);
+    EXPECT_LT(
+        (Eigen::Vector3d(d->site_xpos[3 * tcp], d->site_xpos[3 * tcp + 1], d->site_xpos[3 * tcp + 2]) - tool)
+            .norm(),
+        1e-9);
+  }
+  // At zero the arm lies stretched along -x: reach a2 + a3 = 0.8172 m, the flange d1 - d5 high.
+  for (int i = 0; i < 6; ++i)
+    d->qpos[model->jnt_qposadr[mj_name2id(model, mjOBJ_JOINT, spec->arm[i].name.c_str())]] = 0;
+  mj_kinematics(model, d.get());
+  EXPECT_NEAR(d->xpos[3 * hand], -0.8172, 1e-9);
+  EXPECT_NEAR(d->xpos[3 * hand + 2], 0.1625 - 0.0997, 1e-9);
+}
+
+TEST(RobotModel, RefusesAnArmOfAnotherJointCountNamingTheFile) {
+  const auto dir = std::filesystem::temp_directory_path() / "dh_robot_model_test";
+  std::filesystem::create_directories(dir);
+  const auto file = dir / "two_joints.urdf";
+  std::ofstream(file) << R"(<robot name="r"><link name="a"/><link name="b"/><link name="tcp"/>
+    <joint name="j1" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>
+      <limit lower="-1" upper="1" velocity="1" effort="1"/></joint>
+    <joint name="j2" type="revolute"><parent link="b"/><child link="tcp"/><axis xyz="0 0 1"/>
+      <limit lower="-1" upper="1" velocity="1" effort="1"/></joint></robot>)";
+  try {
+    sim::load_robot(file);
+    FAIL() << "a 2-joint arm was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("two_joints.urdf: expected 6 or 7 revolute arm joints, found 2"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace dh
