@@ -67,7 +67,7 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
     for (std::uint32_t c = 0; row.arm != "full-perception" && c < r.commands; ++c) {
       const auto& end = recording.commands[c].end;
       if (c != static_cast<std::uint32_t>(&row - rows.data()) % r.commands && !(end && end->state == "failed")) continue;
-      const auto p = evo::probe(row.evidence_path, {paths::config_dir(), {}, c, std::nullopt});
+      const auto p = evo::probe(row.evidence_path, {paths::config_dir(), {}, c, std::nullopt, false, {}});
       EXPECT_TRUE(p.reproduces) << row.evidence_path << " probe of command " << c << " (" << p.capability
                                 << "): ended " << p.state << " at " << p.end_step << ", recorded "
                                 << (p.recorded ? p.recorded->state + " at " + std::to_string(p.recorded->step) : "none")
@@ -77,7 +77,7 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
       failures_reproduce += p.reproduces && p.recorded && p.recorded->state == "failed";
       // And the rest of the episode from there: the governor restored from its snapshot at the dispatch
       // decides again, on the bus, every step and the episode's end as recorded over DDS.
-      evo::ProbeOptions o{paths::config_dir(), {}, c, std::nullopt};
+      evo::ProbeOptions o{paths::config_dir(), {}, c, std::nullopt, false, {}};
       o.rest = true;
       const auto rest = evo::probe(row.evidence_path, o);
       EXPECT_TRUE(rest.reproduces) << row.evidence_path << " rest of the episode from command " << c << ": "

@@ -93,9 +93,7 @@ std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
     for (std::size_t i = next++; i < states.size(); i = next++) {
       out[i].state = states[i];
       try {
-        ProbeOptions o{config_dir, library_dir, states[i].command, theta};
-        o.rest = rest;
-        out[i].report = probe(states[i].evidence, o);
+        out[i].report = probe(states[i].evidence, {config_dir, library_dir, states[i].command, theta, rest, {}});
       } catch (const std::exception& e) {
         out[i].error = e.what();
       }

@@ -144,8 +144,10 @@ void RtdeCell::send_target(const std::array<double, 6>& base_pose, bool grip, st
   client_.send(*inputs_, values, config_.timeout);
 }
 
-std::vector<sim::StepEvent> RtdeCell::step(const std::array<double, 7>& a) {
+std::vector<sim::StepEvent> RtdeCell::step(const std::array<double, 7>& action) {
   std::vector<sim::StepEvent> events;
+  std::array<double, 7> a = action;
+  if (auto why = sim::clamp_action(a)) events.push_back({sim::StepEvent::ActionClamped, std::move(*why)});
   try {
     check_running("before the step");
     // World frame: the contract's offsets are world-frame.

@@ -248,7 +248,8 @@ Value SimulatedUr::output(const std::string& name) const {
 }
 
 SimulatedController::SimulatedController(const std::filesystem::path& urdf,
-                                         const std::array<double, 6>& ready_q)
+                                         const std::array<double, 6>& ready_q, std::uint16_t port,
+                                         std::uint16_t script_port)
     : arm_(urdf, ready_q),
       start_(std::chrono::steady_clock::now()),
       controller_(
@@ -262,7 +263,8 @@ SimulatedController::SimulatedController(const std::filesystem::path& urdf,
             std::lock_guard lock(mutex_);
             advance();
             arm_.run_script(script);
-          }) {}
+          },
+          port, script_port) {}
 
 void SimulatedController::advance() {
   arm_.advance_to(std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(),

@@ -85,12 +85,12 @@ std::vector<Package> ControllerCore::on_package(const Package& p) {
 
 struct TestController::Impl {
   Impl(ControllerModel model, std::function<Value(const std::string&)> read,
-       std::function<void(const std::string&)> on_script, std::uint16_t port)
+       std::function<void(const std::string&)> on_script, std::uint16_t port, std::uint16_t script_port)
       : model(std::move(model)),
         read(std::move(read)),
         on_script(std::move(on_script)),
         acceptor(context, tcp::endpoint(asio::ip::make_address("127.0.0.1"), port)),
-        script_acceptor(context, tcp::endpoint(asio::ip::make_address("127.0.0.1"), 0)) {}
+        script_acceptor(context, tcp::endpoint(asio::ip::make_address("127.0.0.1"), script_port)) {}
 
   /// One script connection at a time: its bytes up to the client's close are the program.
   void accept_script() {
@@ -242,8 +242,10 @@ struct TestController::Impl {
 };
 
 TestController::TestController(ControllerModel model, std::function<Value(const std::string&)> read,
-                               std::function<void(const std::string&)> on_script, std::uint16_t port)
-    : impl_(std::make_unique<Impl>(std::move(model), std::move(read), std::move(on_script), port)) {
+                               std::function<void(const std::string&)> on_script, std::uint16_t port,
+                               std::uint16_t script_port)
+    : impl_(std::make_unique<Impl>(std::move(model), std::move(read), std::move(on_script), port,
+                                   script_port)) {
   port_ = impl_->acceptor.local_endpoint().port();
   script_port_ = impl_->script_acceptor.local_endpoint().port();
   impl_->accept();

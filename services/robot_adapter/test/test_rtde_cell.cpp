@@ -113,6 +113,15 @@ TEST_F(Cell, AnArmInAProtectiveStopIsNamedAtConnect) {
   }
 }
 
+TEST_F(Cell, AGarbageActionIsAppliedClampedAndSaidSo) {
+  RtdeCell cell(config());
+  cell.connect();
+  const auto events = cell.step({std::nan(""), 5, 0, 0, 0, 0, -1});
+  ASSERT_EQ(events.size(), 1u);
+  EXPECT_EQ(events[0].kind, sim::StepEvent::ActionClamped);
+  EXPECT_NE(events[0].reason.find("action component 0 = nan"), std::string::npos) << events[0].reason;
+}
+
 TEST_F(Cell, TheEnvelopeHoldsTheArm) {
   auto c = config();
   c.limits.joint_speed = 0.02;  // rad/s: any real motion breaches it

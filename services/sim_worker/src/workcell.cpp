@@ -181,16 +181,8 @@ void Workcell::store_controller() {
 
 std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
   std::vector<StepEvent> events;
-  std::array<double, 7> a{};
-  for (int i = 0; i < 7; ++i) a[i] = std::clamp(std::isfinite(action_in[i]) ? action_in[i] : 0.0, -1.0, 1.0);
-  for (int i = 0; i < 7; ++i)
-    if (a[i] != action_in[i]) {
-      events.push_back({StepEvent::ActionClamped, "action component " + std::to_string(i) + " = " +
-                                                      std::to_string(action_in[i]) +
-                                                      " is not finite or outside [-1, 1]; applied as " +
-                                                      std::to_string(a[i])});
-      break;
-    }
+  std::array<double, 7> a = action_in;
+  if (auto why = clamp_action(a)) events.push_back({StepEvent::ActionClamped, std::move(*why)});
 
   const double* p = d_->site_xpos + 3 * ids_->tcp_site;
   std::array<double, 3> p_goal{p[0] + robot::kMaxDeltaPosM * a[0], p[1] + robot::kMaxDeltaPosM * a[1],

@@ -75,7 +75,9 @@ class SimulatedUr {
 /// from any thread.
 class SimulatedController {
  public:
-  SimulatedController(const std::filesystem::path& urdf, const std::array<double, 6>& ready_q);
+  /// Ports 0: ones the system picks.
+  SimulatedController(const std::filesystem::path& urdf, const std::array<double, 6>& ready_q,
+                      std::uint16_t port = 0, std::uint16_t script_port = 0);
   std::uint16_t port() const { return controller_.port(); }
   std::uint16_t script_port() const { return controller_.script_port(); }
   TestController& controller() { return controller_; }

@@ -54,10 +54,11 @@ class ControllerCore {
 /// ControllerCore served on 127.0.0.1, one client at a time, on a thread of its own.
 class TestController {
  public:
-  /// Listens on `port` (0: one the system picks); `read` gives each output field's value when a data
-  /// package is sent, `on_script` each script received whole (both called on the controller's thread).
+  /// Listens on `port` and `script_port` (0: one the system picks); `read` gives each output field's value
+  /// when a data package is sent, `on_script` each script received whole (both on the controller's thread).
   TestController(ControllerModel model, std::function<Value(const std::string&)> read,
-                 std::function<void(const std::string&)> on_script = {}, std::uint16_t port = 0);
+                 std::function<void(const std::string&)> on_script = {}, std::uint16_t port = 0,
+                 std::uint16_t script_port = 0);
   ~TestController();
   TestController(const TestController&) = delete;
   TestController& operator=(const TestController&) = delete;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <optional>
 #include <string>
 
 namespace dh::sim {
@@ -22,6 +23,10 @@ struct SafetyVerdict {
 
 /// Checks |dq_i| <= limit for the arm joints (a 6-joint arm leaves the seventh at 0).
 SafetyVerdict check_joint_speeds(const std::array<double, 7>& dq, const SafetyLimits& limits);
+
+/// Makes an action one the robot contract allows: every component finite (NaN and infinities become 0) and
+/// within [-1, 1]. Returns why, naming the first component it changed; nullopt when it changed none.
+std::optional<std::string> clamp_action(std::array<double, 7>& a);
 
 /// Clamps a position target into the workspace box; returns true when it had to.
 bool clamp_to_workspace(std::array<double, 3>& p, const SafetyLimits& limits);

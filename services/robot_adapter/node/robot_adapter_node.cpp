@@ -1,0 +1,223 @@
+// dh_robot_adapter: one Universal Robots arm over RTDE behind the robot seam, as one channel. The only
+// process that may move the arm.
+//
+// Reads   rt/dh/episode/request (Episode)   start an episode on the arm's channel (the arm stays where it is)
+//         rt/dh/action          (Action)    one 7-d action per step, lock-step
+//         rt/dh/lease           (Lease, deadline 1 s) the governor's grant for the running command
+//         rt/dh/episode/result  (Episode)   the channel goes idle, the arm stops
+// Writes  rt/dh/observation     (Observation) at the start (step 0) and after every applied action: joints,
+//                                           tool pose and gripper from the controller's outputs
+//         rt/dh/seam/event      (Status)    refused actions and the cell's corrections (envelope, workspace)
+//         rt/dh/sim/channel     (Episode)   idle/running, with liveliness; last_error says why an episode
+//                                           ended on the cell's side (a protective stop, the link lost)
+// The seam (admission, holds, abandonment) is sim::SeamCore; the arm is rtde::RtdeCell (rtde_cell.hpp),
+// which drives the controller through the dh_servo program (servo_program.hpp). A held action sends no
+// target, so the program's watchdog stops the arm; so does a dead adapter.
+// Parameters: --channel, --host, --rtde-port, --script-port, --base x,y,z,yaw (the arm's base in the
+// world, m and rad), --workspace-min/--workspace-max (the box, world frame), --joint-speed (the envelope,
+// rad/s), --output-hz, --lease-grace-ms, --abandon-after-s, --name.
+#include <chrono>
+#include <optional>
+
+#include "dh/common/convert.hpp"
+#include "dh/common/dds_shell.hpp"
+#include "dh/common/topics.hpp"
+#include "dh/msg/commandPubSubTypes.h"
+#include "dh/msg/episodePubSubTypes.h"
+#include "dh/msg/robotPubSubTypes.h"
+#include "dh/rtde/adapter_ports.hpp"
+#include "dh/rtde/rtde_cell.hpp"
+#include "dh/sim/seam_core.hpp"
+
+namespace dh {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+class AdapterBinding;
+using Context = dds::Context<AdapterBinding>;
+
+class AdapterBinding {
+ public:
+  using Inputs = dds::Inputs<dds::In<port::EpisodeRequest>, dds::In<port::Action>,
+                             dds::In<port::Lease, dds::kDeadline>, dds::In<port::EpisodeResult>>;
+  using Outputs = dds::Outputs<port::Observation, port::Verdict, port::SeamEvent, port::ChannelStatus>;
+
+  std::string name() const { return "dh_robot_adapter"; }
+  std::string description() const { return "a Universal Robots arm over RTDE behind the robot seam"; }
+  const Ports& ports() const { return rtde::adapter_ports(); }
+  std::chrono::milliseconds wait() const { return std::chrono::milliseconds(20); }
+
+  void options(CLI::App& app) {
+    app.add_option("--channel", channel_, "the arm's channel id");
+    app.add_option("--host", cell_.host, "the controller's address");
+    app.add_option("--rtde-port", cell_.rtde_port, "RTDE (30004 on a UR controller)");
+    app.add_option("--script-port", cell_.script_port, "the secondary interface (30002 on a UR controller)");
+    app.add_option("--base", base_, "the arm's base in the world: x,y,z (m),yaw (rad)")
+        ->delimiter(',')
+        ->expected(4);
+    app.add_option("--workspace-min", ws_min_, "the workspace box's low corner (world, m)")
+        ->delimiter(',')
+        ->expected(3);
+    app.add_option("--workspace-max", ws_max_, "the workspace box's high corner (world, m)")
+        ->delimiter(',')
+        ->expected(3);
+    app.add_option("--joint-speed", cell_.limits.joint_speed, "the joint-speed envelope (rad/s)")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--output-hz", cell_.output_hz, "the RTDE output rate (Hz)")
+        ->check(CLI::Range(50.0, 500.0));
+    app.add_option("--lease-grace-ms", grace_ms_,
+                   "wall time an action of a command without a lease waits for one");
+    app.add_option("--abandon-after-s", abandon_after_s_,
+                   "end a running episode nothing has advanced for this long")
+        ->check(CLI::PositiveNumber);
+    app.add_option("--name", name_, "the adapter's name in channel announcements");
+  }
+
+  void parsed() {
+    for (int i = 0; i < 3; ++i) {
+      if (ws_min_[i] >= ws_max_[i])
+        throw std::invalid_argument("--workspace-min must be below --workspace-max on every axis");
+      cell_.limits.workspace_min[i] = ws_min_[i];
+      cell_.limits.workspace_max[i] = ws_max_[i];
+    }
+    cell_.base_xyz = {base_[0], base_[1], base_[2]};
+    cell_.base_yaw = base_[3];
+  }
+
+  void configure(Context& ctx) {
+    core_.emplace(channel_, sim::SeamSettings{
+                                std::chrono::milliseconds(grace_ms_), std::chrono::seconds(abandon_after_s_),
+                                std::chrono::milliseconds(static_cast<int>(dds::kLeaseDeadlineSec * 1000))});
+    arm_.emplace(cell_);
+    // An adapter that cannot reach its arm does not come up: the error says what to check.
+    arm_->connect();
+    ctx.log.info("arm at {}:{} (script {}): program {} running, tool at {:.3f},{:.3f},{:.3f} (base frame)",
+                 cell_.host, cell_.rtde_port, cell_.script_port, rtde::ServoProgram::kName,
+                 arm_->state().tcp[0], arm_->state().tcp[1], arm_->state().tcp[2]);
+  }
+
+  void activate(Context& ctx) {
+    announce(ctx, msg::CHANNEL_IDLE);
+    ctx.log.info("adapter={} channel={} domain={} up", name_, channel_, dds::domain_id());
+  }
+  void shutdown() {
+    if (arm_) arm_->stop();
+  }
+  void tick(Context& ctx) {
+    if (core_) publish(ctx, core_->on_tick(Clock::now()));
+  }
+
+  void on(const dds::Sample<port::EpisodeRequest>& s, Context& ctx) {
+    const msg::EpisodeRequest& r = s.msg;
+    if (r.channel() != channel_ || r.episode_id() == core_->episode_id() || r.episode_id() == last_episode_)
+      return;
+    if (core_->running()) {
+      ctx.log.warn("channel={} busy with episode={}; request {} ignored", channel_, core_->episode_id(),
+                   r.episode_id());
+      return;
+    }
+    sim::SeamEffects fx;
+    try {
+      if (!arm_->connected()) {
+        ctx.log.info("channel={} reconnecting to the arm", channel_);
+        arm_->connect();
+      }
+      // No oracle on a real cell: the seam's predicate is empty and gives no verdict.
+      fx = core_->start(*arm_, r.episode_id(), r.budget_steps(), "", Clock::now());
+    } catch (const std::exception& e) {
+      ctx.log.error("channel={} episode={} cannot start: {}", channel_, r.episode_id(), e.what());
+      finish(ctx, r.episode_id(), e.what());
+      return;
+    }
+    ctx.log.info("channel={} episode={} suite={} task={} started", channel_, r.episode_id(), r.suite(),
+                 r.task());
+    announce(ctx, msg::CHANNEL_RUNNING);
+    publish(ctx, fx);
+  }
+  void on(const dds::Sample<port::Lease>& s, Context& ctx) {
+    const msg::Lease& l = s.msg;
+    if (l.channel() != channel_) return;
+    publish(ctx, core_->on_lease({l.episode_id(), l.command_id(), l.valid_until_step(), l.budget_until_step(),
+                                  l.revoked()},
+                                 Clock::now()));
+  }
+  void on(const dds::DeadlineMissed<port::Lease>&, Context& ctx) {
+    if (core_->on_lease_silent(Clock::now()))
+      ctx.log.warn("channel={} lease writer missed its {} s deadline; actions are held and the arm stops",
+                   channel_, dds::kLeaseDeadlineSec);
+  }
+  void on(const dds::Sample<port::Action>& s, Context& ctx) {
+    const msg::Action& a = s.msg;
+    if (a.channel() != channel_) return;
+    sim::ActionIn in{a.episode_id(), a.command_id(), a.step(), {}};
+    std::copy_n(a.a().begin(), 7, in.a.begin());
+    publish(ctx, core_->on_action(in, Clock::now()));
+  }
+  void on(const dds::Sample<port::EpisodeResult>& s, Context& ctx) {
+    const msg::EpisodeResult& r = s.msg;
+    if (!core_->running() || r.episode_id() != core_->episode_id()) return;
+    ctx.log.info("channel={} episode={} ended success={} steps={}", channel_, r.episode_id(), r.success(),
+                 r.steps());
+    finish(ctx, r.episode_id(), "");
+  }
+
+ private:
+  void announce(Context& ctx, msg::ChannelState state) {
+    msg::ChannelStatus st;
+    st.channel(channel_);
+    st.worker(name_);
+    st.state(state);
+    st.episode_id(core_->episode_id());
+    st.last_episode_id(last_episode_);
+    st.last_steps(last_steps_);
+    st.last_goal_step(-1);  // no oracle
+    st.last_error(last_error_);
+    ctx.write<port::ChannelStatus>(st);
+  }
+
+  void publish(Context& ctx, const sim::SeamEffects& fx) {
+    for (const auto& e : fx.events) {
+      msg::SeamEvent m;
+      m.channel(channel_);
+      m.episode_id(e.episode_id.empty() ? core_->episode_id() : e.episode_id);
+      m.step(e.step);
+      m.command_id(e.command_id);
+      m.kind(static_cast<msg::SeamEventKind>(e.kind));
+      m.reason(e.reason);
+      ctx.write<port::SeamEvent>(m);
+      ctx.log.info("channel={} step={} {}", channel_, e.step, e.reason);
+    }
+    if (fx.observation)
+      ctx.write<port::Observation>(convert::to_msg(*fx.observation, channel_, core_->episode_id()));
+    if (fx.ended) {
+      ctx.log.error("channel={} episode={} {}", channel_, core_->episode_id(), *fx.ended);
+      finish(ctx, core_->episode_id(), *fx.ended);
+    }
+  }
+
+  /// The channel goes idle and the arm stops, reporting the episode (and why it could not go on).
+  void finish(Context& ctx, const std::string& episode, const std::string& error) {
+    arm_->stop();
+    last_episode_ = episode;
+    last_steps_ = core_->step();
+    last_error_ = error;
+    core_->end();
+    announce(ctx, msg::CHANNEL_IDLE);
+  }
+
+  std::uint32_t channel_ = 0;
+  std::string name_ = "robot_adapter";
+  rtde::RtdeCellConfig cell_;
+  std::vector<double> base_{0, 0, 0, 0}, ws_min_{-1, -1, -1}, ws_max_{1, 1, 1};
+  unsigned grace_ms_ = 1000, abandon_after_s_ = 60;
+  std::optional<sim::SeamCore> core_;
+  std::optional<rtde::RtdeCell> arm_;
+  std::string last_episode_, last_error_;
+  std::uint32_t last_steps_ = 0;
+};
+
+}  // namespace
+}  // namespace dh
+
+int main(int argc, char** argv) { return dh::dds::run_service(argc, argv, dh::AdapterBinding{}); }
