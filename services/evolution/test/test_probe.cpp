@@ -17,6 +17,7 @@
 #include "dh/evo/probe.hpp"
 #include "dh/evo/probe_set.hpp"
 #include "dh/evo/revise.hpp"
+#include "dh/inproc/replay.hpp"
 #include "dh/inproc/stack.hpp"
 
 using namespace dh;
@@ -185,13 +186,38 @@ TEST_F(Probe, TheRestOfAnEpisodeGoesOnUnderACandidate) {
   ASSERT_TRUE(r.rest);
   EXPECT_TRUE(r.first_divergence) << "another θ, other actions";
   EXPECT_FALSE(r.reproduces);
-  // The resumed episode writes its own evidence: K dispatched again under the candidate's θ, to the end.
+  // The resumed episode writes its own evidence: the recorded request and start, where it was taken up,
+  // K grounded and dispatched again under the candidate's θ, to the end.
   const auto records = read_evidence(o.rest_evidence);
-  ASSERT_FALSE(records.empty());
-  EXPECT_EQ(records.front().value("kind", ""), "snapshot");
-  EXPECT_DOUBLE_EQ(records.front()["machine"]["running"]["theta"]["max_speed"].get<double>(), 0.2);
+  ASSERT_GE(records.size(), 6u);
+  EXPECT_EQ(records[0].value("kind", ""), "episode_request");
+  EXPECT_EQ(records[1].value("kind", ""), "episode_start");
+  EXPECT_EQ(records[2].value("kind", ""), "resumed");
+  EXPECT_EQ(records[3].value("kind", ""), "grounding");
+  EXPECT_DOUBLE_EQ(records[3]["theta"]["max_speed"].get<double>(), 0.2);
+  EXPECT_EQ(records[4].value("kind", ""), "dispatch");
+  EXPECT_EQ(records[5].value("kind", ""), "snapshot");
+  EXPECT_DOUBLE_EQ(records[5]["machine"]["running"]["theta"]["max_speed"].get<double>(), 0.2);
   EXPECT_EQ(records.back().value("kind", ""), "episode_end");
   EXPECT_EQ(records.back().value("success", false), r.rest->success);
+  // It reads as an episode of its own, which says where it came from; a replay is sent to the recording.
+  const inproc::Recording rest = inproc::read_recording(o.rest_evidence);
+  ASSERT_TRUE(rest.resumed);
+  EXPECT_EQ(rest.resumed->evidence, *dir / "ep.jsonl");
+  EXPECT_EQ(rest.resumed->command, 1u);
+  EXPECT_EQ(rest.resumed->step, r.from_step);
+  const inproc::Recording recorded = inproc::read_recording(*dir / "ep.jsonl");
+  ASSERT_FALSE(rest.commands.empty());
+  EXPECT_EQ(rest.commands.front().id, recorded.commands[1].id);
+  EXPECT_EQ(rest.episode_id, recorded.episode_id);
+  inproc::ReplayOptions replay_options;
+  replay_options.config_dir = paths::config_dir();
+  try {
+    inproc::replay(o.rest_evidence, replay_options);
+    FAIL() << "a resumed episode was replayed without its steps";
+  } catch (const inproc::EvidenceError& e) {
+    EXPECT_NE(std::string(e.what()).find("replay " + (*dir / "ep.jsonl").string()), std::string::npos) << e.what();
+  }
 }
 
 TEST_F(Probe, TheRestOfAnEpisodeNeedsTheGovernorsSnapshot) {

@@ -214,14 +214,7 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
   g.command->decision_period = config_.decision_period;
   g.command->perception = config_.perception;
   const Command& c = *g.command;
-  evidence_.append("governor", "grounding",
-                   {{"step", last_obs_.step}, {"result", "grounded"}, {"command_id", c.command_id},
-                    {"capability", c.capability}, {"instance", c.instance}, {"version", c.version},
-                    {"args", bindings_json(c.args)},
-                    {"theta", c.theta}});
-  evidence_.append("governor", "dispatch",
-                   {{"step", last_obs_.step}, {"command_id", c.command_id}, {"instance", c.instance},
-                    {"budget_steps", c.budget_steps}, {"lease_until_step", c.lease_until_step}});
+  record_dispatch(c);
   history_.push_back("step " + std::to_string(last_obs_.step) + ": dispatched " + c.capability + " " +
                      history::signature(c.args));
   running_ = c;
@@ -582,6 +575,17 @@ Effects EpisodeMachine::on_tick(Clock::time_point now) {
       break;
   }
   return {};
+}
+
+void EpisodeMachine::record_dispatch(const Command& c) {
+  evidence_.append("governor", "grounding",
+                   {{"step", last_obs_.step}, {"result", "grounded"}, {"command_id", c.command_id},
+                    {"capability", c.capability}, {"instance", c.instance}, {"version", c.version},
+                    {"args", bindings_json(c.args)},
+                    {"theta", c.theta}});
+  evidence_.append("governor", "dispatch",
+                   {{"step", last_obs_.step}, {"command_id", c.command_id}, {"instance", c.instance},
+                    {"budget_steps", c.budget_steps}, {"lease_until_step", c.lease_until_step}});
 }
 
 }  // namespace dh::gov

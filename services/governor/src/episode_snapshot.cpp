@@ -261,6 +261,7 @@ Effects EpisodeMachine::redispatch(const std::string& library_version,
   deadline_ = now + config_.ack_timeout;
   deadline_what_ = "acknowledgement of '" + running_->command_id + "' from " + running_->instance;
   deadline_wait_ = "acknowledgement";
+  record_dispatch(*running_);
   Effects fx;
   fx.lease =
       Lease{running_->command_id, running_->lease_until_step, running_->start_step + budget_steps, false};

@@ -260,7 +260,9 @@ TEST_F(Machine, ASnapshotRestoresAMachineThatGoesOnAsTheOriginalDoes) {
     const Effects a = m->on_observation(test::scene_observation(t), t0);
     const Effects b = restored->on_observation(test::scene_observation(t), t1);
     EXPECT_EQ(a.lease.has_value(), b.lease.has_value()) << t;
-    if (a.lease && b.lease) EXPECT_EQ(a.lease->valid_until_step, b.lease->valid_until_step) << t;
+    if (a.lease && b.lease) {
+      EXPECT_EQ(a.lease->valid_until_step, b.lease->valid_until_step) << t;
+    }
   }
   EXPECT_EQ(restored->snapshot(t1).state, m->snapshot(t0).state);
   EXPECT_TRUE(m->on_tick(t0 + config.step_stall_timeout + 1ms).end.has_value() ==

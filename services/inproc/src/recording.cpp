@@ -99,6 +99,9 @@ Recording read_recording(const std::filesystem::path& evidence) {
         const auto it = dispatched.find(e.at("command_id").get<std::string>());
         std::optional<RecordedEnd> end = recorded_end(e);  // read for every status record, dispatched or not
         if (it != dispatched.end() && end) r.commands[it->second].end = std::move(end);
+      } else if (kind == "resumed") {
+        r.resumed = ResumedFrom{e.at("from").get<std::string>(), e.at("command").get<std::uint32_t>(),
+                                e.at("command_id").get<std::string>(), e.at("step").get<std::uint32_t>()};
       } else if (kind == "episode_end") {
         r.end = RecordedEpisodeEnd{e.at("success").get<bool>(), e.at("outcome").get<std::string>(),
                                    e.at("step").get<std::uint32_t>()};

@@ -60,6 +60,11 @@ std::vector<std::string> theta_drift(const Recording& rec, const std::vector<cap
 
 ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& o) {
   const Recording rec = read_recording(evidence);
+  if (rec.resumed)
+    bad(evidence, "the rest of " + rec.resumed->evidence.string() + " from its command " +
+                      std::to_string(rec.resumed->command) + " (step " + std::to_string(rec.resumed->step) +
+                      "), run in process without a step log: replay " + rec.resumed->evidence.string() +
+                      ", or probe its command again with `dh probe --rest`");
   const auto steps_file = std::filesystem::path(evidence).replace_extension(".steps");
   const sim::StepLog log = sim::read_step_log(steps_file);
   if (log.records.empty()) bad(steps_file, "the step log has no record of step 0");

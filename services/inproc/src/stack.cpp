@@ -1,17 +1,42 @@
 #include "dh/inproc/stack.hpp"
 
+#include <fstream>
 #include <map>
 #include <optional>
 #include <stdexcept>
 
 #include "dh/cap/library.hpp"
 #include "dh/common/config.hpp"
+#include "dh/common/evidence.hpp"
 #include "dh/gov/config.hpp"
 #include "dh/inproc/bus.hpp"
 #include "dh/sim/state_log.hpp"
 #include "dh/sim/scene.hpp"
 
 namespace dh::inproc {
+namespace {
+
+/// A resumed episode's evidence opens with the recorded episode's request and start and says where it was
+/// taken up, so it reads as an episode of its own (attribution, the view) and points a replay at the
+/// recording, which holds the steps before it.
+void write_resumed_heading(const Recording& rec, std::uint32_t command, std::uint32_t step,
+                           const std::filesystem::path& evidence_path) {
+  std::filesystem::remove(evidence_path);
+  {
+    std::ofstream out(evidence_path);
+    for (const auto& e : read_evidence(rec.evidence)) {
+      const std::string kind = e.value("kind", "");
+      if (kind == "episode_request" || kind == "episode_start") out << e.dump() << '\n';
+    }
+    if (!out) throw std::runtime_error(evidence_path.string() + ": cannot be written");
+  }
+  EvidenceWriter(evidence_path)
+      .append("inproc", "resumed",
+              {{"from", rec.evidence.string()}, {"command", command}, {"command_id", rec.commands[command].id},
+               {"step", step}});
+}
+
+}  // namespace
 
 Stack::Stack(const std::filesystem::path& config_dir, const std::filesystem::path& library_dir)
     : config_(gov::load_config(config_dir / "governor.yaml")), arms_(load_arms(config_dir / "governor.yaml")),
@@ -98,7 +123,7 @@ EpisodeOutcome Stack::resume(const Resume& r, const std::filesystem::path& evide
                         " (its lease never reached the seam, so it never ran)");
   sim::Workcell& cell = cells_.get(r.task, rec.seed).cell;
   cell.reset(rec.seed, r.task.goal);
-  std::filesystem::remove(evidence_path);
+  write_resumed_heading(rec, r.command, from->step, evidence_path);
   host_ = cap::HostCore(served_);  // the earlier commands' keyframes only, not those of a run before
   restore_host(host_, cell, rec, r.states, r.command, "inproc");
   sim::SeamCore seam(kChannel, kBusSeam);

@@ -173,6 +173,8 @@ class EpisodeMachine {
   Effects ground_and_dispatch(const Advice& advice, Clock::time_point now);
   Effects refuse(Refusal r, const std::string& reason, Clock::time_point now);
   Effects decide_now(CommandPhase phase, const std::string& cause, Clock::time_point now, DecidedOn on = {});
+  /// The grounding and dispatch records of a command sent at the current step.
+  void record_dispatch(const Command& c);
   /// Records a failure of the current step's command (by capability and arguments).
   void count_failure();
   /// The step being executed becomes `advice`; its signature and key are made here, once, not per decision.

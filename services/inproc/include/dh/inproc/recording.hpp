@@ -65,8 +65,18 @@ struct RecordedEpisodeEnd {
   std::uint32_t steps = 0;
 };
 
+/// Where a resumed episode (Stack::resume, `dh probe --rest`) was taken up: its evidence holds the rest of
+/// another episode from one of its commands.
+struct ResumedFrom {
+  std::filesystem::path evidence;  ///< the recorded episode
+  std::uint32_t command = 0;       ///< K, 0-based in its dispatch order
+  std::string command_id;
+  std::uint32_t step = 0;          ///< the step it was taken up at
+};
+
 struct Recording {
   std::filesystem::path evidence;
+  std::optional<ResumedFrom> resumed;  ///< the rest of another episode, which holds the steps before it
   std::string suite, arm, episode_id, build, instruction;
   std::set<std::string> predicates;  ///< the goal's text as the seam stated it
   unsigned task = 0;
