@@ -15,7 +15,8 @@
 // target, so the program's watchdog stops the arm; so does a dead adapter.
 // Parameters: --channel, --host, --rtde-port, --script-port, --base x,y,z,yaw (the arm's base in the
 // world, m and rad), --workspace-min/--workspace-max (the box, world frame), --joint-speed (the envelope,
-// rad/s), --output-hz, --lease-grace-ms, --abandon-after-s, --name.
+// rad/s), --output-hz, --lease-grace-ms, --abandon-after-s, --name, --entities FILE (the cell's fixtures,
+// parts and regions, put in every observation; cell_entities.hpp).
 #include <chrono>
 #include <optional>
 
@@ -26,6 +27,7 @@
 #include "dh/msg/episodePubSubTypes.h"
 #include "dh/msg/robotPubSubTypes.h"
 #include "dh/rtde/adapter_ports.hpp"
+#include "dh/rtde/cell_entities.hpp"
 #include "dh/rtde/rtde_cell.hpp"
 #include "dh/sim/seam_core.hpp"
 
@@ -72,6 +74,9 @@ class AdapterBinding {
                    "end a running episode nothing has advanced for this long")
         ->check(CLI::PositiveNumber);
     app.add_option("--name", name_, "the adapter's name in channel announcements");
+    app.add_option("--entities", entities_,
+                   "the cell's fixtures, parts and regions (YAML, cell_entities.hpp)")
+        ->check(CLI::ExistingFile);
   }
 
   void parsed() {
@@ -86,6 +91,7 @@ class AdapterBinding {
   }
 
   void configure(Context& ctx) {
+    if (!entities_.empty()) cell_.entities = rtde::load_cell_entities(entities_);
     core_.emplace(channel_, sim::SeamSettings{
                                 std::chrono::milliseconds(grace_ms_), std::chrono::seconds(abandon_after_s_),
                                 std::chrono::milliseconds(static_cast<int>(dds::kLeaseDeadlineSec * 1000))});
@@ -207,7 +213,7 @@ class AdapterBinding {
   }
 
   std::uint32_t channel_ = 0;
-  std::string name_ = "robot_adapter";
+  std::string name_ = "robot_adapter", entities_;
   rtde::RtdeCellConfig cell_;
   std::vector<double> base_{0, 0, 0, 0}, ws_min_{-1, -1, -1}, ws_max_{1, 1, 1};
   unsigned grace_ms_ = 1000, abandon_after_s_ = 60;

@@ -113,6 +113,19 @@ TEST_F(Cell, AnArmInAProtectiveStopIsNamedAtConnect) {
   }
 }
 
+TEST_F(Cell, ObservationsCarryTheCellsEntities) {
+  auto c = config();
+  EntityState cabinet;
+  cabinet.name = "cabinet";
+  cabinet.kind = "cabinet";
+  c.entities = {cabinet};
+  RtdeCell cell(c);
+  cell.connect();
+  const Observation o = cell.observe();
+  ASSERT_EQ(o.entities.size(), 1u);
+  EXPECT_EQ(o.entities[0].name, "cabinet");
+}
+
 TEST_F(Cell, AGarbageActionIsAppliedClampedAndSaidSo) {
   RtdeCell cell(config());
   cell.connect();

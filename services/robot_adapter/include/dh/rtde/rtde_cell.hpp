@@ -41,6 +41,7 @@ struct RtdeCellConfig {
   sim::SafetyLimits limits;  ///< the envelope and the workspace box, world frame
   ServoProgram program;
   double gripper_stroke_m = 0.085;  ///< the gap a fully open jaw reports
+  std::vector<EntityState> entities;  ///< the cell's static entities (cell_entities.hpp), in every observation
 };
 
 /// The cell cannot go on: a protective or other safety stop, the program not running, the link lost.
