@@ -203,7 +203,7 @@ TEST_F(Probe, TheRestOfAnEpisodeGoesOnUnderACandidate) {
   // It reads as an episode of its own, which says where it came from; a replay is sent to the recording.
   const inproc::Recording rest = inproc::read_recording(o.rest_evidence);
   ASSERT_TRUE(rest.resumed);
-  EXPECT_EQ(rest.resumed->evidence, *dir / "ep.jsonl");
+  EXPECT_EQ(rest.resumed->evidence, std::filesystem::absolute(*dir / "ep.jsonl"));
   EXPECT_EQ(rest.resumed->command, 1u);
   EXPECT_EQ(rest.resumed->step, r.from_step);
   const inproc::Recording recorded = inproc::read_recording(*dir / "ep.jsonl");
@@ -216,8 +216,14 @@ TEST_F(Probe, TheRestOfAnEpisodeGoesOnUnderACandidate) {
     inproc::replay(o.rest_evidence, replay_options);
     FAIL() << "a resumed episode was replayed without its steps";
   } catch (const inproc::EvidenceError& e) {
-    EXPECT_NE(std::string(e.what()).find("replay " + (*dir / "ep.jsonl").string()), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("replay " + std::filesystem::absolute(*dir / "ep.jsonl").string()),
+              std::string::npos)
+        << e.what();
   }
+  // The recording is never the file the rest goes to.
+  o.rest_evidence = *dir / "ep.jsonl";
+  EXPECT_THROW(evo::probe(*dir / "ep.jsonl", o), std::invalid_argument);
+  EXPECT_NO_THROW(inproc::read_recording(*dir / "ep.jsonl"));
 }
 
 TEST_F(Probe, TheRestOfAnEpisodeNeedsTheGovernorsSnapshot) {

@@ -10,8 +10,8 @@
 #include "dh/common/evidence.hpp"
 #include "dh/gov/config.hpp"
 #include "dh/inproc/bus.hpp"
-#include "dh/sim/state_log.hpp"
 #include "dh/sim/scene.hpp"
+#include "dh/sim/state_log.hpp"
 
 namespace dh::inproc {
 namespace {
@@ -21,6 +21,11 @@ namespace {
 /// recording, which holds the steps before it.
 void write_resumed_heading(const Recording& rec, std::uint32_t command, std::uint32_t step,
                            const std::filesystem::path& evidence_path) {
+  std::error_code same;
+  if (std::filesystem::equivalent(rec.evidence, evidence_path, same))
+    throw std::invalid_argument(
+        evidence_path.string() +
+        " is the recording itself: the resumed episode's evidence goes to another file");
   std::filesystem::remove(evidence_path);
   {
     std::ofstream out(evidence_path);
@@ -32,18 +37,22 @@ void write_resumed_heading(const Recording& rec, std::uint32_t command, std::uin
   }
   EvidenceWriter(evidence_path)
       .append("inproc", "resumed",
-              {{"from", rec.evidence.string()}, {"command", command}, {"command_id", rec.commands[command].id},
+              {{"from", std::filesystem::absolute(rec.evidence).string()},
+               {"command", command},
+               {"command_id", rec.commands[command].id},
                {"step", step}});
 }
 
 }  // namespace
 
 Stack::Stack(const std::filesystem::path& config_dir, const std::filesystem::path& library_dir)
-    : config_(gov::load_config(config_dir / "governor.yaml")), arms_(load_arms(config_dir / "governor.yaml")),
+    : config_(gov::load_config(config_dir / "governor.yaml")),
+      arms_(load_arms(config_dir / "governor.yaml")),
       governor_(config_, arms_,
                 // Every capability is served before the first request: nothing to wait for.
                 {{}, gov::Clock::time_point{}, std::nullopt}),
-      host_({}), library_(cap::load_library_theta(library_dir.empty() ? config_dir / "library" : library_dir)) {
+      host_({}),
+      library_(cap::load_library_theta(library_dir.empty() ? config_dir / "library" : library_dir)) {
   const auto dir = library_dir.empty() ? config_dir / "library" : library_dir;
   for (auto& def : cap::all_capabilities()) add_capability(std::move(def), dir);
 }
@@ -108,7 +117,8 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   });
 }
 
-EpisodeOutcome Stack::resume(const Resume& r, const std::filesystem::path& evidence_path, const StepTap& tap) {
+EpisodeOutcome Stack::resume(const Resume& r, const std::filesystem::path& evidence_path,
+                             const StepTap& tap) {
   const Recording& rec = r.recording;
   if (r.command >= rec.commands.size())
     throw std::invalid_argument("command " + std::to_string(r.command) + ": the episode dispatched " +
@@ -123,19 +133,20 @@ EpisodeOutcome Stack::resume(const Resume& r, const std::filesystem::path& evide
                         " (its lease never reached the seam, so it never ran)");
   sim::Workcell& cell = cells_.get(r.task, rec.seed).cell;
   cell.reset(rec.seed, r.task.goal);
-  write_resumed_heading(rec, r.command, from->step, evidence_path);
   host_ = cap::HostCore(served_);  // the earlier commands' keyframes only, not those of a run before
   restore_host(host_, cell, rec, r.states, r.command, "inproc");
   sim::SeamCore seam(kChannel, kBusSeam);
   const cap::Clock::time_point now = step_time(from->step);
-  const Observation obs = *seam.resume(cell, rec.episode_id, rec.budget_steps, goal_text(r.task.goal), *from, now)
-                               .observation;
+  const Observation obs =
+      *seam.resume(cell, rec.episode_id, rec.budget_steps, goal_text(r.task.goal), *from, now).observation;
   const gov::EpisodeSpec recorded = gov::snapshot_spec(*k.snapshot);
   const std::string version = r.library ? r.library->version : recorded.library_version;
   const auto& library = r.library ? r.library->theta : recorded.library;
   const auto& costs = r.library ? r.library->cost_steps : recorded.library_costs;
+  write_resumed_heading(rec, r.command, from->step, evidence_path);
   return drive({cell, seam, obs, now, rec.episode_id, evidence_path, tap, true}, [&] {
-    return governor_.resume(kChannel, *k.snapshot, evidence_path, version, library, costs, r.budget_steps, now);
+    return governor_.resume(kChannel, *k.snapshot, evidence_path, version, library, costs, r.budget_steps,
+                            now);
   });
 }
 
@@ -146,7 +157,7 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
   const std::string& episode_id = ep.episode_id;
   const StepTap& tap = ep.tap;
   std::optional<gov::EpisodeEnd> end;
-  std::optional<cap::ActionOut> action;  ///< the host's answer to the current step
+  std::optional<cap::ActionOut> action;            ///< the host's answer to the current step
   std::map<std::string, gov::Command> dispatched;  ///< by command id
 
   bool fresh = !ep.governor_saw_obs;  // the seam stepped: its observation is new to every core
@@ -155,7 +166,8 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
   // the seam and verdict topics); a new step is seen next round.
   const auto deliver = [&](const sim::SeamEffects& sx) {
     for (const auto& e : sx.events) governor_.on_seam_event(kChannel, episode_id, e);
-    if (sx.verdict) governor_.on_verdict(kChannel, episode_id, sx.verdict->step, sx.verdict->predicate, sx.verdict->value);
+    if (sx.verdict)
+      governor_.on_verdict(kChannel, episode_id, sx.verdict->step, sx.verdict->predicate, sx.verdict->value);
     if (sx.ended) throw std::runtime_error("episode " + episode_id + ": " + *sx.ended);
     if (!sx.observation) return;
     obs = *sx.observation;
@@ -167,7 +179,8 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
     for (const gov::ChannelEffects& e : effects) {
       if (e.episode_id != episode_id) continue;
       const gov::Effects& fx = e.fx;
-      if (fx.cancel_command) from_host(host_.on_cancel({kChannel, episode_id, *fx.cancel_command, e.cancel_instance}));
+      if (fx.cancel_command)
+        from_host(host_.on_cancel({kChannel, episode_id, *fx.cancel_command, e.cancel_instance}));
       if (fx.lease)
         deliver(seam.on_lease({episode_id, fx.lease->command_id, fx.lease->valid_until_step,
                                fx.lease->budget_until_step, fx.lease->revoked},
@@ -176,18 +189,24 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
       if (fx.command) {
         const gov::Command& g = *fx.command;
         dispatched[g.command_id] = g;
-        cap::CommandStart c{kChannel, episode_id, g.command_id, g.capability, g.instance, g.args, g.theta,
-                            g.start_step, g.budget_steps, g.decision_period, cap::Grounding::State};
+        cap::CommandStart c{
+            kChannel, episode_id,   g.command_id,   g.capability,      g.instance,           g.args,
+            g.theta,  g.start_step, g.budget_steps, g.decision_period, cap::Grounding::State};
         from_host(host_.on_start(c, now));
       }
       if (fx.plan_request) {
         const auto& r = *fx.plan_request;
-        const auto answer = std::get<planner::Answer>(planner_.on_request(
-            {kChannel, r.request_id, episode_id, {r.instruction, r.scene, r.capabilities, r.history}, r.seed, r.index,
-             r.errors}));
+        const auto answer = std::get<planner::Answer>(
+            planner_.on_request({kChannel,
+                                 r.request_id,
+                                 episode_id,
+                                 {r.instruction, r.scene, r.capabilities, r.history},
+                                 r.seed,
+                                 r.index,
+                                 r.errors}));
         const planner::PlannerAdvice& a = answer.advice;
-        gov::Advice adv{r.request_id, a.refused, a.capability, a.args, a.rationale, a.reason, "rules", a.done, {},
-                        answer.injected};
+        gov::Advice adv{r.request_id, a.refused, a.capability, a.args, a.rationale,
+                        a.reason,     "rules",   a.done,       {},     answer.injected};
         for (const auto& s : a.rest) adv.rest.push_back({s.capability, s.args});
         from_governor(governor_.on_advice(kChannel, episode_id, adv, now));
       }
@@ -197,8 +216,8 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
     for (const auto& s : hx.statuses)
       if (s.episode_id == episode_id)  // not a command left over from an earlier episode
         from_governor(governor_.on_status(kChannel, episode_id,
-                                          {s.command_id, s.instance, s.state, s.reason, s.stage, s.step, s.steps_used,
-                                           s.progress, s.failure},
+                                          {s.command_id, s.instance, s.state, s.reason, s.stage, s.step,
+                                           s.steps_used, s.progress, s.failure},
                                           now));
     for (const auto& a : hx.actions) action = a;
   };
@@ -224,7 +243,8 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
       for (int waits = 0; !end && !(action && action->step == obs.step); ++waits) {
         const auto deadline = governor_.deadline(kChannel);
         if (waits == 4 || !deadline)
-          throw std::logic_error("episode " + episode_id + " stands still at step " + std::to_string(obs.step) +
+          throw std::logic_error("episode " + episode_id + " stands still at step " +
+                                 std::to_string(obs.step) +
                                  ": no action and no end after the governor's deadlines");
         now = std::max(now, *deadline);
         from_host(host_.on_tick(now));

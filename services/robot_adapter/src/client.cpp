@@ -7,6 +7,7 @@
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/read.hpp>
 #include <boost/asio/write.hpp>
+#include <functional>
 #include <optional>
 
 namespace dh::rtde {
@@ -114,6 +115,13 @@ std::vector<Value> Client::receive(const Recipe& outputs, std::chrono::milliseco
   return decoded("receive", [&] { return data_values(p, outputs); });
 }
 
+std::vector<Value> Client::receive_latest(const Recipe& outputs, std::chrono::milliseconds timeout) {
+  std::vector<Value> v = receive(outputs, timeout);
+  boost::system::error_code ec;
+  while (reader_.buffered() > 0 || io_->socket.available(ec) > 0) v = receive(outputs, timeout);
+  return v;
+}
+
 void Client::send(const Recipe& inputs, const std::vector<Value>& values, std::chrono::milliseconds timeout) {
   write(data_package(inputs, values), "send", timeout);
 }
@@ -197,7 +205,17 @@ void send_script(const std::string& host, std::uint16_t port, const std::string&
     throw ClientError("send script: " + where + ": " +
                       (ec ? ec.message() : "no answer within " + std::to_string(timeout.count()) + " ms") +
                       " (is the controller's secondary interface reachable and in remote control?)");
+  // A UR's secondary interface streams its state to every client: read it until the controller closes
+  // or a moment has passed, so that closing does not reset the link under the script.
   socket.shutdown(tcp::socket::shutdown_send, ec);
+  std::array<char, 4096> discard;
+  std::function<void(const boost::system::error_code&, std::size_t)> drain =
+      [&](const boost::system::error_code& e, std::size_t) {
+        if (!e) socket.async_read_some(asio::buffer(discard), drain);
+      };
+  socket.async_read_some(asio::buffer(discard), drain);
+  context.restart();
+  context.run_for(std::chrono::milliseconds(100));
   socket.close(ec);
 }
 

@@ -22,7 +22,9 @@ const std::vector<std::string>& output_names() {
                                           "safety_status_bits",
                                           "runtime_state",
                                           "actual_digital_output_bits",
-                                          ServoProgram::kAppliedRegister};
+                                          ServoProgram::kAppliedRegister,
+                                          ServoProgram::kStartedRegister,
+                                          "tcp_offset"};
   return n;
 }
 
@@ -30,6 +32,7 @@ std::vector<std::string> input_names() {
   std::vector<std::string> n(ServoProgram::kTargetRegisters.begin(), ServoProgram::kTargetRegisters.end());
   n.push_back(ServoProgram::kSequenceRegister);
   n.push_back(ServoProgram::kGripperRegister);
+  n.push_back(ServoProgram::kNonceRegister);
   return n;
 }
 
@@ -77,39 +80,57 @@ void RtdeCell::connect() {
                       " is older than the e-Series' 5.x this adapter is written for");
   outputs_ = client_.setup_outputs(config_.output_hz, output_names(), config_.timeout);
   inputs_ = client_.setup_inputs(input_names(), config_.timeout);
-  // Sequence 0 first: the program, when it starts, holds the arm until the first target.
-  seq_ = 0;
   client_.start(config_.timeout);
-  receive();
-  send_target(state_.tcp, false, 0);
+  receive(true);
+  for (int i = 0; i < 6; ++i)
+    if (std::abs(state_.tcp_offset[i] - config_.tcp_offset[i]) > 1e-3) {
+      client_.close();
+      char b[160];
+      std::snprintf(b, sizeof b, "the controller's TCP is [%.4f, %.4f, %.4f, %.3f, %.3f, %.3f]",
+                    state_.tcp_offset[0], state_.tcp_offset[1], state_.tcp_offset[2], state_.tcp_offset[3],
+                    state_.tcp_offset[4], state_.tcp_offset[5]);
+      throw CellStopped(std::string(b) + ", not the jaw's (" + std::to_string(config_.tcp_offset[2]) +
+                        " m along the flange's z): set it on the teach pendant (Installation › TCP)");
+    }
+  // Sequence 0 and the gripper as it is: a program still running from an earlier session holds the arm
+  // and the jaw keeps what it holds. The nonce tells the new program from that one.
+  seq_ = 0;
+  grip_ = state_.gripper_closed;
+  const std::int32_t nonce = state_.started + 1;
+  send_target(state_.tcp, grip_, 0, nonce);
   send_script(config_.host, config_.script_port, servo_program_text(config_.program), config_.timeout);
   const auto deadline = std::chrono::steady_clock::now() + config_.program_start;
   while (true) {
-    receive();
-    if (state_.safety_mode != kSafetyNormal && state_.safety_mode != kSafetyReduced)
+    receive(false);
+    if (state_.safety_mode != kSafetyNormal && state_.safety_mode != kSafetyReduced) {
+      client_.close();
       throw CellStopped("the arm is in " + safety_text(state_.safety_mode, state_.safety_bits) +
                         ": release it on the teach pendant, then start the adapter again");
-    if (state_.runtime_state == kRuntimePlaying) break;
-    if (std::chrono::steady_clock::now() > deadline)
+    }
+    if (state_.runtime_state == kRuntimePlaying && state_.started == nonce) break;
+    if (std::chrono::steady_clock::now() > deadline) {
+      client_.close();
       throw CellStopped("the controller did not run the " + std::string(ServoProgram::kName) +
                         " program within " + std::to_string(config_.program_start.count()) +
                         " ms (runtime_state " + std::to_string(state_.runtime_state) +
                         "): is the arm in remote control, powered on and its brakes released?");
+    }
   }
-  grip_ = state_.gripper_closed;
+  nonce_ = nonce;
 }
 
 void RtdeCell::stop() noexcept {
   if (!client_.connected() || !inputs_) return;
   try {
-    send_target(state_.tcp, grip_, 0);
+    send_target(state_.tcp, grip_, 0, nonce_);
   } catch (const std::exception&) {
     // The link is gone: the program's watchdog stops the arm.
   }
 }
 
-void RtdeCell::receive() {
-  const auto v = client_.receive(*outputs_, config_.timeout);
+void RtdeCell::receive(bool latest) {
+  const auto v = latest ? client_.receive_latest(*outputs_, config_.timeout)
+                        : client_.receive(*outputs_, config_.timeout);
   State s;
   s.time = std::get<double>(v[0]);
   s.q = std::get<std::array<double, 6>>(v[1]);
@@ -121,26 +142,32 @@ void RtdeCell::receive() {
   s.gripper_closed =
       (std::get<std::uint64_t>(v[7]) >> (kToolOutputBits + config_.program.gripper_output)) & 1u;
   s.applied = std::get<std::int32_t>(v[8]);
+  s.started = std::get<std::int32_t>(v[9]);
+  s.tcp_offset = std::get<std::array<double, 6>>(v[10]);
   state_ = s;
 }
 
 void RtdeCell::check_running(const char* when) {
-  if (state_.safety_mode != kSafetyNormal && state_.safety_mode != kSafetyReduced) {
-    stop();
-    throw CellStopped(std::string(when) + ": the controller reports " +
-                      safety_text(state_.safety_mode, state_.safety_bits) + " at its t " +
-                      std::to_string(state_.time) + " s; the arm is stopped");
-  }
-  if (state_.runtime_state != kRuntimePlaying)
-    throw CellStopped(std::string(when) + ": the " + ServoProgram::kName +
-                      " program is no longer running (runtime_state " + std::to_string(state_.runtime_state) +
-                      "); the arm is stopped");
+  std::string why;
+  if (state_.safety_mode != kSafetyNormal && state_.safety_mode != kSafetyReduced)
+    why = "the controller reports " + safety_text(state_.safety_mode, state_.safety_bits);
+  else if (state_.runtime_state != kRuntimePlaying)
+    why = "the " + std::string(ServoProgram::kName) + " program is no longer running (runtime_state " +
+          std::to_string(state_.runtime_state) + ")";
+  if (why.empty()) return;
+  // The session ends with the episode: the next one connects again and starts the program anew.
+  stop();
+  client_.close();
+  throw CellStopped(std::string(when) + ": " + why + " at its t " + std::to_string(state_.time) +
+                    " s; the arm is stopped");
 }
 
-void RtdeCell::send_target(const std::array<double, 6>& base_pose, bool grip, std::int32_t seq) {
+void RtdeCell::send_target(const std::array<double, 6>& base_pose, bool grip, std::int32_t seq,
+                           std::int32_t nonce) {
   std::vector<Value> values(base_pose.begin(), base_pose.end());
   values.emplace_back(seq);
   values.emplace_back(std::int32_t{grip ? 1 : 0});
+  values.emplace_back(nonce);
   client_.send(*inputs_, values, config_.timeout);
 }
 
@@ -149,6 +176,7 @@ std::vector<sim::StepEvent> RtdeCell::step(const std::array<double, 7>& action) 
   std::array<double, 7> a = action;
   if (auto why = sim::clamp_action(a)) events.push_back({sim::StepEvent::ActionClamped, std::move(*why)});
   try {
+    receive(true);  // the newest outputs: they streamed on while the step's action was decided
     check_running("before the step");
     // World frame: the contract's offsets are world-frame.
     const Eigen::AngleAxisd yaw(config_.base_yaw, Eigen::Vector3d::UnitZ());
@@ -162,19 +190,19 @@ std::vector<sim::StepEvent> RtdeCell::step(const std::array<double, 7>& action) 
     const Eigen::Vector3d t_b = yaw.inverse() * (Eigen::Vector3d(xyz[0], xyz[1], xyz[2]) - base);
     const Eigen::Matrix3d r_b = yaw.inverse() * rotation(target[3], target[4], target[5]);
     grip_ = a[6] > 0;
-    send_target(pose(t_b, r_b), grip_, ++seq_);
+    send_target(pose(t_b, r_b), grip_, ++seq_, nonce_);
     // One control step of the controller's clock, every output checked.
     const double until = state_.time + robot::kControlPeriodS - 1e-9;
     bool held = false;
     do {
-      receive();
+      receive(false);
       check_running("during the step");
       std::array<double, 7> qd{};
       std::copy(state_.qd.begin(), state_.qd.end(), qd.begin());
       const auto v = sim::check_joint_speeds(qd, config_.limits);
       if (!v.ok && !held) {
         held = true;
-        send_target(state_.tcp, grip_, 0);
+        send_target(state_.tcp, grip_, 0, nonce_);
         events.push_back(
             {sim::StepEvent::SafetyHold, v.reason + "; the arm is held for the rest of the step"});
       }

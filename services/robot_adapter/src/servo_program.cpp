@@ -25,6 +25,8 @@ std::string servo_program_text(const ServoProgram& p) {
   const int seq = register_index(ServoProgram::kSequenceRegister);
   const int grip = register_index(ServoProgram::kGripperRegister);
   const int applied = register_index(ServoProgram::kAppliedRegister);
+  const int nonce = register_index(ServoProgram::kNonceRegister);
+  const int started = register_index(ServoProgram::kStartedRegister);
   std::string pose = "p[";
   for (std::size_t i = 0; i < ServoProgram::kTargetRegisters.size(); ++i)
     pose += (i ? ", " : "") + std::string("read_input_float_register(") +
@@ -36,6 +38,9 @@ std::string servo_program_text(const ServoProgram& p) {
          "  write_output_integer_register(" +
          std::to_string(applied) +
          ", 0)\n"
+         "  write_output_integer_register(" +
+         std::to_string(started) + ", read_input_integer_register(" + std::to_string(nonce) +
+         "))\n"
          "  last = 0\n"
          "  idle = 0.0\n"
          "  moving = False\n"
@@ -81,8 +86,7 @@ std::string servo_program_text(const ServoProgram& p) {
          "      sync()\n"
          "    end\n"
          "  end\n"
-         "end\n" +
-         ServoProgram::kName + "()\n";
+         "end\n";
 }
 
 bool is_servo_program(const std::string& script) {

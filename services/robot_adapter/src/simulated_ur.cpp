@@ -83,6 +83,10 @@ SimulatedUr::SimulatedUr(const std::filesystem::path& urdf, const std::array<dou
   for (const auto& finger : spec.fingers)
     sim_->data->qpos[m->jnt_qposadr[mj_name2id(m, mjOBJ_JOINT, finger.name.c_str())]] = kGripperOpen;
   sim_->tcp = mj_name2id(m, mjOBJ_SITE, "tcp");
+  // The TCP as the pendant would hold it: the tool site's place in the flange's frame (the hand's).
+  const int tool_body = m->site_bodyid[sim_->tcp];
+  for (int i = 0; i < 3; ++i)
+    tcp_offset_[i] = m->body_pos[3 * tool_body + i] + m->site_pos[3 * sim_->tcp + i];
   sim_->gripper = mj_name2id(m, mjOBJ_ACTUATOR, "gripper");
   sim_->data->ctrl[sim_->gripper] = kGripperOpen;
   sim_->q_ref = ready_q;
@@ -101,9 +105,11 @@ ControllerModel SimulatedUr::model() {
   c.outputs["safety_status_bits"] = c.outputs["runtime_state"] = c.outputs["robot_status_bits"] =
       FieldType::Uint32;
   c.outputs["actual_digital_output_bits"] = FieldType::Uint64;
-  c.outputs[ServoProgram::kAppliedRegister] = FieldType::Int32;
+  c.outputs[ServoProgram::kAppliedRegister] = c.outputs[ServoProgram::kStartedRegister] = FieldType::Int32;
+  c.outputs["tcp_offset"] = FieldType::Vector6d;
   for (const char* n : ServoProgram::kTargetRegisters) c.inputs[n] = FieldType::Double;
-  c.inputs[ServoProgram::kSequenceRegister] = c.inputs[ServoProgram::kGripperRegister] = FieldType::Int32;
+  c.inputs[ServoProgram::kSequenceRegister] = c.inputs[ServoProgram::kGripperRegister] =
+      c.inputs[ServoProgram::kNonceRegister] = FieldType::Int32;
   return c;
 }
 
@@ -118,7 +124,7 @@ void SimulatedUr::run_script(const std::string& script) {
     return;
   }
   script_error_.clear();
-  running_ = true;
+  running_ = starting_ = true;
   moving_ = false;
   applied_ = 0;
   last_seq_ = 0;
@@ -130,6 +136,8 @@ void SimulatedUr::protective_stop() {
   applied_ = 0;
 }
 
+void SimulatedUr::release_protective_stop() { protective_ = false; }
+
 void SimulatedUr::advance_to(double t_s, const std::map<std::string, Value>& inputs) {
   while ((cycles_ + 1) * kCycleS <= t_s + 1e-12) cycle(inputs);
 }
@@ -139,6 +147,10 @@ void SimulatedUr::cycle(const std::map<std::string, Value>& inputs) {
     const auto it = inputs.find(name);
     return it == inputs.end() ? 0 : std::get<std::int32_t>(it->second);
   };
+  if (starting_) {  // the program's first lines
+    started_ = int_input(ServoProgram::kNonceRegister);
+    starting_ = false;
+  }
   if (running_) {
     // What the program does in one cycle (servo_program.cpp).
     const std::int32_t seq = int_input(ServoProgram::kSequenceRegister);
@@ -244,6 +256,8 @@ Value SimulatedUr::output(const std::string& name) const {
   if (name == "robot_status_bits") return static_cast<std::uint32_t>(1u | (running_ ? 2u : 0u));
   if (name == "actual_digital_output_bits") return gripper_closed_ ? kToolOutput0Bit : std::uint64_t{0};
   if (name == ServoProgram::kAppliedRegister) return applied_;
+  if (name == ServoProgram::kStartedRegister) return started_;
+  if (name == "tcp_offset") return tcp_offset_;
   throw std::invalid_argument("the simulated UR has no output '" + name + "'");
 }
 

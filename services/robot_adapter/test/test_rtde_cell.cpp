@@ -102,6 +102,54 @@ TEST_F(Cell, ACutLinkEndsTheStepNamingItAndTheWatchdogStopsTheArm) {
   EXPECT_LT(peak_over(controller, 300ms), 1e-3);
 }
 
+TEST_F(Cell, AfterAReleasedProtectiveStopTheNextSessionRunsTheProgramAgain) {
+  RtdeCell cell(config());
+  cell.connect();
+  cell.step({0, 1, 0, 0, 0, 0, 1});
+  controller.with_arm([](SimulatedUr& a) { a.protective_stop(); });
+  EXPECT_THROW(cell.step({0, 1, 0, 0, 0, 0, 1}), CellStopped);
+  EXPECT_FALSE(cell.connected()) << "the session ends with the stop";
+  controller.with_arm([](SimulatedUr& a) { a.release_protective_stop(); });
+  cell.connect();
+  const double y = cell.observe().ee_p[1];
+  EXPECT_TRUE(cell.state().gripper_closed) << "a new session keeps what the jaw holds";
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(cell.step({0, 1, 0, 0, 0, 0, 1}).empty());
+  EXPECT_GT(cell.observe().ee_p[1] - y, 0.02);
+}
+
+TEST_F(Cell, ABaseTurnedInTheWorldMovesTheToolInTheWorldFrame) {
+  auto c = config();
+  c.base_xyz = {0.4, -0.1, 0.02};
+  c.base_yaw = M_PI / 2;
+  RtdeCell cell(c);
+  cell.connect();
+  const Observation start = cell.observe();
+  // The tool's place in the world is the base's transform of the controller's base-frame pose.
+  const auto tcp = cell.state().tcp;
+  EXPECT_NEAR(start.ee_p[0], 0.4 - tcp[1], 1e-9);
+  EXPECT_NEAR(start.ee_p[1], -0.1 + tcp[0], 1e-9);
+  EXPECT_NEAR(start.ee_p[2], 0.02 + tcp[2], 1e-9);
+  for (int i = 0; i < 8; ++i) cell.step({0.6, 0, 0, 0, 0, 0, -1});
+  const Observation end = cell.observe();
+  EXPECT_NEAR(end.ee_p[0] - start.ee_p[0], 8 * 0.6 * 0.05 * 0.2655, 0.02) << "world +x";
+  EXPECT_NEAR(end.ee_p[1], start.ee_p[1], 0.01);
+}
+
+TEST_F(Cell, AControllerWithAnotherTcpIsRefusedNamingIt) {
+  auto c = config();
+  c.tcp_offset[2] = 0.2;
+  RtdeCell cell(c);
+  try {
+    cell.connect();
+    FAIL() << "connected with the wrong TCP";
+  } catch (const CellStopped& e) {
+    EXPECT_NE(std::string(e.what()).find("the controller's TCP is [0.0000, 0.0000, 0.1415"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("set it on the teach pendant"), std::string::npos) << e.what();
+  }
+}
+
 TEST_F(Cell, AnArmInAProtectiveStopIsNamedAtConnect) {
   controller.with_arm([](SimulatedUr& a) { a.protective_stop(); });
   RtdeCell cell(config());

@@ -36,7 +36,9 @@ TEST(ServoProgram, ReadsTheDeclaredRegistersAndServosWithTheDeclaredTiming) {
   };
   EXPECT_EQ(count("\n  end\n") + count("\n    end\n") + count("\nend\n"),
             count("def ") + count(" if ") + count("while "));
-  EXPECT_TRUE(text.ends_with("end\ndh_servo()\n"));
+  EXPECT_TRUE(has(text, "write_output_integer_register(25, read_input_integer_register(26))"));
+  // One def block, which the controller runs when received: nothing after its end.
+  EXPECT_TRUE(text.ends_with("    end\n  end\nend\n"));
 }
 
 TEST(ServoProgram, IsRecognisedByItsNameAndVersionOnly) {

@@ -23,12 +23,12 @@ const Ports& SeamCore::ports() {
 SeamEffects SeamCore::start(SeamCell& cell, std::string episode_id, std::uint32_t budget_steps,
                             std::string predicate, SeamClock::time_point now,
                             const std::filesystem::path& steps_file) {
+  const RecordableState* rec = cell.recordable();
+  if (!steps_file.empty() && !rec)
+    throw std::invalid_argument("a step log was asked for (" + steps_file.string() +
+                                ") but this cell's state cannot be recorded; run it without one");
   begin(cell, std::move(episode_id), budget_steps, std::move(predicate), now);
   if (!steps_file.empty()) {
-    const RecordableState* rec = cell.recordable();
-    if (!rec)
-      throw std::invalid_argument("a step log was asked for (" + steps_file.string() +
-                                  ") but this cell's state cannot be recorded; run it without one");
     const auto engine = rec->engine_version();
     log_ = std::make_unique<StepLogWriter>(
         steps_file,

@@ -38,6 +38,9 @@ class Client {
   void pause(std::chrono::milliseconds timeout);
   /// The next output data package's values. Text messages that come first are kept (messages()).
   std::vector<Value> receive(const Recipe& outputs, std::chrono::milliseconds timeout);
+  /// The newest output data package: the next one, then every one already queued behind it (outputs
+  /// stream on while nobody reads, so the next one may be old).
+  std::vector<Value> receive_latest(const Recipe& outputs, std::chrono::milliseconds timeout);
   /// Writes an input data package.
   void send(const Recipe& inputs, const std::vector<Value>& values, std::chrono::milliseconds timeout);
   void close();

@@ -10,8 +10,10 @@
 //   against the joint-speed envelope (2 rad/s): over it, the program is told to stop (sequence 0) and the
 //   step ends as a SafetyHold, the arm held for the rest of it;
 // - a protective stop (or any safety stop) in the outputs, the program no longer running, or the link
-//   lost: the program is told to stop where the link allows, and step() throws CellStopped with what the
-//   controller said. If the link itself is gone, the program's watchdog stops the arm within 0.1 s.
+//   lost: the program is told to stop where the link allows, the session is closed (the next episode
+//   connects again and restarts the program), and step() throws CellStopped with what the controller
+//   said. If the link itself is gone, the program's watchdog stops the arm within 0.1 s.
+// A step starts from the newest outputs: they stream on while the next action is decided.
 #pragma once
 
 #include <array>
@@ -32,7 +34,9 @@ struct RtdeCellConfig {
   std::string host = "127.0.0.1";
   std::uint16_t rtde_port = 30004;
   std::uint16_t script_port = 30002;
-  double output_hz = 125;  ///< the output recipe's rate: 2.5 packages per 50 Hz envelope check
+  /// The output recipe's rate: every package is checked against the envelope, and a 20 Hz step ends
+  /// within one package period of its 50 ms.
+  double output_hz = 250;
   std::chrono::milliseconds timeout{500};         ///< per exchange with the controller
   std::chrono::milliseconds program_start{2000};  ///< the program must be running within this
   /// The arm's base in the world (table top at z 0): position and yaw (the base stands upright).
@@ -41,7 +45,10 @@ struct RtdeCellConfig {
   sim::SafetyLimits limits;  ///< the envelope and the workspace box, world frame
   ServoProgram program;
   double gripper_stroke_m = 0.085;  ///< the gap a fully open jaw reports
-  std::vector<EntityState> entities;  ///< the cell's static entities (cell_entities.hpp), in every observation
+  /// The TCP the controller must be set to (x, y, z, rotation vector, flange frame): the jaw's pads' centre.
+  std::array<double, 6> tcp_offset{0, 0, 0.1415, 0, 0, 0};
+  std::vector<EntityState>
+      entities;  ///< the cell's static entities (cell_entities.hpp), in every observation
 };
 
 /// The cell cannot go on: a protective or other safety stop, the program not running, the link lost.
@@ -54,8 +61,9 @@ class RtdeCell final : public sim::SeamCell {
   explicit RtdeCell(RtdeCellConfig config);
   ~RtdeCell() override;
 
-  /// Connects, sets up the recipes, starts the program and waits for it to run with the arm in normal
-  /// safety. Throws ClientError or CellStopped naming what failed and what to do.
+  /// Connects, sets up the recipes, checks the controller's TCP, starts the program and waits until it
+  /// runs (it echoes this session's nonce) with the arm in normal safety. Throws ClientError or
+  /// CellStopped naming what failed and what to do; the session is then closed.
   void connect();
   /// Tells the program to stop the arm (sequence 0); never throws (the watchdog stops it on a lost link).
   void stop() noexcept;
@@ -67,7 +75,8 @@ class RtdeCell final : public sim::SeamCell {
   struct State {
     double time = 0;                         ///< the controller's clock (s)
     std::array<double, 6> q{}, qd{}, tcp{};  ///< tcp: base frame, x y z + rotation vector
-    std::int32_t safety_mode = 0, applied = 0;
+    std::int32_t safety_mode = 0, applied = 0, started = 0;
+    std::array<double, 6> tcp_offset{};
     std::uint32_t safety_bits = 0, runtime_state = 0;
     bool gripper_closed = false;
   };
@@ -75,17 +84,17 @@ class RtdeCell final : public sim::SeamCell {
   bool connected() const { return client_.connected(); }
 
  private:
-  /// The next output package, decoded.
-  void receive();
-  /// CellStopped when the controller reports a stop or the program is not running.
+  /// The next output package (`latest`: the newest one queued), decoded.
+  void receive(bool latest);
+  /// CellStopped when the controller reports a stop or the program is not running; the session is closed.
   void check_running(const char* when);
-  void send_target(const std::array<double, 6>& base_pose, bool grip, std::int32_t seq);
+  void send_target(const std::array<double, 6>& base_pose, bool grip, std::int32_t seq, std::int32_t nonce);
 
   RtdeCellConfig config_;
   Client client_;
   std::optional<Recipe> outputs_, inputs_;
   State state_;
-  std::int32_t seq_ = 0;
+  std::int32_t seq_ = 0, nonce_ = 0;
   bool grip_ = false;
 };
 

@@ -4,8 +4,9 @@
 // robosuite's OSC_POSE spring covers kOscStepShare (26.55 %) of that offset in one 50 ms step, and the
 // next step's goal is rebased on the measured pose again; so the servoL target of a step is the measured
 // TCP pose moved by that share of the offset, which the arm then reaches within the step: a constant
-// action moves the tool as far per step on the metal as in the simulator (0.0133 m × a). The target is
-// streamed at the controller's rate with servoL's timing below (ur_rtde's defaults, docs/ur-rtde.md).
+// action moves the tool as far per step on the metal as in the simulator (0.0133 m × a). The controller
+// servos to it every cycle with servoL's timing below (ur_rtde's defaults, docs/ur-rtde.md); the program
+// runs servoL as ur_rtde does, servoj on the pose's inverse kinematics (servo_program.hpp).
 #pragma once
 
 #include <array>

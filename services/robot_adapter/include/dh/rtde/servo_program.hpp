@@ -3,7 +3,8 @@
 // documentation (docs/ur-rtde.md); the pattern (a command register polled by a program that servos to a
 // pose read from float registers) is the one ur_rtde and UR's own examples use.
 //
-// Contract, per controller cycle (2 ms):
+// Contract: at start, the program echoes the nonce register on its started register; then per controller
+// cycle (2 ms):
 // - a new target: the sequence register differs from the last one applied and is > 0; the program reads
 //   the pose, acknowledges the sequence on its output register and servos to it (servoj on the pose's
 //   inverse kinematics, near the measured joints, with ServoTiming's t, lookahead and gain);
@@ -30,8 +31,13 @@ struct ServoProgram {
       "input_double_register_27", "input_double_register_28", "input_double_register_29"};
   static constexpr const char* kSequenceRegister = "input_int_register_24";
   static constexpr const char* kGripperRegister = "input_int_register_25";
-  /// Output: the sequence the program applied last (0 before the first, or after a watchdog stop).
+  /// A number the adapter writes before it sends the program, which the program echoes once it runs: a
+  /// program of an earlier session still running does not pass for the new one.
+  static constexpr const char* kNonceRegister = "input_int_register_26";
+  /// Outputs: the sequence the program applied last (0 before the first, or after a watchdog stop), and
+  /// the nonce it started with.
   static constexpr const char* kAppliedRegister = "output_int_register_24";
+  static constexpr const char* kStartedRegister = "output_int_register_25";
 
   ServoTiming timing;
   double watchdog_s = 0.1;         ///< two 20 Hz control steps without a target: stop
@@ -39,7 +45,8 @@ struct ServoProgram {
   int gripper_output = 0;          ///< the tool digital output that closes the gripper
 };
 
-/// The program's URScript text. Its first line is `def dh_servo():`, its second names the version.
+/// The program's URScript text: one `def dh_servo(): … end` block, which the controller runs when it has
+/// received it. Its first line is `def dh_servo():`, its second names the version.
 std::string servo_program_text(const ServoProgram& p);
 
 /// Whether `script` is this program, of this version: what a controller that received it runs.

@@ -42,6 +42,8 @@ class SimulatedUr {
 
   /// A protective stop: the arm halts, the program stops, the safety bits say so.
   void protective_stop();
+  /// The stop released on the pendant: the arm may run a program again.
+  void release_protective_stop();
 
   double time() const { return cycles_ * kCycleS; }
   bool program_running() const { return running_; }
@@ -62,8 +64,9 @@ class SimulatedUr {
 
   std::unique_ptr<Sim> sim_;
   std::uint64_t cycles_ = 0;
-  bool running_ = false, moving_ = false, protective_ = false;
-  std::int32_t last_seq_ = 0, applied_ = 0;
+  bool running_ = false, starting_ = false, moving_ = false, protective_ = false;
+  std::int32_t last_seq_ = 0, applied_ = 0, started_ = 0;
+  std::array<double, 6> tcp_offset_{};
   double idle_s_ = 0, peak_ = 0;
   std::array<double, 6> target_{};
   bool gripper_closed_ = false;

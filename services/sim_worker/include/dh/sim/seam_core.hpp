@@ -109,7 +109,7 @@ class SeamCore {
   std::size_t held() const { return pending_.size(); }
   /// Actions of commands the governor had revoked or handed the lease on from, dropped unrecorded.
   std::size_t stragglers() const { return stragglers_; }
-  double physics_s() const { return physics_s_; }  ///< wall time inside MuJoCo this episode
+  double physics_s() const { return physics_s_; }  ///< wall time inside the cell's steps this episode
   /// The simulator's own verdict: the first step at which the task's goal held this episode (none: never).
   std::optional<std::uint32_t> goal_step() const { return goal_step_; }
 
