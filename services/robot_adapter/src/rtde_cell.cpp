@@ -74,10 +74,12 @@ RtdeCell::~RtdeCell() { stop(); }
 void RtdeCell::connect() {
   client_.connect(config_.host, config_.rtde_port, config_.timeout);
   const auto version = client_.controller_version(config_.timeout);
-  if (version.major < 5)
+  if (version.major < 5) {
+    client_.close();
     throw ClientError("setup: controller software " + std::to_string(version.major) + "." +
                       std::to_string(version.minor) +
                       " is older than the e-Series' 5.x this adapter is written for");
+  }
   outputs_ = client_.setup_outputs(config_.output_hz, output_names(), config_.timeout);
   inputs_ = client_.setup_inputs(input_names(), config_.timeout);
   client_.start(config_.timeout);
@@ -105,7 +107,8 @@ void RtdeCell::connect() {
     if (state_.safety_mode != kSafetyNormal && state_.safety_mode != kSafetyReduced) {
       client_.close();
       throw CellStopped("the arm is in " + safety_text(state_.safety_mode, state_.safety_bits) +
-                        ": release it on the teach pendant, then start the adapter again");
+                        ": release it on the teach pendant, then try again (the adapter connects again at "
+                        "the next episode)");
     }
     if (state_.runtime_state == kRuntimePlaying && state_.started == nonce) break;
     if (std::chrono::steady_clock::now() > deadline) {

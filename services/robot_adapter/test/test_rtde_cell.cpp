@@ -150,6 +150,25 @@ TEST_F(Cell, AControllerWithAnotherTcpIsRefusedNamingIt) {
   }
 }
 
+TEST(CellSetup, AControllerOlderThanTheESeriesIsRefusedNamingItsVersion) {
+  ControllerModel old = SimulatedUr::model();
+  old.version = {3, 15, 0, 0};
+  TestController cb3(old, [](const std::string&) -> Value { return 0.0; });
+  RtdeCellConfig c;
+  c.rtde_port = cb3.port();
+  c.script_port = cb3.script_port();
+  RtdeCell cell(c);
+  try {
+    cell.connect();
+    FAIL() << "connected to a CB3 controller";
+  } catch (const ClientError& e) {
+    EXPECT_NE(std::string(e.what()).find("controller software 3.15 is older than the e-Series' 5.x"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_FALSE(cell.connected());
+}
+
 TEST_F(Cell, AnArmInAProtectiveStopIsNamedAtConnect) {
   controller.with_arm([](SimulatedUr& a) { a.protective_stop(); });
   RtdeCell cell(config());
