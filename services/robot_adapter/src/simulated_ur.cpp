@@ -268,10 +268,12 @@ SimulatedController::SimulatedController(const std::filesystem::path& urdf,
       start_(std::chrono::steady_clock::now()),
       controller_(
           SimulatedUr::model(),
-          [this](const std::string& name) {
+          [this](const std::vector<std::string>& names) {
             std::lock_guard lock(mutex_);
             advance();
-            return arm_.output(name);
+            std::vector<Value> values;
+            for (const auto& name : names) values.push_back(arm_.output(name));
+            return values;
           },
           [this](const std::string& script) {
             std::lock_guard lock(mutex_);

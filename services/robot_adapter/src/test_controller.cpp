@@ -84,8 +84,8 @@ std::vector<Package> ControllerCore::on_package(const Package& p) {
 }
 
 struct TestController::Impl {
-  Impl(ControllerModel model, std::function<Value(const std::string&)> read,
-       std::function<void(const std::string&)> on_script, std::uint16_t port, std::uint16_t script_port)
+  Impl(ControllerModel model, TestController::Read read, std::function<void(const std::string&)> on_script,
+       std::uint16_t port, std::uint16_t script_port)
       : model(std::move(model)),
         read(std::move(read)),
         on_script(std::move(on_script)),
@@ -178,9 +178,7 @@ struct TestController::Impl {
       if (!quiet) {
         // The caller's values, read without the lock (its `read` may ask for the inputs).
         try {
-          std::vector<Value> values;
-          for (const auto& name : recipe.names) values.push_back(read(name));
-          send(id, data_package(recipe, values));
+          send(id, data_package(recipe, read(recipe.names)));
         } catch (const std::exception&) {
           return end_session(id);  // a value the recipe cannot carry: the session cannot go on
         }
@@ -221,7 +219,7 @@ struct TestController::Impl {
 
   static constexpr std::size_t kMaxScriptBytes = 1 << 20;  ///< longer is not a program we sent
   ControllerModel model;
-  std::function<Value(const std::string&)> read;
+  TestController::Read read;
   std::function<void(const std::string&)> on_script;
   asio::io_context context;
   tcp::acceptor acceptor, script_acceptor;
@@ -241,7 +239,7 @@ struct TestController::Impl {
   std::thread thread;
 };
 
-TestController::TestController(ControllerModel model, std::function<Value(const std::string&)> read,
+TestController::TestController(ControllerModel model, Read read,
                                std::function<void(const std::string&)> on_script, std::uint16_t port,
                                std::uint16_t script_port)
     : impl_(std::make_unique<Impl>(std::move(model), std::move(read), std::move(on_script), port,

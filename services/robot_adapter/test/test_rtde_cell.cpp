@@ -153,7 +153,8 @@ TEST_F(Cell, AControllerWithAnotherTcpIsRefusedNamingIt) {
 TEST(CellSetup, AControllerOlderThanTheESeriesIsRefusedNamingItsVersion) {
   ControllerModel old = SimulatedUr::model();
   old.version = {3, 15, 0, 0};
-  TestController cb3(old, [](const std::string&) -> Value { return 0.0; });
+  TestController cb3(
+      old, [](const std::vector<std::string>& names) { return std::vector<Value>(names.size(), 0.0); });
   RtdeCellConfig c;
   c.rtde_port = cb3.port();
   c.script_port = cb3.script_port();

@@ -26,12 +26,16 @@ ControllerModel ur_outputs() {
 
 struct Session : ::testing::Test {
   std::atomic<double> t{0};
-  TestController controller{ur_outputs(), [this](const std::string& name) -> Value {
-                              if (name == "timestamp") return t.load();
-                              if (name == "actual_q")
-                                return std::array<double, 6>{0, -1.57, 1.57, -1.57, -1.57, 0};
-                              if (name == "safety_status_bits") return std::uint32_t{1};  // normal
-                              return std::uint32_t{2};                                    // playing
+  static Value value(const std::string& name, double t) {
+    if (name == "timestamp") return t;
+    if (name == "actual_q") return std::array<double, 6>{0, -1.57, 1.57, -1.57, -1.57, 0};
+    if (name == "safety_status_bits") return std::uint32_t{1};  // normal
+    return std::uint32_t{2};                                    // playing
+  }
+  TestController controller{ur_outputs(), [this](const std::vector<std::string>& names) {
+                              std::vector<Value> v;
+                              for (const auto& n : names) v.push_back(value(n, t.load()));
+                              return v;
                             }};
   Client client;
 };
@@ -113,7 +117,9 @@ TEST_F(Session, AControllerThatStopsAnsweringOrDropsTheLinkEndsTheCallWithItsSte
 TEST(RtdeClient, NoControllerIsNamedWithItsAddress) {
   std::uint16_t port = 0;
   {
-    TestController gone(ControllerModel{}, [](const std::string&) -> Value { return 0.0; });
+    TestController gone(ControllerModel{}, [](const std::vector<std::string>& names) {
+      return std::vector<Value>(names.size(), 0.0);
+    });
     port = gone.port();
   }
   Client client;

@@ -73,8 +73,8 @@ class SimulatedUr {
   std::string script_error_;
 };
 
-/// The RTDE test controller backed by a SimulatedUr in real time: outputs are read from the arm after
-/// it is advanced to the wall clock; a script on the script port runs on it. Its methods may be called
+/// The RTDE test controller backed by a SimulatedUr in real time: each data package is the arm's outputs
+/// at one moment, after it is advanced to the wall clock; a script on the script port runs on it. Its methods may be called
 /// from any thread.
 class SimulatedController {
  public:

@@ -54,11 +54,13 @@ class ControllerCore {
 /// ControllerCore served on 127.0.0.1, one client at a time, on a thread of its own.
 class TestController {
  public:
-  /// Listens on `port` and `script_port` (0: one the system picks); `read` gives each output field's value
-  /// when a data package is sent, `on_script` each script received whole (both on the controller's thread).
-  TestController(ControllerModel model, std::function<Value(const std::string&)> read,
-                 std::function<void(const std::string&)> on_script = {}, std::uint16_t port = 0,
-                 std::uint16_t script_port = 0);
+  /// The values of the named output fields, in their order, for one data package: one moment's outputs.
+  using Read = std::function<std::vector<Value>(const std::vector<std::string>& names)>;
+
+  /// Listens on `port` and `script_port` (0: one the system picks); `read` gives each data package's
+  /// values, `on_script` each script received whole (both on the controller's thread).
+  TestController(ControllerModel model, Read read, std::function<void(const std::string&)> on_script = {},
+                 std::uint16_t port = 0, std::uint16_t script_port = 0);
   ~TestController();
   TestController(const TestController&) = delete;
   TestController& operator=(const TestController&) = delete;
