@@ -5,6 +5,7 @@
 #include <cstdio>
 
 #include "dh/common/robot_contract.hpp"
+#include "rotation_vector.hpp"
 
 namespace dh::rtde {
 namespace {
@@ -36,16 +37,24 @@ std::vector<std::string> input_names() {
   return n;
 }
 
-Eigen::Matrix3d rotation(double rx, double ry, double rz) {
-  const Eigen::Vector3d rv(rx, ry, rz);
-  const double angle = rv.norm();
-  return angle > 0 ? Eigen::AngleAxisd(angle, rv / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+Eigen::Isometry3d isometry_of(const std::array<double, 6>& pose) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.translation() = Eigen::Vector3d(pose[0], pose[1], pose[2]);
+  t.linear() = rotation_of({pose[3], pose[4], pose[5]});
+  return t;
 }
 
-std::array<double, 6> pose(const Eigen::Vector3d& p, const Eigen::Matrix3d& r) {
-  const Eigen::AngleAxisd aa(r);
-  const Eigen::Vector3d rv = aa.angle() * aa.axis();
-  return {p.x(), p.y(), p.z(), rv.x(), rv.y(), rv.z()};
+std::array<double, 6> pose_of(const Eigen::Isometry3d& t) {
+  const Eigen::Vector3d rv = rotation_vector_of(t.linear());
+  return {t.translation().x(), t.translation().y(), t.translation().z(), rv.x(), rv.y(), rv.z()};
+}
+
+/// The arm's base in the world: the configured position, turned about z by the configured yaw.
+Eigen::Isometry3d world_from_base(const RtdeCellConfig& c) {
+  Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
+  t.translation() = Eigen::Vector3d(c.base_xyz[0], c.base_xyz[1], c.base_xyz[2]);
+  t.linear() = Eigen::AngleAxisd(c.base_yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  return t;
 }
 
 std::string safety_text(std::int32_t mode, std::uint32_t bits) {
@@ -182,18 +191,14 @@ std::vector<sim::StepEvent> RtdeCell::step(const std::array<double, 7>& action) 
     receive(true);  // the newest outputs: they streamed on while the step's action was decided
     check_running("before the step");
     // World frame: the contract's offsets are world-frame.
-    const Eigen::AngleAxisd yaw(config_.base_yaw, Eigen::Vector3d::UnitZ());
-    const Eigen::Vector3d base(config_.base_xyz[0], config_.base_xyz[1], config_.base_xyz[2]);
-    const Eigen::Vector3d p_w = yaw * Eigen::Vector3d(state_.tcp[0], state_.tcp[1], state_.tcp[2]) + base;
-    const Eigen::Matrix3d r_w = yaw * rotation(state_.tcp[3], state_.tcp[4], state_.tcp[5]);
-    UrPose target = servo_target(pose(p_w, r_w), a);
+    const Eigen::Isometry3d base = world_from_base(config_);
+    UrPose target = servo_target(pose_of(base * isometry_of(state_.tcp)), a);
     std::array<double, 3> xyz{target[0], target[1], target[2]};
     if (sim::clamp_to_workspace(xyz, config_.limits))
       events.push_back({sim::StepEvent::WorkspaceClamp, "target clamped into the workspace box"});
-    const Eigen::Vector3d t_b = yaw.inverse() * (Eigen::Vector3d(xyz[0], xyz[1], xyz[2]) - base);
-    const Eigen::Matrix3d r_b = yaw.inverse() * rotation(target[3], target[4], target[5]);
+    std::copy(xyz.begin(), xyz.end(), target.begin());
     grip_ = a[6] > 0;
-    send_target(pose(t_b, r_b), grip_, ++seq_, nonce_);
+    send_target(pose_of(base.inverse() * isometry_of(target)), grip_, ++seq_, nonce_);
     // One control step of the controller's clock, every output checked.
     const double until = state_.time + robot::kControlPeriodS - 1e-9;
     bool held = false;
@@ -220,10 +225,9 @@ std::vector<sim::StepEvent> RtdeCell::step(const std::array<double, 7>& action) 
 
 Observation RtdeCell::observe() const {
   Observation o;
-  const Eigen::AngleAxisd yaw(config_.base_yaw, Eigen::Vector3d::UnitZ());
-  const Eigen::Vector3d p = yaw * Eigen::Vector3d(state_.tcp[0], state_.tcp[1], state_.tcp[2]) +
-                            Eigen::Vector3d(config_.base_xyz[0], config_.base_xyz[1], config_.base_xyz[2]);
-  const Eigen::Quaterniond q(yaw * rotation(state_.tcp[3], state_.tcp[4], state_.tcp[5]));
+  const Eigen::Isometry3d tool = world_from_base(config_) * isometry_of(state_.tcp);
+  const Eigen::Vector3d p = tool.translation();
+  const Eigen::Quaterniond q(tool.linear());
   o.ee_p = {p.x(), p.y(), p.z()};
   o.ee_q = {q.w(), q.x(), q.y(), q.z()};
   std::copy(state_.q.begin(), state_.q.end(), o.q.begin());

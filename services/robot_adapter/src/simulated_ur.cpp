@@ -11,6 +11,7 @@
 #include "dh/rtde/servo_program.hpp"
 #include "dh/sim/model.hpp"
 #include "dh/sim/robot_model.hpp"
+#include "rotation_vector.hpp"
 
 namespace dh::rtde {
 namespace {
@@ -33,16 +34,9 @@ std::array<double, 6> pose_of(const mjData* d, int site) {
   Eigen::Matrix3d r;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) r(i, j) = d->site_xmat[9 * site + 3 * i + j];
-  const Eigen::AngleAxisd aa(r);
-  const Eigen::Vector3d rv = aa.angle() * aa.axis();
+  const Eigen::Vector3d rv = rotation_vector_of(r);
   return {
       d->site_xpos[3 * site], d->site_xpos[3 * site + 1], d->site_xpos[3 * site + 2], rv.x(), rv.y(), rv.z()};
-}
-
-Eigen::Matrix3d rotation(const std::array<double, 6>& pose) {
-  const Eigen::Vector3d rv(pose[3], pose[4], pose[5]);
-  const double angle = rv.norm();
-  return angle > 0 ? Eigen::AngleAxisd(angle, rv / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
 }
 
 }  // namespace
@@ -195,7 +189,7 @@ void SimulatedUr::servo_towards(const std::array<double, 6>& target) {
   std::copy_n(sim_->data->qpos, m->nq, k->qpos);
   for (int i = 0; i < 6; ++i) k->qpos[sim_->qpos[i]] = sim_->q_ref[i];
   const Eigen::Vector3d p_goal(target[0], target[1], target[2]);
-  const Eigen::Matrix3d r_goal = rotation(target);
+  const Eigen::Matrix3d r_goal = rotation_of({target[3], target[4], target[5]});
   std::vector<double> jp(3 * m->nv), jr(3 * m->nv);
   for (int it = 0; it < kIkIterations; ++it) {
     mj_kinematics(m, k);
