@@ -131,6 +131,38 @@ msg::PlannerErrorRates to_msg(const PlannerErrorRates& r) {
   return m;
 }
 
+std::vector<GoalTerm> from_msg(const std::vector<msg::GoalTerm>& m) {
+  std::vector<GoalTerm> out;
+  out.reserve(m.size());
+  for (const auto& t : m) out.push_back({t.predicate(), t.args(), t.part(), t.lo(), t.hi()});
+  return out;
+}
+
+std::vector<msg::GoalTerm> to_msg(const std::vector<GoalTerm>& goal) {
+  std::vector<msg::GoalTerm> out;
+  out.reserve(goal.size());
+  for (const auto& t : goal) {
+    msg::GoalTerm m;
+    m.predicate(t.predicate);
+    m.args(t.args);
+    m.part(t.part);
+    m.lo(t.lo);
+    m.hi(t.hi);
+    out.push_back(std::move(m));
+  }
+  return out;
+}
+
+std::optional<Verifier> from_msg(msg::Verifier v) {
+  switch (v) {
+    case msg::VERIFIER_ORACLE: return Verifier::Oracle;
+    case msg::VERIFIER_PERCEPTION: return Verifier::Perception;
+  }
+  return std::nullopt;
+}
+
+msg::Verifier to_msg(Verifier v) { return v == Verifier::Perception ? msg::VERIFIER_PERCEPTION : msg::VERIFIER_ORACLE; }
+
 PlannerError from_msg(msg::PlannerError e) {
   const auto v = static_cast<int>(e);
   return v >= 0 && v <= static_cast<int>(PlannerError::RepeatedStep) ? static_cast<PlannerError>(v) : PlannerError::None;

@@ -62,4 +62,43 @@ TEST(PerceptionE2E, EstimatesFollowTheSimulatorAndTheFullPerceptionArmGroundsFro
               waited ? "waited" : "did not wait");
 }
 
+// The verdict from perception: the episode ends on the goal judged on perceived frames, the simulator's
+// verdict is recorded beside it, and an arm that does not ground from perception cannot use it.
+TEST(PerceptionE2E, TheVerdictFromPerceptionEndsTheEpisodeAndTheOraclesIsRecordedBesideIt) {
+  itest::IsolatedEnv env;
+  cli::Deployment d({itest::service("sim_worker"), itest::service("governor"), itest::service("planner", {"--backend", "rules"}),
+                     itest::service("cap_pick_place"), itest::service("perception")},
+                    paths::bin_dir(), env.runs / "logs");
+  const std::string dh = (paths::bin_dir() / "dh").string();
+  auto [out, status] = itest::run_command(
+      dh + " run --suite goal --task 8 --seed 4 --arm full-perception --verifier perception --json --ready-timeout-ms 20000");
+  ASSERT_EQ(status, 0) << out;
+  const auto j = nlohmann::json::parse(out);
+  EXPECT_TRUE(j["success"].get<bool>()) << j.dump();
+  std::ifstream in(j["evidence"].get<std::string>());
+  std::string verifier;
+  std::optional<std::uint32_t> perceived_at, oracle_at;
+  for (std::string line; std::getline(in, line);) {
+    const auto r = nlohmann::json::parse(line);
+    if (r["kind"] == "episode_start") verifier = r.value("verifier", "");
+    if (r["kind"] == "perceived_verdict" && r["value"] == true && !perceived_at) perceived_at = r["step"].get<std::uint32_t>();
+    if (r["kind"] == "verdict_event" && r["value"] == true && !oracle_at) oracle_at = r["step"].get<std::uint32_t>();
+  }
+  EXPECT_EQ(verifier, "perception");
+  ASSERT_TRUE(perceived_at) << "no perceived verdict latched";
+  ASSERT_TRUE(oracle_at) << "the simulator's verdict was not recorded";
+  // Three frames, one every 10 steps, must agree: the perceived verdict comes after the simulator's.
+  EXPECT_GE(*perceived_at, *oracle_at);
+  EXPECT_GE(j["steps"].get<std::uint32_t>(), *perceived_at);
+
+  auto [refused, refused_status] = itest::run_command(
+      dh + " run --suite goal --task 8 --seed 4 --arm full --verifier perception --json --ready-timeout-ms 20000");
+  ASSERT_EQ(refused_status, 0) << refused;
+  const auto r = nlohmann::json::parse(refused);
+  EXPECT_FALSE(r["success"].get<bool>());
+  EXPECT_EQ(r["outcome"], "rejected") << r.dump();
+  EXPECT_NE(r["reason"].get<std::string>().find("verifier perception needs an arm that grounds from perception"),
+            std::string::npos) << r.dump();
+}
+
 }  // namespace dh

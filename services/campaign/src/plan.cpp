@@ -123,7 +123,8 @@ std::string to_json(const Plan& p) {
                         {"seeds", p.seeds},
                         {"rerun_rule", p.rerun_rule},
                         {"library_version", p.library_version},
-                        {"planner_errors", p.planner_errors}}
+                        {"planner_errors", p.planner_errors},
+                        {"verifier", p.verifier}}
       .dump();
 }
 
@@ -138,6 +139,7 @@ Plan plan_from_json(const std::string& json) {
     j.at("rerun_rule").get_to(p.rerun_rule);
     p.library_version = j.value("library_version", "");  // not stored before the library travelled
     p.planner_errors = j.value("planner_errors", "");    // not stored before planner errors existed
+    p.verifier = j.value("verifier", "oracle");           // not stored before the verdict from perception
     return p;
   } catch (const nlohmann::json::exception& e) {
     throw PlanError(std::string("stored plan is malformed (") + e.what() + "): " + json);
@@ -169,6 +171,8 @@ std::vector<std::string> plan_differences(const Plan& stored, const Plan& reques
     out.push_back("library: stored " + stored.library_version + ", requested " + requested.library_version);
   if (stored.planner_errors != requested.planner_errors)
     out.push_back("planner errors: stored '" + stored.planner_errors + "', requested '" + requested.planner_errors + "'");
+  if (stored.verifier != requested.verifier)
+    out.push_back("verifier: stored '" + stored.verifier + "', requested '" + requested.verifier + "'");
   return out;
 }
 

@@ -6,6 +6,8 @@
 #include "dh/common/paths.hpp"
 #include "dh/common/shutdown.hpp"
 #include "dh/common/topics.hpp"
+#include "dh/sim/predicates.hpp"
+#include "dh/sim/scene.hpp"
 
 namespace dh::cli {
 
@@ -77,6 +79,10 @@ Client::News Client::take_news() {
   News n = std::move(news_);
   news_ = {};
   return n;
+}
+
+std::vector<msg::GoalTerm> goal_terms(const TaskDef& task) {
+  return convert::to_msg(sim::goal_terms(sim::load_nominal_scene(task), task.goal));
 }
 
 std::optional<std::uint32_t> ensure_deployment(Client& client, const std::string& capability,

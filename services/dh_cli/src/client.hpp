@@ -17,6 +17,7 @@
 #include "dh/common/arms.hpp"
 #include "dh/common/convert.hpp"
 #include "dh/common/paths.hpp"
+#include "dh/common/suite.hpp"
 #include "dh/gov/config.hpp"
 #include "dh/common/dds.hpp"
 #include "dh/msg/capabilityPubSubTypes.h"
@@ -93,6 +94,10 @@ inline void set_settings(msg::EpisodeRequest& r, const gov::GovernorConfig& c) {
   r.grounding(c.perception ? "perception" : "state");
   r.perception(convert::to_msg(c.perception_limits));
 }
+
+/// The task's goal resolved against its scene's description, as the governor's verdict from perception
+/// judges it; throws std::invalid_argument naming a term the scene cannot resolve.
+std::vector<msg::GoalTerm> goal_terms(const TaskDef& task);
 
 /// The capability a deployment must announce to be ready for `arms`: vla_act when every arm is the bare
 /// policy, else pick_place (the first one the embedded planner needs).

@@ -82,6 +82,8 @@ std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
   campaign::Plan plan = make_plan(a, suites);
   plan.library_version = library.version;
   plan.planner_errors = a.planner_errors;
+  plan.verifier = a.verifier;
+  const msg::Verifier verifier = convert::to_msg(parse_verifier(a.verifier));
   const msg::PlannerErrorRates errors = convert::to_msg(planner_errors(a.planner_errors));
   const auto settings = arm_settings(paths::config_dir(), plan.arms);
   if (a.db.empty()) throw campaign::PlanError("--db: missing (the campaign database file, e.g. runs/c1.db)");
@@ -136,6 +138,7 @@ std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
       return find_task(suites, k.cell, k.task).budget_steps;
     }, options);
     campaign::Progress progress(all.size(), done_before, done_ok, done_infra, Clock::now());
+    std::map<std::pair<std::string, unsigned>, std::vector<msg::GoalTerm>> goals;  // by cell and task
     // Live views (dh view) follow the campaign on rt/dh/campaign/progress, tallied by arm and cell.
     dds::Writer<msg::CampaignProgressPubSubType> progress_topic(participant, topics::kCampaignProgress, dds::Qos::Episode);
     std::map<std::pair<std::string, std::string>, std::pair<unsigned, unsigned>> tally;  // -> (successes, episodes)
@@ -236,6 +239,10 @@ std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
         set_library(r, library);
         set_settings(r, settings.at(d.key.arm));
         r.planner_errors(errors);
+        auto goal = goals.find({t.suite, t.id});
+        if (goal == goals.end()) goal = goals.emplace(std::pair(t.suite, t.id), goal_terms(t)).first;
+        r.goal(goal->second);
+        r.verifier(verifier);
         client.request(r);
       }
       const bool changed = record(scheduler.take_finished(now));

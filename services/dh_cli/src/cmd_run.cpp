@@ -42,6 +42,8 @@ int cmd_run(const RunArgs& a) {
   set_library(r, library);
   set_settings(r, arm_settings(paths::config_dir(), {a.arm}).at(a.arm));
   r.planner_errors(convert::to_msg(planner_errors(a.planner_errors)));
+  r.goal(goal_terms(t));
+  r.verifier(convert::to_msg(parse_verifier(a.verifier)));
   const auto t0 = std::chrono::steady_clock::now();
   client.request(r);
   if (!a.json) std::cerr << "episode " << r.episode_id() << " on channel " << *ch << ": " << r.instruction() << "\n";

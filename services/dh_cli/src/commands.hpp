@@ -121,6 +121,7 @@ struct RunArgs {
   std::string suite, launch_file, library;
   std::string instruction;  ///< replaces the task's (a -lan cell's: the seed's wording) when not empty
   std::string planner_errors;  ///< a profile of configs/planner_errors.yaml; empty: none
+  std::string verifier = "oracle";  ///< the verdict the episode ends on: oracle | perception
   unsigned task = 0, seed = 0, timeout_s = 180, ready_ms = 2500;
   std::string arm = "full";
   std::optional<std::uint32_t> channel;
@@ -138,6 +139,7 @@ int cmd_dds_profile(const std::string& file, const std::string& host);
 struct CampaignArgs {
   std::string arms = "full", cells = "goal", tasks, seeds, db, launch_file, library;
   std::string planner_errors;  ///< a profile of configs/planner_errors.yaml; empty: none
+  std::string verifier = "oracle";  ///< the verdict every episode ends on: oracle | perception
   unsigned fresh_seeds = 0;
   std::uint64_t salt = 1;
   unsigned ready_ms = 2500;

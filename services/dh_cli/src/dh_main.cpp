@@ -84,6 +84,10 @@ int main(int argc, char** argv) {
                   "travels in the request");
   run->add_option("--planner-errors", run_args.planner_errors,
                   "a profile of configs/planner_errors.yaml: the planner's advice is wrong on purpose at its rates");
+  run->add_option("--verifier", run_args.verifier,
+                  "the verdict the episode ends on: oracle (the simulator's) or perception (the goal judged on "
+                  "perceived frames; needs an arm that grounds from perception)")
+      ->check(CLI::IsMember({"oracle", "perception"}));
   run->add_flag("--json", run_args.json, "one JSON object on stdout");
 
   CampaignArgs camp;
@@ -99,6 +103,10 @@ int main(int argc, char** argv) {
   campaign->add_option("--planner-errors", camp.planner_errors,
                        "a profile of configs/planner_errors.yaml: every episode's planner errs on purpose at its "
                        "rates (a campaign of its own: the profile is part of its plan)");
+  campaign->add_option("--verifier", camp.verifier,
+                       "the verdict every episode ends on: oracle (the simulator's) or perception (the goal judged "
+                       "on perceived frames; arms that ground from perception); part of the plan")
+      ->check(CLI::IsMember({"oracle", "perception"}));
   campaign->add_option("--library", camp.library,
                        "capability library every episode runs (a folder of descriptors; default configs/library): "
                        "its θ travels in each request, the running capability processes serve it");

@@ -63,6 +63,8 @@ gov::EpisodeRequest from_msg(const msg::EpisodeRequest& r) {
   if (!r.grounding().empty()) q.grounding = r.grounding();
   if (r.perception().max_age_steps() > 0) q.perception = convert::from_msg(r.perception());
   q.planner_errors = convert::from_msg(r.planner_errors());
+  q.goal = convert::from_msg(r.goal());
+  q.verifier = convert::from_msg(r.verifier());
   return q;
 }
 

@@ -26,6 +26,9 @@ GovernorConfig load_config(const std::filesystem::path& file) {
   if (c.has("perception")) {
     g.perception_limits = perception_limits(c.child("perception"));
   }
+  g.verdict_frames = c.get<unsigned>("verdict_frames");
+  if (g.verdict_frames == 0) c.fail("verdict_frames", "must be at least 1 (one frame alone would latch)");
+  g.verdict_wait = std::chrono::milliseconds(c.get<unsigned>("verdict_wait_ms"));
   return g;
 }
 
@@ -67,6 +70,15 @@ GovernorConfig for_request(GovernorConfig g, const EpisodeSpec& spec) {
                       "' grounds from perception, but the request does not say grounding: perception (the "
                       "perception service would not look; dh run and dh campaign set it)");
   }
+  if (!spec.verifier)
+    throw ConfigError("episode " + spec.episode_id + ": the request's verifier code is not one this governor knows "
+                      "(oracle, perception); is the client newer than the governor?");
+  g.verifier = *spec.verifier;
+  if (g.verifier == Verifier::Perception && !g.perception)
+    throw ConfigError("episode " + spec.episode_id + ": verifier perception needs an arm that grounds from perception "
+                      "(e.g. full-perception), so that the perception service looks; arm '" + spec.arm + "' does not");
+  if (g.verifier == Verifier::Perception && spec.goal.empty())
+    throw ConfigError("episode " + spec.episode_id + ": verifier perception, but the request names no goal terms to judge");
   return g;
 }
 

@@ -115,7 +115,7 @@ CoreEffects GovernorCore::on_request(const EpisodeRequest& r, Clock::time_point 
   const std::string arm = r.arm.empty() ? "full" : r.arm;
   EpisodeSpec spec{r.channel,         r.episode_id, r.instruction,     arm,         r.budget_steps,
                    r.library_version, r.library,    r.library_costs, r.decision_period, r.grounding, r.perception,
-                   planner_error_seed(r.cell, r.task, r.seed), r.planner_errors};
+                   planner_error_seed(r.cell, r.task, r.seed), r.planner_errors, r.goal, r.verifier};
   std::optional<GovernorConfig> episode_config;
   std::string why;
   try {

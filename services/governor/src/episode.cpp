@@ -20,6 +20,9 @@ EpisodeMachine::EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, c
                                EvidenceWriter& evidence, Clock::time_point now)
     : spec_(std::move(spec)), config_(config), registry_(registry), evidence_(evidence) {
   if (config_.perception) world_.emplace(*config_.perception);
+  if (world_ && !spec_.goal.empty()) perceived_.emplace(spec_.goal, config_.verdict_frames);
+  nlohmann::json goal = nlohmann::json::array();
+  for (const auto& t : spec_.goal) goal.push_back(t.text());
   deadline_ = now + config_.first_observation_timeout;
   deadline_what_ = "first observation from the simulator channel";
   deadline_wait_ = "first_observation";
@@ -28,7 +31,8 @@ EpisodeMachine::EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, c
                    {{"episode_id", spec_.episode_id}, {"channel", spec_.channel},
                     {"instruction", spec_.instruction}, {"arm", spec_.arm},
                     {"budget_steps", spec_.budget_steps}, {"decision_period", config_.decision_period},
-                    {"library_version", spec_.library_version}});
+                    {"library_version", spec_.library_version}, {"verifier", to_string(config_.verifier)},
+                    {"goal", goal}});
   // The governor waited for these (or its ready timeout passed): the episode runs without them.
   if (const auto missing = registry_.missing(needed_capabilities(config_, spec_)); !missing.empty())
     evidence_.append("governor", "capabilities_missing", {{"step", 0}, {"missing", missing}});
@@ -48,7 +52,7 @@ nlohmann::json EpisodeMachine::obs_summary(const Observation& o) const {
 Effects EpisodeMachine::on_observation(Observation obs, Clock::time_point now) {
   arrived_ = std::chrono::steady_clock::now();
   if (phase_ == Phase::Ended) return {};
-  latch_.record(obs.step, obs.goal_holds);
+  if (config_.verifier == Verifier::Oracle) latch_.record(obs.step, obs.goal_holds);
   // Swapped, not copied: the previous observation's entities are freed with `obs`, after the decision.
   std::swap(last_obs_, obs);
   have_obs_ = true;
@@ -91,8 +95,20 @@ Observation EpisodeMachine::perceived_scene() {
 
 Effects EpisodeMachine::on_scene_estimate(const SceneEstimate& estimate, Clock::time_point now) {
   arrived_ = std::chrono::steady_clock::now();
-  if (!world_ || estimate.episode_id != spec_.episode_id) return {};
+  if (!world_ || estimate.episode_id != spec_.episode_id || phase_ == Phase::Ended) return {};
   world_->on_estimate(estimate);
+  if (perceived_ && have_obs_ && world_->latest() && world_->latest()->step == estimate.step) {
+    Observation seen = last_obs_;
+    world_->view(seen, {});
+    if (const auto change = perceived_->on_frame(estimate.step, seen)) {
+      evidence_.append("governor", "perceived_verdict",
+                       {{"step", change->step}, {"value", change->value}, {"frames", config_.verdict_frames},
+                        {"oracle_at_observation", last_obs_.goal_holds}, {"observation_step", last_obs_.step}});
+      if (config_.verifier == Verifier::Perception) latch_.record(change->step, change->value);
+      if (phase_ == Phase::Verifying && change->value)
+        return end(true, Outcome::Success, "planner: every step completed; the perceived verdict followed");
+    }
+  }
   if (phase_ != Phase::AwaitingPerception) return {};
   const Advice advice = *awaiting_perception_;
   return ground_and_dispatch(advice, now);
@@ -140,7 +156,14 @@ Effects EpisodeMachine::on_advice(const Advice& advice, Clock::time_point now) {
   if (advice.done) {
     // The planner judges every step complete. With the latch on, a true verdict would have ended the
     // episode at the last decision; the final state decides without it.
-    if (!config_.latch && last_obs_.goal_holds) return end(true, Outcome::Success, "planner: every step completed; final state satisfies the task");
+    if (!config_.latch && verdict_now()) return end(true, Outcome::Success, "planner: every step completed; final state satisfies the task");
+    if (config_.verifier == Verifier::Perception) {
+      // The perceived verdict lags the world by its frames (the hand leaves the object last): wait for it.
+      phase_ = Phase::Verifying;
+      deadline_ = now + config_.verdict_wait;
+      evidence_.append("governor", "awaiting_verdict", {{"step", last_obs_.step}, {"frames", config_.verdict_frames}});
+      return {};
+    }
     return end(false, Outcome::GaveUp, "planner: every step of the plan completed, yet the task verdict is false");
   }
   if (config_.mode == ExecutorMode::Seq && sequence_.empty() && commands_ == 0) sequence_ = advice.rest;
@@ -152,6 +175,7 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
   const std::uint32_t remaining = spec_.budget_steps > last_obs_.step ? spec_.budget_steps - last_obs_.step : 0;
   const std::string command_id = spec_.episode_id + "/c" + std::to_string(commands_);
   Observation seen = last_obs_;
+  seen.goal_holds = verdict_now();  // the task_goal_unmet precondition reads the episode's verifier
   std::optional<Unperceived> unseen;
   if (world_ && !advice.refused) {
     std::vector<std::string> needed;
@@ -301,8 +325,12 @@ Effects EpisodeMachine::on_capability_lost(const std::string& instance, Clock::t
   return decide_now(CommandPhase::Lost, "capability instance " + instance + " lost its liveliness", now);
 }
 
+bool EpisodeMachine::verdict_now() const {
+  return config_.verifier == Verifier::Perception ? perceived_->value() : last_obs_.goal_holds;
+}
+
 void EpisodeMachine::on_verdict(std::uint32_t step, const std::string& predicate, bool value) {
-  latch_.record(step, value);
+  if (config_.verifier == Verifier::Oracle) latch_.record(step, value);
   evidence_.append("sim_worker", "verdict_event", {{"step", step}, {"predicate", predicate}, {"value", value}});
 }
 
@@ -532,7 +560,7 @@ Effects EpisodeMachine::end(bool success, Outcome outcome_in, const std::string&
   Outcome outcome = outcome_in;
   // Without the latch the benchmark's verdict on the final state decides (unless infrastructure failed).
   if (!config_.latch && !lost_to_infrastructure(outcome)) {
-    success = last_obs_.goal_holds;
+    success = verdict_now();
     if (success) outcome = Outcome::Success;
   }
   phase_ = Phase::Ended;
@@ -541,6 +569,7 @@ Effects EpisodeMachine::end(bool success, Outcome outcome_in, const std::string&
                    {{"step", e.steps}, {"success", success}, {"outcome", to_string(outcome)}, {"reason", reason},
                     {"latched", latch_.latched()}, {"verdict_step", latch_.event_step()},
                     {"decisions", decisions_}, {"refusals", refusals_total_}});
+  if (perceived_) evidence_.append("governor", "perceived_verdict_end", {{"step", e.steps}, {"value", perceived_->value()}, {"oracle", last_obs_.goal_holds}});
   fx.end = e;
   return fx;
 }
@@ -553,6 +582,10 @@ Effects EpisodeMachine::on_tick(Clock::time_point now) {
     const Advice advice = *awaiting_perception_;
     return ground_and_dispatch(advice, now);  // refused: the wait is over
   }
+  if (phase_ == Phase::Verifying)
+    return end(false, Outcome::GaveUp,
+               "planner: every step of the plan completed, yet the perceived verdict stayed false for " +
+                   std::to_string(config_.verdict_wait.count()) + " ms");
   const std::string what = deadline_what_;
   evidence_.append("governor", "deadline_missed",
                    {{"step", last_obs_.step}, {"wait", deadline_wait_}, {"waiting_for", what}});
@@ -561,6 +594,7 @@ Effects EpisodeMachine::on_tick(Clock::time_point now) {
       return end(false, Outcome::Infrastructure, "no " + what);
     case Phase::AwaitingCapability:
     case Phase::AwaitingPerception:
+    case Phase::Verifying:
       break;  // handled above
     case Phase::Planning:
       pending_request_.clear();

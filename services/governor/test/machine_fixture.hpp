@@ -28,13 +28,15 @@ struct MachineTest : ::testing::Test {
   gov::Clock::time_point t0 = gov::Clock::time_point{} + std::chrono::seconds(1000);
 
   virtual void configure(gov::GovernorConfig&) {}
+  virtual void configure_spec(gov::EpisodeSpec&) {}
   void SetUp() override {
     configure(config);
+    gov::EpisodeSpec spec{0, "ep", "put the bowl on the plate", "full", 300};
+    configure_spec(spec);
     std::filesystem::remove(file);
     registry.announce(pick_place_info());
     evidence = std::make_unique<EvidenceWriter>(file);
-    m = std::make_unique<gov::EpisodeMachine>(gov::EpisodeSpec{0, "ep", "put the bowl on the plate", "full", 300}, config,
-                                         registry, *evidence, t0);
+    m = std::make_unique<gov::EpisodeMachine>(spec, config, registry, *evidence, t0);
   }
   void TearDown() override { std::filesystem::remove(file); }
   gov::Advice good(const std::string& id) {

@@ -10,6 +10,7 @@
 #include "dh/common/evidence.hpp"
 #include "dh/gov/config.hpp"
 #include "dh/inproc/bus.hpp"
+#include "dh/sim/predicates.hpp"
 #include "dh/sim/scene.hpp"
 #include "dh/sim/state_log.hpp"
 
@@ -96,6 +97,7 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   request.library_costs = library_.cost_steps;
   request.evidence = evidence_path;
   request.planner_errors = planner_errors_;
+  request.goal = sim::goal_terms(cell.scene(), task.goal);  // as `dh campaign` resolves it
   // The arm's settings travel in the request, as `dh campaign` sends them.
   const gov::GovernorConfig settings = gov::for_arm(config_, find_arm(arms_, arm));
   request.decision_period = settings.decision_period;

@@ -71,6 +71,8 @@ class PerceptionBinding {
     app.add_option("--segment-url", url_, "http backend: the server's endpoint, e.g. http://127.0.0.1:8765/segment");
     app.add_option("--segment-timeout-s", segment_timeout_s_, "http backend: whole-request timeout");
     app.add_option("--frame-timeout-ms", frame_timeout_ms_, "a frame not answered this long is asked for again");
+    app.add_option("--still-every-ms", still_every_ms_,
+                   "a robot that has stood still this long is looked at again (another frame of its step)");
     app.add_option("--table-z", table_z_, "height of the table top in the world (m; the workcell's is 0)");
     app.add_flag("--search-support-plane", search_plane_,
                  "the table height is not known: find it in each mask (RANSAC)");
@@ -89,6 +91,7 @@ class PerceptionBinding {
     if (!search_plane_) cloud.support_z = table_z_;
     suites_ = load_suites(paths::config_dir());
     settings_.frame_timeout = std::chrono::milliseconds(frame_timeout_ms_);
+    settings_.still_every = std::chrono::milliseconds(still_every_ms_);
     core_ = std::make_unique<perception::PerceptionCore>(
         settings_,
         [this](const std::string& suite, std::uint32_t task) {
@@ -159,6 +162,7 @@ class PerceptionBinding {
   perception::CoreSettings settings_;
   std::string backend_ = "colour", url_;
   unsigned frame_timeout_ms_ = 2000;
+  unsigned still_every_ms_ = 250;
   double segment_timeout_s_ = 5;
   std::optional<double> table_z_ = 0.0;
   bool search_plane_ = false;

@@ -146,6 +146,20 @@ TEST_F(PerceptionCoreTest, AnErrorFrameLeavesTheRequestPendingUntilTheTimeoutAsk
   EXPECT_TRUE(frame(again.asks[0], "ep", 5).estimate);
 }
 
+TEST_F(PerceptionCoreTest, ARobotStandingStillIsLookedAtAgainAtItsStep) {
+  start(0, "ep");
+  const auto first = core->on_observation(0, "ep", 40, t0).asks.at(0);
+  EXPECT_TRUE(core->on_tick(t0 + 300ms).asks.empty()) << "asked again with one pending";
+  ASSERT_TRUE(frame(first, "ep", 40).estimate);
+  EXPECT_TRUE(core->on_tick(t0 + 249ms).asks.empty()) << "the robot has not stood still long enough";
+  const auto still = core->on_tick(t0 + 250ms);
+  ASSERT_EQ(still.asks.size(), 1u);
+  EXPECT_NE(still.asks[0].request_id, first.request_id);
+  const auto seen = frame(still.asks[0], "ep", 40);
+  ASSERT_TRUE(seen.estimate);
+  EXPECT_EQ(seen.estimate->step, 40u) << "a frame of the same step";
+}
+
 TEST_F(PerceptionCoreTest, AnUnknownTaskIsANoteAndTheResultEndsTheLooking) {
   const auto bad = core->on_episode(0, "ep", "perception", "no-such-suite", 0, t0);
   ASSERT_EQ(bad.notes.size(), 1u);

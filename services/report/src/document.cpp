@@ -99,6 +99,40 @@ void overview(const json& s, Document& doc) {
     }
     doc.push_back(std::move(t));
   }
+  // Which verdict each arm's episodes ended on, and, where perception judged the goal too, how its verdict
+  // agrees with the simulator's.
+  std::string sources_of_verdict;
+  Table agreement{{"Arm", "Predicate", "Episodes", "Oracle true", "Perceived true", "False success (%)",
+                   "Wilson 95 % (%)", "False failure (%)", "Wilson 95 % (%)"},
+                  {}};
+  for (const json& a : v["by_arm"]) {
+    std::string verifiers;
+    for (const json& name : a["verifiers"]) verifiers += (verifiers.empty() ? "" : " and ") + name.get<std::string>();
+    sources_of_verdict += (sources_of_verdict.empty() ? "" : "; ") + a["arm"].get<std::string>() + ": " +
+                          (verifiers.empty() ? kNone : verifiers);
+    const auto pct = [](const json& r) { return r["rate"].is_null() ? kNone : fixed(100.0 * r["rate"].get<double>(), 1); };
+    const auto ci = [](const json& r) {
+      return r["rate"].is_null() ? kNone
+                                 : range(fixed(100.0 * r["wilson_lo"].get<double>(), 1), fixed(100.0 * r["wilson_hi"].get<double>(), 1));
+    };
+    for (const json& p : a["predicates"])
+      agreement.rows.push_back({a["arm"].get<std::string>(), p["predicate"].get<std::string>(), count(p["episodes"]),
+                                count(p["oracle_true"]), count(p["perceived_true"]),
+                                pct(p["false_success"]) + " (" + count(p["false_success"]["k"]) + "/" + count(p["false_success"]["n"]) + ")",
+                                ci(p["false_success"]),
+                                pct(p["false_failure"]) + " (" + count(p["false_failure"]["k"]) + "/" + count(p["false_failure"]["n"]) + ")",
+                                ci(p["false_failure"])});
+  }
+  doc.push_back(Paragraph{"The verdict each arm's episodes ended on (oracle: the simulator's; perception: the goal "
+                          "judged on perceived frames): " + (sources_of_verdict.empty() ? kNone : sources_of_verdict) + "."});
+  if (!agreement.rows.empty()) {
+    doc.push_back(Paragraph{"The verdict from perception against the simulator's, per goal predicate (an episode "
+                            "counts under each predicate its goal names). False success: the perceived verdict "
+                            "latched true where the goal never held (of those episodes). False failure: the goal held at some step and the perceived verdict "
+                            "never latched (of the episodes where it held). Articulated parts' joints are the "
+                            "cell's reported values, not perceived."});
+    doc.push_back(std::move(agreement));
+  }
   const json& e = s["evidence"];
   doc.push_back(Paragraph{"Evidence files read: " + count(e["read"]) + "; missing or unreadable: " +
                           count(e["missing"]) + "; not recorded: " + count(e["not_recorded"]) + "."});

@@ -102,6 +102,16 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
       }
       if (state == "refused") ++episode.refusals;
     }
+    if (kind == "episode_start") {
+      if (const auto v = text(r, "verifier"); !v.empty()) trace.verifier = v;
+      if (const auto g = r.find("goal"); g != r.end() && g->is_array())
+        for (const auto& term : *g)
+          if (term.is_string()) trace.predicates.push_back(term.get<std::string>().substr(0, term.get<std::string>().find('(')));
+    } else if (kind == "perceived_verdict" && r.value("value", false)) {
+      trace.perceived = true;
+    } else if (kind == "perceived_verdict_end" && !trace.perceived) {
+      trace.perceived = false;
+    }
     if (kind == to_string(SeamEventKind::SafetyHold)) ++holds;
     if (kind == to_string(SeamEventKind::SpeedLimited)) ++episode.speed_limited;
     if (kind == "decision" && has_number(r, "latency_ns")) {

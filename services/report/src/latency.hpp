@@ -4,6 +4,7 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -37,6 +38,11 @@ struct EpisodeTrace {
   long end_step = -1;            ///< the episode_end record's step; -1 when there is none
   long last_progress_step = 0;   ///< the last step a command's progress rose, or a command completed
   unsigned long policy_steps = 0;  ///< control steps under vla_act
+  std::string verifier = "oracle";  ///< the verdict the episode ended on (its episode_start record)
+  std::vector<std::string> predicates;  ///< the goal's predicate names (On, In, Open, ...), as recorded
+  /// The goal judged on perceived frames latched true at some step; unset: no perceived verdict was kept
+  /// (an arm that grounds from the robot's state, or evidence from before the verdict from perception).
+  std::optional<bool> perceived;
 };
 
 enum class EvidenceStatus { Read, Missing, NotRecorded };

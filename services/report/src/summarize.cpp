@@ -199,6 +199,46 @@ struct Execution {
   }
 };
 
+// The verdict from perception against the oracle (the simulator's, LIBERO's rule: the goal held at some
+// step), per goal predicate: false success is the perceived verdict latched true where the goal never
+// held; false failure is the goal held at some step with the perceived verdict never latched. An episode counts under each
+// predicate its goal names.
+struct VerdictAgreement {
+  std::set<std::string> verifiers;
+  struct Counts {
+    unsigned episodes = 0, oracle_true = 0, perceived_true = 0, false_success = 0, false_failure = 0;
+  };
+  std::map<std::string, Counts> by_predicate;  // "all" too
+  void add(const EpisodeRecord& r, const EpisodeTrace& t) {
+    verifiers.insert(t.verifier);
+    if (!t.perceived || !r.sim_success || r.infrastructure) return;
+    auto count = [&](Counts& c) {
+      ++c.episodes;
+      c.oracle_true += *r.sim_success;
+      c.perceived_true += *t.perceived;
+      c.false_success += *t.perceived && !*r.sim_success;
+      c.false_failure += !*t.perceived && *r.sim_success;
+    };
+    count(by_predicate["all"]);
+    for (const auto& p : std::set<std::string>(t.predicates.begin(), t.predicates.end())) count(by_predicate[p]);
+  }
+  json to_json(const std::string& arm) const {
+    json rows = json::array();
+    for (const auto& [predicate, c] : by_predicate) {
+      const unsigned oracle_false = c.episodes - c.oracle_true;
+      const auto rate = [](unsigned k, unsigned n) {
+        if (n == 0) return json{{"k", k}, {"n", n}, {"rate", nullptr}, {"wilson_lo", nullptr}, {"wilson_hi", nullptr}};
+        const stats::Interval w = stats::wilson(k, n);
+        return json{{"k", k}, {"n", n}, {"rate", static_cast<double>(k) / n}, {"wilson_lo", w.lo}, {"wilson_hi", w.hi}};
+      };
+      rows.push_back({{"predicate", predicate}, {"episodes", c.episodes}, {"oracle_true", c.oracle_true},
+                      {"perceived_true", c.perceived_true}, {"false_success", rate(c.false_success, oracle_false)},
+                      {"false_failure", rate(c.false_failure, c.oracle_true)}});
+    }
+    return {{"arm", arm}, {"verifiers", verifiers}, {"predicates", rows}};
+  }
+};
+
 json quantiles_json(const std::vector<double>& x) {
   const auto q = [&](double at) { return x.empty() ? json(nullptr) : json(stats::percentile(x, at)); };
   const double mean = x.empty() ? NAN : std::accumulate(x.begin(), x.end(), 0.0) / static_cast<double>(x.size());
@@ -240,6 +280,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
   std::map<std::string, Latencies> latency_by_arm;
   std::map<std::string, Mechanisms> mechanisms_by_arm;
   std::map<std::string, Execution> execution_by_arm;
+  std::map<std::string, VerdictAgreement> verdict_by_arm;
   std::set<FailedKey> failed;  // the counted rows that failed
   unsigned rows = 0, duplicates = 0, infrastructure = 0, sim_reported = 0;
   json disagreements = json::array();  // the simulator's own verdict against the governor's
@@ -277,12 +318,14 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
       EpisodeTrace trace;
       ++evidence[collect_evidence(r.evidence_path, latency_by_arm[r.arm], mechanisms_by_arm[r.arm], trace)];
       execution_by_arm[r.arm].add(r, trace);
+      verdict_by_arm[r.arm].add(r, trace);
     }
   }
 
   json summary = json::array(), totals = json::array(), tasks = json::array(), wall = json::array();
   json positions = json::array();
   json latency_by = json::array(), mechanisms = json::array(), execution = json::array();
+  json verdict_sources = json::array();
   Latencies all_latencies;
   for (const std::string& arm : arms.names) {
     for (const std::string& cell : cells.names) {
@@ -322,6 +365,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
                           {"planner", percentiles_json(l.planner_ms)}});
     all_latencies.merge(l);
     execution.push_back(execution_json(arm, execution_by_arm.at(arm)));
+    verdict_sources.push_back(verdict_by_arm.at(arm).to_json(arm));
     const Mechanisms& m = mechanisms_by_arm.at(arm);
     json commands = json::array();
     unsigned long all_steps = 0;
@@ -351,7 +395,7 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
           {"cells", cells.names},
           {"infrastructure", infrastructure},
           {"duplicates", duplicates},
-          {"verdict", {{"reported", sim_reported}, {"disagreements", disagreements}}},
+          {"verdict", {{"reported", sim_reported}, {"disagreements", disagreements}, {"by_arm", verdict_sources}}},
           {"summary", summary},
           {"arm_totals", totals},
           {"paired", paired_comparisons(arms.names, cells.names, success_by_key, options)},

@@ -373,6 +373,52 @@ TEST(Summarize, EpisodesWhereTheSimulatorsVerdictDiffersFromTheGovernorsAreFlagg
   EXPECT_NE(md.find("| full | goal | 1 | 1 | success | failure | – | ep-differs |"), std::string::npos) << md;
 }
 
+// Four episodes of an arm that ends on the verdict from perception: one where both verdicts agree on
+// success, one false success (perceived, the goal never held), one false failure (the goal held, never
+// perceived) and one where both say failure; plus one without a perceived verdict, counted nowhere.
+TEST(Summarize, TheVerdictFromPerceptionIsComparedWithTheSimulatorsPerPredicate) {
+  TempDir dir;
+  const auto episode = [&](unsigned seed, bool oracle, std::optional<bool> perceived, const std::string& goal) {
+    EpisodeRecord r = row("full-perception", "goal", 1, seed, perceived.value_or(false), 10);
+    r.sim_success = oracle;
+    r.sim_goal_step = oracle ? 100 : -1;
+    r.sim_goal_at_end = oracle;
+    r.evidence_path = (dir.path() / ("e" + std::to_string(seed) + ".jsonl")).string();
+    std::ofstream out(r.evidence_path);
+    out << json{{"kind", "episode_start"}, {"verifier", "perception"}, {"goal", json::array({goal})}}.dump() << "\n";
+    if (perceived) {
+      if (*perceived) out << json{{"kind", "perceived_verdict"}, {"step", 130}, {"value", true}}.dump() << "\n";
+      out << json{{"kind", "perceived_verdict_end"}, {"step", 140}, {"value", *perceived}, {"oracle", oracle}}.dump() << "\n";
+    }
+    return r;
+  };
+  const std::vector<Source> sources{{"p.db",
+                                     {episode(0, true, true, "On(bowl, plate)"), episode(1, false, true, "On(bowl, plate)"),
+                                      episode(2, true, false, "In(bowl, cabinet_top_region)"),
+                                      episode(3, false, false, "In(bowl, cabinet_top_region)"),
+                                      episode(4, true, std::nullopt, "On(bowl, plate)")}}};
+  const json s = summarize(sources, options(dir.path()));
+  const json& arm = s["verdict"]["by_arm"][0];
+  EXPECT_EQ(arm["verifiers"], json::array({"perception"}));
+  std::map<std::string, json> by;
+  for (const json& p : arm["predicates"]) by[p["predicate"]] = p;
+  ASSERT_EQ(by.size(), 3u) << arm.dump();
+  EXPECT_EQ(by["all"]["episodes"], 4);
+  EXPECT_EQ(by["all"]["false_success"]["k"], 1);
+  EXPECT_EQ(by["all"]["false_success"]["n"], 2);
+  EXPECT_EQ(by["all"]["false_failure"]["k"], 1);
+  EXPECT_EQ(by["all"]["false_failure"]["n"], 2);
+  EXPECT_EQ(by["On"]["false_success"]["k"], 1);
+  EXPECT_EQ(by["On"]["false_failure"]["n"], 1);
+  EXPECT_EQ(by["In"]["false_failure"]["k"], 1);
+  EXPECT_EQ(by["In"]["false_success"]["k"], 0);
+  const std::string md = read(render(sources, options(dir.path())).markdown);
+  EXPECT_NE(md.find("ended on (oracle: the simulator's; perception: the goal judged on perceived frames): "
+                    "full-perception: perception."),
+            std::string::npos) << md;
+  EXPECT_NE(md.find("| full-perception | all | 4 | 2 | 2 | 50.0 (1/2) |"), std::string::npos) << md;
+}
+
 TEST(Summarize, FailuresByLayerPerArmAndCellWithTheHarnessShare) {
   TempDir dir;
   auto sources = campaign(dir.path());

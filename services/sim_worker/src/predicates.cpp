@@ -44,6 +44,31 @@ std::string state_of(const std::string& predicate) {
 
 }  // namespace
 
+std::vector<GoalTerm> goal_terms(const SceneSpec& scene, const std::vector<PredicateSpec>& goal) {
+  std::vector<GoalTerm> out;
+  for (const auto& p : goal) {
+    GoalTerm t{p.name, p.args, "", 0, 0};
+    const std::string state = state_of(p.name);
+    if (!state.empty()) {
+      if (p.args.size() != 1) throw std::invalid_argument(p.text() + ": " + p.name + " takes one argument");
+      const PartRef ref = find_part(scene, p.args[0], p.text());
+      const auto it = ref.part->joint.states.find(state);
+      if (it == ref.part->joint.states.end())
+        throw std::invalid_argument(p.text() + ": part '" + ref.part->name + "' of '" + ref.entity->name +
+                                    "' declares no '" + state + "' state");
+      t.part = part_body(ref.entity->name, ref.part->name);
+      t.lo = it->second[0];
+      t.hi = it->second[1];
+    } else if (p.name != "On" && p.name != "In") {
+      throw std::invalid_argument(p.text() + ": unknown predicate '" + p.name + "' (On, In, Open, Close, TurnOn, TurnOff)");
+    } else if (p.args.size() != 2) {
+      throw std::invalid_argument(p.text() + ": " + p.name + " takes two arguments");
+    }
+    out.push_back(std::move(t));
+  }
+  return out;
+}
+
 GoalEvaluator::GoalEvaluator(const mjModel_* m, const SceneSpec& scene, const std::vector<PredicateSpec>& goal)
     : m_(m) {
   for (const auto& p : goal) {

@@ -162,5 +162,32 @@ TEST(Predicates, TermsNamingWhatTheSceneLacksAreRefusedWithTheName) {
   EXPECT_NE(s.error_of({{"Levitate", {"bowl"}}}).find("unknown predicate 'Levitate'"), std::string::npos);
 }
 
+TEST(Predicates, GoalTermsNameThePartAndTheIntervalTheSimulatorJudgesBy) {
+  const sim::SceneSpec scene = sim::load_scene(paths::config_dir() / "scenes" / "kitchen_goal.yaml");
+  const auto terms = sim::goal_terms(scene, {{"Open", {"cabinet_middle_region"}}, kBowlOnPlate, {"TurnOn", {"stove"}}});
+  ASSERT_EQ(terms.size(), 3u);
+  EXPECT_EQ(terms[0].part, "cabinet_middle_drawer");
+  // The interval the oracle uses: 0.15 m is open, 0.08 m is not (the test above).
+  EXPECT_LE(terms[0].lo, 0.15);
+  EXPECT_GE(terms[0].hi, 0.15);
+  EXPECT_GT(terms[0].lo, 0.08);
+  EXPECT_FALSE(terms[1].articulated());
+  EXPECT_EQ(terms[1].text(), "On(bowl, plate)");
+  EXPECT_EQ(terms[2].part, "stove_knob");
+  EXPECT_LE(terms[2].lo, 1.0);
+  EXPECT_GE(terms[2].hi, 1.0);
+  const auto error = [&](const std::vector<PredicateSpec>& goal) {
+    try {
+      sim::goal_terms(scene, goal);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error({{"Open", {"cabinet"}}}).find("'cabinet' has 3 articulated parts"), std::string::npos);
+  EXPECT_NE(error({{"Levitate", {"bowl"}}}).find("unknown predicate 'Levitate'"), std::string::npos);
+  EXPECT_NE(error({{"On", {"bowl"}}}).find("takes two arguments"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace dh

@@ -2,11 +2,13 @@
 #pragma once
 
 #include <map>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "dh/common/command.hpp"
+#include "dh/common/goal.hpp"
 #include "dh/common/observation.hpp"
 #include "dh/common/perceived_world.hpp"
 #include "dh/common/planner_errors.hpp"
@@ -36,6 +38,12 @@ msg::PerceptionLimits to_msg(const PerceptionLimits& l);
 
 PlannerErrorRates from_msg(const msg::PlannerErrorRates& m);
 msg::PlannerErrorRates to_msg(const PlannerErrorRates& r);
+std::vector<GoalTerm> from_msg(const std::vector<msg::GoalTerm>& m);
+std::vector<msg::GoalTerm> to_msg(const std::vector<GoalTerm>& goal);
+/// A verifier code this build does not know reads as none (the governor refuses the episode, naming it).
+std::optional<Verifier> from_msg(msg::Verifier v);
+msg::Verifier to_msg(Verifier v);
+
 /// An error code this build does not know reads as none: the advice is taken as the planner gave it.
 PlannerError from_msg(msg::PlannerError e);
 msg::PlannerError to_msg(PlannerError e);

@@ -121,12 +121,15 @@ SceneOut PerceptionCore::estimate(const FrameMeta& meta, Channel& ch,
 
 PerceptionEffects PerceptionCore::on_tick(Clock::time_point now) {
   PerceptionEffects fx;
-  for (auto& [id, ch] : channels_)
+  for (auto& [id, ch] : channels_) {
     if (!ch.pending.empty() && now - ch.asked_at >= settings_.frame_timeout) {
       fx.notes.push_back({Note::Level::Warn, "channel=" + std::to_string(id) + " frame " + ch.pending +
                                                  " not answered in time; asking again"});
       fx.asks.push_back(ask(id, ch, ch.last_step.value_or(0), now));
+    } else if (ch.pending.empty() && ch.last_step && now - ch.asked_at >= settings_.still_every) {
+      fx.asks.push_back(ask(id, ch, *ch.last_step, now));
     }
+  }
   return fx;
 }
 

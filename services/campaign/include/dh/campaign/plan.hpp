@@ -34,6 +34,7 @@ struct Plan {
   std::string rerun_rule;  ///< declared before the run, e.g. "none" or "infrastructure once"
   std::string library_version{};  ///< the capability library every episode runs (cap::library_version)
   std::string planner_errors{};   ///< the planner-error profile every episode runs under; empty: none
+  std::string verifier = "oracle";  ///< the verdict every episode ends on: oracle | perception
   bool operator==(const Plan&) const = default;
 };
 

@@ -34,6 +34,8 @@ struct EpisodeRequest {
   std::optional<std::string> grounding;
   std::optional<PerceptionLimits> perception;
   PlannerErrorRates planner_errors;  ///< the slow brain's injected errors (none by default)
+  std::vector<GoalTerm> goal;        ///< the task's goal, for the verdict from perception
+  std::optional<Verifier> verifier = Verifier::Oracle;  ///< none: a code this governor does not know
   /// Where its evidence goes; empty: runs/evidence/<episode>.jsonl (the in-process bus names its own).
   std::filesystem::path evidence;
 };

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "dh/common/evidence.hpp"
+#include "dh/common/goal.hpp"
 #include "dh/common/observation.hpp"
 #include "dh/common/perceived_world.hpp"
 #include "dh/common/planner_errors.hpp"
@@ -20,6 +21,7 @@
 #include "dh/common/seam_event.hpp"
 #include "dh/gov/decide.hpp"
 #include "dh/gov/grounding.hpp"
+#include "dh/gov/perceived_verdict.hpp"
 #include "dh/gov/registry.hpp"
 #include "dh/gov/types.hpp"
 
@@ -44,6 +46,13 @@ struct GovernorConfig {
   /// Set: ground from the perception service's scene estimates (arm `grounding: perception`).
   std::optional<PerceptionLimits> perception;
   PerceptionLimits perception_limits;  ///< the `perception:` section, used by arms that ground from it
+  /// The verdict the episode latches and ends on; Perception needs perception grounding and a goal.
+  Verifier verifier = Verifier::Oracle;
+  /// Perceived frames in a row that must agree before the perceived verdict changes (`verdict_frames`).
+  std::uint32_t verdict_frames = 3;
+  /// With verifier perception, how long a plan's completion waits for the perceived verdict, which lags
+  /// the world by its frames (`verdict_wait_ms`).
+  std::chrono::milliseconds verdict_wait{3000};
 };
 
 struct EpisodeSpec {
@@ -62,6 +71,10 @@ struct EpisodeSpec {
   std::optional<PerceptionLimits> perception{};  ///< the limits with "perception"
   std::uint64_t error_seed = 0;                  ///< with planner_errors: their draws' (planner_error_seed)
   PlannerErrorRates planner_errors{};
+  /// The task's goal, resolved against the cell's description: what the perceived verdict evaluates.
+  std::vector<GoalTerm> goal{};
+  /// The request's verifier; none: a code this governor does not know (the episode is refused).
+  std::optional<Verifier> verifier = Verifier::Oracle;
 };
 
 struct PlanRequestOut {
@@ -167,7 +180,8 @@ class EpisodeMachine {
   EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, const Registry& registry, EvidenceWriter& evidence);
   /// AwaitingCapability: the bare arm's policy has not been announced to this governor yet.
   /// AwaitingPerception: grounding from perception waits for a fresh scene estimate.
-  enum class Phase { WaitingFirstObservation, Planning, AwaitingCapability, AwaitingPerception, Running, Ended };
+  /// Verifying: the plan is complete and the perceived verdict, which lags by its frames, is awaited.
+  enum class Phase { WaitingFirstObservation, Planning, AwaitingCapability, AwaitingPerception, Running, Ended, Verifying };
   Effects request_plan(const std::string& why, Clock::time_point now);
   Observation perceived_scene();  ///< the last observation as the planner may see it
   Effects ground_and_dispatch(const Advice& advice, Clock::time_point now);
@@ -216,6 +230,11 @@ class EpisodeMachine {
   Observation last_obs_;
   bool have_obs_ = false;
   std::optional<PerceivedWorld> world_;  ///< set under perception grounding
+  /// Under perception grounding with a goal: the goal judged on perceived frames (recorded whatever the
+  /// verifier; latched and ended on when the verifier is perception).
+  std::optional<PerceivedVerdict> perceived_;
+  /// The verdict the episode goes by now: the oracle's at the last observation, or the perceived one.
+  bool verdict_now() const;
   std::optional<Advice> awaiting_perception_;     ///< the step waiting for a fresh scene estimate
   Clock::time_point perception_wait_until_;
   VerdictLatch latch_;

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "dh/common/goal.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/sim/scene.hpp"
 
@@ -26,6 +27,11 @@ inline constexpr double kOnXyTolerance = 0.03;      ///< On(a, object): origin d
 inline constexpr double kRegionBelow = 0.005;       ///< On(a, region): below the surface allowed (m)
 inline constexpr double kRegionAbove = 0.10;        ///< On(a, region): above the surface allowed (m)
 inline constexpr double kInLowerSlack = 0.01;       ///< In(a, region): the box's floor lowered by (m)
+
+/// The goal's terms as the governor judges them from what it sees (dh/common/goal.hpp): an articulated
+/// term names its part's entity and the joint interval of its state. Throws std::invalid_argument naming
+/// the term, as GoalEvaluator does, for a part or state the scene lacks or an unknown predicate.
+std::vector<GoalTerm> goal_terms(const SceneSpec& scene, const std::vector<PredicateSpec>& goal);
 
 class GoalEvaluator {
  public:

@@ -26,6 +26,10 @@ struct CoreSettings {
   std::string camera = "workcell";  ///< the camera frames are asked of
   unsigned every_steps = 10;        ///< a frame every N control steps (and at step 0)
   std::chrono::milliseconds frame_timeout{2000};
+  /// While the robot stands still (no step for this long since the last frame was asked), the camera keeps
+  /// looking: another frame of the same step is asked. The verdict from perception needs frames after the
+  /// hand has left the object.
+  std::chrono::milliseconds still_every{250};
 };
 
 /// The objects an episode of `suite` task `task` is to look for (what its scene names); throws with the
@@ -82,7 +86,8 @@ class PerceptionCore {
                                    Clock::time_point now);
   /// A frame from the camera topic; `pixels` makes it (a copy of megabytes) only when it answers a request.
   PerceptionEffects on_frame(const FrameMeta& meta, const std::function<RgbdFrame()>& pixels);
-  /// Asks again for frames unanswered for the timeout (the robot may be waiting for them).
+  /// Asks again for frames unanswered for the timeout (the robot may be waiting for them), and for another
+  /// frame of a robot that has stood still for `still_every`.
   PerceptionEffects on_tick(Clock::time_point now);
 
  private:

@@ -1,0 +1,54 @@
+// The task's verdict from what perception sees (issue 19): the goal's terms evaluated on the perceived
+// world, frame by frame, for a cell with no oracle. Pure logic, no DDS.
+//
+// Without the simulator's contacts, "touches" becomes "rests": an object counts as placed when its
+// perceived bottom lies within a band of the support's top and the jaw does not hold it. The bands are
+// declared below, chosen from perception's accuracy (its boxes' bottoms are within about 1 cm), not fitted
+// to any block of episodes.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "dh/common/goal.hpp"
+#include "dh/common/observation.hpp"
+
+namespace dh::gov {
+
+inline constexpr double kPerceivedOnXy = 0.03;      ///< On(a, object): bottom centres within (m), as the oracle's
+inline constexpr double kPerceivedRestBelow = 0.02; ///< a rests on a surface: its bottom at most this below it (m)
+inline constexpr double kPerceivedRestAbove = 0.03; ///< ... and at most this above it (m)
+inline constexpr double kPerceivedInFloor = 0.02;   ///< In(a, region): the region's floor lowered by (m)
+
+/// Whether `term` holds in `seen` (an observation as perception sees it). An entity the view lacks (never
+/// seen) makes its term false.
+bool term_holds(const GoalTerm& term, const Observation& seen);
+
+/// The goal's verdict from consecutive perceived frames: the verdict changes only when `frames` frames in a
+/// row agree on the other value, so one false frame cannot latch success (nor lose it).
+class PerceivedVerdict {
+ public:
+  PerceivedVerdict(std::vector<GoalTerm> goal, std::uint32_t frames);
+
+  struct Change {
+    std::uint32_t step = 0;  ///< the frame that made the run `frames` long
+    bool value = false;
+  };
+  /// One frame's view at control step `step`; an older frame is ignored. Frames of one step count one by
+  /// one: while the robot stands still the camera keeps looking (the perception service's idle frames).
+  std::optional<Change> on_frame(std::uint32_t step, const Observation& seen);
+
+  bool value() const { return value_; }
+  const std::vector<GoalTerm>& goal() const { return goal_; }
+
+ private:
+  std::vector<GoalTerm> goal_;
+  std::uint32_t frames_;
+  bool value_ = false;
+  std::uint32_t run_ = 0;  ///< frames in a row that disagree with value_
+  std::optional<std::uint32_t> last_step_;
+};
+
+}  // namespace dh::gov
