@@ -46,13 +46,7 @@ void PerceivedWorld::on_estimate(const SceneEstimate& e) {
   }
 }
 
-std::optional<Unperceived> PerceivedWorld::view(Observation& obs, const std::vector<std::string>& needed) {
-  if (!latest_) return Unperceived{"no scene estimate from the perception service for this episode", true};
-  if (obs.step > latest_->step + limits_.max_age_steps)
-    return Unperceived{"the latest scene estimate is from step " + std::to_string(latest_->step) + ", " +
-                           std::to_string(obs.step - latest_->step) + " steps old (limit " +
-                           std::to_string(limits_.max_age_steps) + ")",
-                       true};
+void PerceivedWorld::track(const Observation& obs) {
   tool_ = obs.ee_p;
   // The hand: what the jaw let go stays where it was let go; what it closed on moves with the tool.
   if (held_ && !obs.holding()) {
@@ -79,6 +73,16 @@ std::optional<Unperceived> PerceivedWorld::view(Observation& obs, const std::vec
                       std::min(o.p[2] - obs.ee_p[2], -0.005)};  // and above its bottom
     }
   }
+}
+
+std::optional<Unperceived> PerceivedWorld::view(Observation& obs, const std::vector<std::string>& needed) {
+  if (!latest_) return Unperceived{"no scene estimate from the perception service for this episode", true};
+  if (obs.step > latest_->step + limits_.max_age_steps)
+    return Unperceived{"the latest scene estimate is from step " + std::to_string(latest_->step) + ", " +
+                           std::to_string(obs.step - latest_->step) + " steps old (limit " +
+                           std::to_string(limits_.max_age_steps) + ")",
+                       true};
+  track(obs);
   const auto looked_for = [&](const std::string& name) {
     return std::find(latest_->looked_for.begin(), latest_->looked_for.end(), name) != latest_->looked_for.end();
   };

@@ -71,7 +71,7 @@ TEST(PerceptionE2E, TheVerdictFromPerceptionEndsTheEpisodeAndTheOraclesIsRecorde
                     paths::bin_dir(), env.runs / "logs");
   const std::string dh = (paths::bin_dir() / "dh").string();
   auto [out, status] = itest::run_command(
-      dh + " run --suite goal --task 8 --seed 4 --arm full-perception --verifier perception --json --ready-timeout-ms 20000");
+      dh + " run --suite goal --task 1 --seed 4 --arm full-perception --verifier perception --json --ready-timeout-ms 20000");
   ASSERT_EQ(status, 0) << out;
   const auto j = nlohmann::json::parse(out);
   EXPECT_TRUE(j["success"].get<bool>()) << j.dump();

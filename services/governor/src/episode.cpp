@@ -52,6 +52,7 @@ nlohmann::json EpisodeMachine::obs_summary(const Observation& o) const {
 Effects EpisodeMachine::on_observation(Observation obs, Clock::time_point now) {
   arrived_ = std::chrono::steady_clock::now();
   if (phase_ == Phase::Ended) return {};
+  if (world_) world_->track(obs);
   if (config_.verifier == Verifier::Oracle) latch_.record(obs.step, obs.goal_holds);
   // Swapped, not copied: the previous observation's entities are freed with `obs`, after the decision.
   std::swap(last_obs_, obs);

@@ -130,6 +130,23 @@ TEST(PerceivedWorld, AHeldObjectMovesWithTheToolAndStaysWhereItIsLetGo) {
   expect_at(obs, "bowl", {0.001, 0.151, 0.007});
 }
 
+// The hand is tracked at every step: an object let go between two views stays where it was let go, not
+// where the retreating tool is at the next view.
+TEST(PerceivedWorld, AReleaseBetweenViewsIsPlacedAtTheStepItHappened) {
+  PerceivedWorld w{PerceptionLimits{}};
+  w.on_estimate(estimate(0));
+  w.track(holding_at(10, {0.01, -0.14, 0.05}));  // taken at the grasp
+  w.track(holding_at(20, {0, 0.15, 0.06}));      // carried over the plate
+  Observation released = test::scene_observation(21);
+  released.ee_p = {0, 0.15, 0.06};
+  w.track(released);                             // let go there
+  w.on_estimate(without_bowl(25));               // a frame that does not see it
+  Observation retreated = test::scene_observation(30);
+  retreated.ee_p = {0, 0.15, 0.16};              // the tool 10 cm higher at the next view
+  EXPECT_FALSE(w.view(retreated, {"bowl"}));
+  expect_at(retreated, "bowl", {0, 0.15, 0.012});
+}
+
 TEST(PerceivedWorld, FramesTakenWhileTheHandIsOverAnObjectDoNotMoveIt) {
   PerceivedWorld w{PerceptionLimits{}};
   w.on_estimate(estimate(0));

@@ -30,6 +30,7 @@
 #include "dh/rtde/cell_entities.hpp"
 #include "dh/rtde/rtde_cell.hpp"
 #include "dh/sim/seam_core.hpp"
+#include "dh/sim/seam_messages.hpp"
 
 namespace dh {
 namespace {
@@ -142,11 +143,8 @@ class AdapterBinding {
     publish(ctx, fx);
   }
   void on(const dds::Sample<port::Lease>& s, Context& ctx) {
-    const msg::Lease& l = s.msg;
-    if (l.channel() != channel_) return;
-    publish(ctx, core_->on_lease({l.episode_id(), l.command_id(), l.valid_until_step(), l.budget_until_step(),
-                                  l.revoked()},
-                                 Clock::now()));
+    if (s.msg.channel() != channel_) return;
+    publish(ctx, core_->on_lease(sim::from_msg(s.msg), Clock::now()));
   }
   void on(const dds::DeadlineMissed<port::Lease>&, Context& ctx) {
     if (core_->on_lease_silent(Clock::now()))
@@ -154,11 +152,8 @@ class AdapterBinding {
                    channel_, dds::kLeaseDeadlineSec);
   }
   void on(const dds::Sample<port::Action>& s, Context& ctx) {
-    const msg::Action& a = s.msg;
-    if (a.channel() != channel_) return;
-    sim::ActionIn in{a.episode_id(), a.command_id(), a.step(), {}};
-    std::copy_n(a.a().begin(), 7, in.a.begin());
-    publish(ctx, core_->on_action(in, Clock::now()));
+    if (s.msg.channel() != channel_) return;
+    publish(ctx, core_->on_action(sim::from_msg(s.msg), Clock::now()));
   }
   void on(const dds::Sample<port::EpisodeResult>& s, Context& ctx) {
     const msg::EpisodeResult& r = s.msg;
@@ -184,14 +179,7 @@ class AdapterBinding {
 
   void publish(Context& ctx, const sim::SeamEffects& fx) {
     for (const auto& e : fx.events) {
-      msg::SeamEvent m;
-      m.channel(channel_);
-      m.episode_id(e.episode_id.empty() ? core_->episode_id() : e.episode_id);
-      m.step(e.step);
-      m.command_id(e.command_id);
-      m.kind(static_cast<msg::SeamEventKind>(e.kind));
-      m.reason(e.reason);
-      ctx.write<port::SeamEvent>(m);
+      ctx.write<port::SeamEvent>(sim::to_msg(e, channel_, core_->episode_id()));
       ctx.log.info("channel={} step={} {}", channel_, e.step, e.reason);
     }
     if (fx.observation)

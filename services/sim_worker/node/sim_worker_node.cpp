@@ -51,6 +51,7 @@
 #include "dh/sim/camera.hpp"
 #include "dh/sim/rgbd.hpp"
 #include "dh/sim/seam_core.hpp"
+#include "dh/sim/seam_messages.hpp"
 #include "dh/sim/workcell.hpp"
 #include "dh/sim/workcell_cache.hpp"
 #include "dh/sim/worker_ports.hpp"
@@ -128,15 +129,11 @@ class WorkerBinding {
   void refuse_unknown(Context& ctx, std::uint32_t ch, const std::string& episode, std::uint32_t step,
                       const std::string& command, const char* what) {
     if (known_.count(ch)) return;
-    msg::SeamEvent e;
-    e.channel(ch);
-    e.episode_id(episode);
-    e.step(step);
-    e.command_id(command);
-    e.kind(msg::SEAM_REJECTED_CHANNEL);
-    e.reason(std::string(what) + " for channel " + std::to_string(ch) + ", which no simulator worker serves");
-    ctx.write<port::SeamEvent>(e);
-    ctx.log.warn("worker={} rejected: {}", name_, e.reason());
+    const SeamEvent e{step, command, SeamEventKind::RejectedChannel,
+                      std::string(what) + " for channel " + std::to_string(ch) + ", which no simulator worker serves",
+                      episode};
+    ctx.write<port::SeamEvent>(sim::to_msg(e, ch, episode));
+    ctx.log.warn("worker={} rejected: {}", name_, e.reason);
   }
 
   unsigned channels_ = 1, first_ = 0, grace_ms_ = 1000, abandon_after_s_ = 60;
@@ -190,9 +187,7 @@ class Channel {
     publish_rgbd(s.msg.camera(), s.msg.request_id());
   }
   void on(const dds::Sample<port::Lease>& s, Context&) {
-    const msg::Lease& l = s.msg;
-    publish(core_.on_lease({l.episode_id(), l.command_id(), l.valid_until_step(), l.budget_until_step(), l.revoked()},
-                           Clock::now()));
+    publish(core_.on_lease(sim::from_msg(s.msg), Clock::now()));
   }
   // The deadline event names no channel we can use (every lane gets it), so the core checks its own lease's age.
   void on(const dds::DeadlineMissed<port::Lease>&, Context&) {
@@ -201,10 +196,7 @@ class Channel {
                 dds::kLeaseDeadlineSec);
   }
   void on(const dds::Sample<port::Action>& s, Context&) {
-    const msg::Action& a = s.msg;
-    sim::ActionIn in{a.episode_id(), a.command_id(), a.step(), {}};
-    std::copy_n(a.a().begin(), 7, in.a.begin());
-    publish(core_.on_action(in, Clock::now()));
+    publish(core_.on_action(sim::from_msg(s.msg), Clock::now()));
   }
   void on(const dds::Sample<port::EpisodeResult>& s, Context&) {
     const msg::EpisodeResult& r = s.msg;
@@ -297,8 +289,7 @@ class Channel {
   /// Carries the core's effects out: refusals and corrections, the verdict, images, then the observation.
   void publish(const sim::SeamEffects& fx) {
     for (const auto& e : fx.events) {
-      seam_event(e.episode_id.empty() ? core_.episode_id() : e.episode_id, e.step, e.command_id,
-                 static_cast<msg::SeamEventKind>(e.kind), e.reason);
+      ctx_.write<port::SeamEvent>(sim::to_msg(e, id_, core_.episode_id()));
       if (e.kind != SeamEventKind::SafetyHold && e.kind != SeamEventKind::WorkspaceClamp &&
           e.kind != SeamEventKind::ActionClamped && e.kind != SeamEventKind::SpeedLimited)
         log_.info("channel={} step={} action refused: {}", id_, e.step, e.reason);
@@ -442,18 +433,6 @@ class Channel {
                   core_.step(), std::chrono::duration<double, std::milli>(t1 - t0).count(),
                   std::chrono::duration<double, std::milli>(t2 - t1).count());
     }
-  }
-
-  void seam_event(const std::string& episode, std::uint32_t step, const std::string& command, msg::SeamEventKind kind,
-                  const std::string& why) {
-    msg::SeamEvent e;
-    e.channel(id_);
-    e.episode_id(episode);
-    e.step(step);
-    e.command_id(command);
-    e.kind(kind);
-    e.reason(why);
-    ctx_.write<port::SeamEvent>(e);
   }
 
   std::uint32_t id_;

@@ -67,6 +67,12 @@ class PerceivedWorld {
   /// The latest frame's estimates, if any came.
   const std::optional<SceneEstimate>& latest() const { return latest_; }
 
+  /// The hand at one control step: the object the closed jaw takes moves with the tool from that step,
+  /// and what it lets go stays where it was let go. Call it with every observation: the hand is tracked
+  /// step by step, not only when a view is asked for (then an object let go before the view would be
+  /// placed where the retreating tool is). view() tracks its observation too.
+  void track(const Observation& obs);
+
   /// Rewrites `obs` as perception sees it: each entity the service looks for takes its perceived place,
   /// size and yaw (upright: no tilt is estimated), or leaves the scene when no frame of the episode saw it.
   /// Returns why it cannot — no estimate, a stale one, or an entity of `needed` never seen — or nullopt.
@@ -82,7 +88,7 @@ class PerceivedWorld {
   std::map<std::string, Seen> seen_;
   std::optional<std::string> held_;          ///< the object moving with the tool
   std::array<double, 3> held_offset_{};      ///< its bottom centre relative to the tool
-  std::optional<std::array<double, 3>> tool_;  ///< the tool's position at the latest view
+  std::optional<std::array<double, 3>> tool_;  ///< the tool's position at the latest observation tracked
 };
 
 }  // namespace dh
