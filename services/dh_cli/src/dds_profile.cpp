@@ -1,5 +1,7 @@
 #include "dh/cli/dds_profile.hpp"
 
+#include <unistd.h>
+
 #include <fstream>
 #include <stdexcept>
 
@@ -104,9 +106,15 @@ namespace {
 std::filesystem::path write_file(const std::filesystem::path& dir, const std::string& name, const std::string& text) {
   std::filesystem::create_directories(dir);
   const auto path = dir / name;
-  std::ofstream out(path);
-  out << text;
-  if (!out.flush()) throw std::runtime_error("cannot write the DDS profile " + path.string());
+  // Written aside and renamed into place: another dh process of the same host (dh view beside a
+  // campaign) may be loading this profile at the same moment, and must never read it half written.
+  const auto part = dir / (name + ".part." + std::to_string(::getpid()));
+  {
+    std::ofstream out(part);
+    out << text;
+    if (!out.flush()) throw std::runtime_error("cannot write the DDS profile " + part.string());
+  }
+  std::filesystem::rename(part, path);
   return path;
 }
 }  // namespace

@@ -201,8 +201,8 @@ struct Execution {
 
 // The verdict from perception against the oracle (the simulator's, LIBERO's rule: the goal held at some
 // step), per goal predicate: false success is the perceived verdict latched true where the goal never
-// held; false failure is the goal held at some step with the perceived verdict never latched. An episode counts under each
-// predicate its goal names.
+// held; false failure is the goal held at some step with the perceived verdict never latched. An episode
+// counts under each predicate its goal names.
 struct VerdictAgreement {
   std::set<std::string> verifiers;
   struct Counts {
