@@ -109,7 +109,7 @@ void overview(const json& s, Document& doc) {
     std::string verifiers;
     for (const json& name : a["verifiers"]) verifiers += (verifiers.empty() ? "" : " and ") + name.get<std::string>();
     sources_of_verdict += (sources_of_verdict.empty() ? "" : "; ") + a["arm"].get<std::string>() + ": " +
-                          (verifiers.empty() ? kNone : verifiers);
+                          (verifiers.empty() ? "unknown (no evidence read)" : verifiers);
     const auto pct = [](const json& r) { return r["rate"].is_null() ? kNone : fixed(100.0 * r["rate"].get<double>(), 1); };
     const auto ci = [](const json& r) {
       return r["rate"].is_null() ? kNone

@@ -103,7 +103,8 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
       if (state == "refused") ++episode.refusals;
     }
     if (kind == "episode_start") {
-      if (const auto v = text(r, "verifier"); !v.empty()) trace.verifier = v;
+      const auto v = text(r, "verifier");
+      trace.verifier = v.empty() ? "oracle" : v;
       if (const auto g = r.find("goal"); g != r.end() && g->is_array())
         for (const auto& term : *g)
           if (term.is_string()) trace.predicates.push_back(term.get<std::string>().substr(0, term.get<std::string>().find('(')));

@@ -38,7 +38,9 @@ struct EpisodeTrace {
   long end_step = -1;            ///< the episode_end record's step; -1 when there is none
   long last_progress_step = 0;   ///< the last step a command's progress rose, or a command completed
   unsigned long policy_steps = 0;  ///< control steps under vla_act
-  std::string verifier = "oracle";  ///< the verdict the episode ended on (its episode_start record)
+  /// The verdict the episode ended on (its episode_start record; "oracle" in evidence from before the
+  /// verifier was recorded); empty when the evidence was not read.
+  std::string verifier;
   std::vector<std::string> predicates;  ///< the goal's predicate names (On, In, Open, ...), as recorded
   /// The goal judged on perceived frames latched true at some step; unset: no perceived verdict was kept
   /// (an arm that grounds from the robot's state, or evidence from before the verdict from perception).

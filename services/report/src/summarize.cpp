@@ -210,7 +210,7 @@ struct VerdictAgreement {
   };
   std::map<std::string, Counts> by_predicate;  // "all" too
   void add(const EpisodeRecord& r, const EpisodeTrace& t) {
-    verifiers.insert(t.verifier);
+    if (!t.verifier.empty()) verifiers.insert(t.verifier);
     if (!t.perceived || !r.sim_success || r.infrastructure) return;
     auto count = [&](Counts& c) {
       ++c.episodes;

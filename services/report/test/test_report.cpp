@@ -417,6 +417,11 @@ TEST(Summarize, TheVerdictFromPerceptionIsComparedWithTheSimulatorsPerPredicate)
                     "full-perception: perception."),
             std::string::npos) << md;
   EXPECT_NE(md.find("| full-perception | all | 4 | 2 | 2 | 50.0 (1/2) |"), std::string::npos) << md;
+  // Rows whose evidence was not kept say nothing of their verifier.
+  EpisodeRecord unread = row("full", "goal", 1, 0, true, 10);
+  unread.evidence_path = (dir.path() / "not_kept.jsonl").string();
+  const std::string without = read(render({{"q.db", {unread}}}, options(dir.path())).markdown);
+  EXPECT_NE(without.find("full: unknown (no evidence read)."), std::string::npos) << without;
 }
 
 TEST(Summarize, FailuresByLayerPerArmAndCellWithTheHarnessShare) {
