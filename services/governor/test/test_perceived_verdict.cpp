@@ -44,9 +44,9 @@ Observation view(std::array<double, 3> bowl, double drawer = 0) {
   return o;
 }
 
-const GoalTerm kOnPlate{"On", {"bowl", "plate"}};
-const GoalTerm kOnStove{"On", {"bowl", "stove_cook_region"}};
-const GoalTerm kInDrawer{"In", {"bowl", "cabinet_top_region"}};
+const GoalTerm kOnPlate{"On", {"bowl", "plate"}, "", 0, 0};
+const GoalTerm kOnStove{"On", {"bowl", "stove_cook_region"}, "", 0, 0};
+const GoalTerm kInDrawer{"In", {"bowl", "cabinet_top_region"}, "", 0, 0};
 const GoalTerm kDrawerOpen{"Open", {"cabinet_top_region"}, "cabinet_top_drawer", 0.14, 0.2};
 
 TEST(TermHolds, OnAnObjectIsOverItAndRestingOnOrInIt) {

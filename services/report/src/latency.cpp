@@ -107,7 +107,10 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
       trace.verifier = v.empty() ? "oracle" : v;
       if (const auto g = r.find("goal"); g != r.end() && g->is_array())
         for (const auto& term : *g)
-          if (term.is_string()) trace.predicates.push_back(term.get<std::string>().substr(0, term.get<std::string>().find('(')));
+          if (term.is_string()) {
+            const auto& text = term.get_ref<const std::string&>();
+            trace.predicates.push_back(text.substr(0, text.find('(')));
+          }
     } else if (kind == "perceived_verdict" && r.value("value", false)) {
       trace.perceived = true;
     } else if (kind == "perceived_verdict_end" && !trace.perceived) {

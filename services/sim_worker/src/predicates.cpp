@@ -42,6 +42,22 @@ std::string state_of(const std::string& predicate) {
   return "";
 }
 
+/// The part an articulated term names and the joint interval of its state; throws naming the term.
+struct StateRef {
+  PartRef ref;
+  std::array<double, 2> interval{};
+};
+
+StateRef find_state(const SceneSpec& scene, const PredicateSpec& p, const std::string& state) {
+  if (p.args.size() != 1) throw std::invalid_argument(p.text() + ": " + p.name + " takes one argument");
+  const PartRef ref = find_part(scene, p.args[0], p.text());
+  const auto it = ref.part->joint.states.find(state);
+  if (it == ref.part->joint.states.end())
+    throw std::invalid_argument(p.text() + ": part '" + ref.part->name + "' of '" + ref.entity->name +
+                                "' declares no '" + state + "' state");
+  return {ref, it->second};
+}
+
 }  // namespace
 
 std::vector<GoalTerm> goal_terms(const SceneSpec& scene, const std::vector<PredicateSpec>& goal) {
@@ -50,15 +66,10 @@ std::vector<GoalTerm> goal_terms(const SceneSpec& scene, const std::vector<Predi
     GoalTerm t{p.name, p.args, "", 0, 0};
     const std::string state = state_of(p.name);
     if (!state.empty()) {
-      if (p.args.size() != 1) throw std::invalid_argument(p.text() + ": " + p.name + " takes one argument");
-      const PartRef ref = find_part(scene, p.args[0], p.text());
-      const auto it = ref.part->joint.states.find(state);
-      if (it == ref.part->joint.states.end())
-        throw std::invalid_argument(p.text() + ": part '" + ref.part->name + "' of '" + ref.entity->name +
-                                    "' declares no '" + state + "' state");
-      t.part = part_body(ref.entity->name, ref.part->name);
-      t.lo = it->second[0];
-      t.hi = it->second[1];
+      const StateRef s = find_state(scene, p, state);
+      t.part = part_body(s.ref.entity->name, s.ref.part->name);
+      t.lo = s.interval[0];
+      t.hi = s.interval[1];
     } else if (p.name != "On" && p.name != "In") {
       throw std::invalid_argument(p.text() + ": unknown predicate '" + p.name + "' (On, In, Open, Close, TurnOn, TurnOff)");
     } else if (p.args.size() != 2) {
@@ -99,18 +110,13 @@ GoalEvaluator::GoalEvaluator(const mjModel_* m, const SceneSpec& scene, const st
                                     " named '" + p.args[1] + "' in scene " + scene.name);
       }
     } else if (!state.empty()) {
-      if (p.args.size() != 1) throw std::invalid_argument(term + ": " + p.name + " takes one argument");
-      const PartRef ref = find_part(scene, p.args[0], term);
-      const auto it = ref.part->joint.states.find(state);
-      if (it == ref.part->joint.states.end())
-        throw std::invalid_argument(term + ": part '" + ref.part->name + "' of '" + ref.entity->name +
-                                    "' declares no '" + state + "' state");
-      const int j = mj_name2id(m, mjOBJ_JOINT, part_joint(ref.entity->name, ref.part->name).c_str());
+      const StateRef s = find_state(scene, p, state);
+      const int j = mj_name2id(m, mjOBJ_JOINT, part_joint(s.ref.entity->name, s.ref.part->name).c_str());
       if (j < 0) throw std::invalid_argument(term + ": the model has no joint for '" + p.args[0] + "'");
       t.kind = Term::JointState;
       t.qpos = m->jnt_qposadr[j];
-      t.lo = it->second[0];
-      t.hi = it->second[1];
+      t.lo = s.interval[0];
+      t.hi = s.interval[1];
     } else {
       throw std::invalid_argument(term + ": unknown predicate '" + p.name +
                                   "' (On, In, Open, Close, TurnOn, TurnOff)");

@@ -41,7 +41,6 @@ class PerceivedVerdict {
   std::optional<Change> on_frame(std::uint32_t step, const Observation& seen);
 
   bool value() const { return value_; }
-  const std::vector<GoalTerm>& goal() const { return goal_; }
 
  private:
   std::vector<GoalTerm> goal_;
