@@ -16,7 +16,8 @@ void Scheduler::channel_status(std::uint32_t channel, const std::string& worker,
     conflict_ = "channel " + std::to_string(channel) + " is announced by two workers, '" + c.worker + "' and '" +
                 worker + "'; give each worker its own --first-channel range";
   c.worker = worker;
-  c.idle = idle;
+  c.idle = c.announced_idle = idle;
+  c.lost = false;
   if (!last_episode.empty()) {
     // A channel that could not run the episode has no verdict on it (its loss is recorded without one).
     reports_[last_episode] = {last_physics_s, last_error.empty() ? std::optional(verdict) : std::nullopt};
@@ -122,6 +123,7 @@ void Scheduler::worker_lost(const std::string& worker, Clock::time_point now) {
     if (c.worker == worker) {
       c.idle = false;
       c.ours = false;
+      c.lost = true;
     }
   for (auto it = running_.begin(); it != running_.end();) {
     if (it->second.worker != worker) {
@@ -132,6 +134,14 @@ void Scheduler::worker_lost(const std::string& worker, Clock::time_point now) {
                                " (its announcements' liveliness lease expired: process dead or host cut off)";
     lose(it++, reason, now);
   }
+}
+
+void Scheduler::worker_back(const std::string& worker) {
+  for (auto& [id, c] : channels_)
+    if (c.worker == worker && c.lost) {
+      c.lost = false;
+      c.idle = c.announced_idle;
+    }
 }
 
 std::vector<EpisodeRecord> Scheduler::take_losses() {

@@ -228,6 +228,31 @@ TEST(Scheduler, ALostWorkerLosesWhatItsChannelsRanAtOnceAndTheyServeAgainOnlyAft
   EXPECT_EQ(again[0].channel, 11u);
 }
 
+// A worker starved of CPU loses liveliness and comes back without announcing anything new: its channel
+// that was idle serves again at once; the one that ran a lost episode waits until it says it is idle.
+TEST(Scheduler, AWorkerThatComesBackServesFromWhatItsChannelsLastAnnounced) {
+  auto s = make(4);
+  const auto t0 = Clock::now();
+  s.channel_status(11, "sim2", true, "", 0, "", t0);
+  const auto d = s.assign(t0);
+  ASSERT_EQ(d.size(), 1u);
+  s.channel_status(11, "sim2", false, "", 0, "", t0);
+  s.channel_status(12, "sim2", true, "", 0, "", t0);
+  s.worker_lost("sim2", t0 + 1s);
+  EXPECT_TRUE(s.assign(t0 + 1s).empty()) << "gone";
+  s.worker_back("sim2");
+  auto again = s.assign(t0 + 2s);
+  ASSERT_EQ(again.size(), 1u) << "channel 12 last said it was idle";
+  EXPECT_EQ(again[0].channel, 12u);
+  EXPECT_TRUE(s.assign(t0 + 2s).empty()) << "channel 11 last said it was running (the lost episode)";
+  s.channel_status(11, "sim2", true, d[0].episode_id, 0.1, "", t0 + 3s);
+  again = s.assign(t0 + 3s);
+  ASSERT_EQ(again.size(), 1u);
+  EXPECT_EQ(again[0].channel, 11u);
+  s.worker_back("sim2");
+  EXPECT_TRUE(s.assign(t0 + 3s).empty()) << "coming back twice frees nothing that is running";
+}
+
 TEST(Scheduler, UnderTheRerunRuleALostAttemptIsKeptAndTheEpisodeRunsAgainFirst) {
   auto s = make(3, 1);
   const auto t0 = Clock::now();

@@ -24,13 +24,13 @@ Client::Client(dds::Participant& p)
                    cv_.notify_all();
                  },
                  // A worker whose announcements stop being alive (process dead, host cut off) has lost
-                 // whatever its channels were running.
+                 // whatever its channels were running; one that was only starved comes back alive.
                  [this](const eprosima::fastdds::dds::LivelinessChangedStatus& st) {
-                   if (st.alive_count_change >= 0) return;
+                   if (st.alive_count_change == 0) return;
                    std::lock_guard l(m_);
                    const auto it = worker_of_writer_.find(st.last_publication_handle);
-                   if (it == worker_of_writer_.end()) return;
-                   news_.lost_workers.push_back(it->second);
+                   if (it == worker_of_writer_.end()) return;  // first discovery: its announcements follow
+                   (st.alive_count_change < 0 ? news_.lost_workers : news_.returned_workers).push_back(it->second);
                    cv_.notify_all();
                  },
                  {}}),

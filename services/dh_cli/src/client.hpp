@@ -40,6 +40,7 @@ class Client {
     std::vector<msg::ChannelStatus> channels;
     std::vector<msg::EpisodeResult> results;
     std::vector<std::string> lost_workers;  ///< workers whose channel announcements lost liveliness
+    std::vector<std::string> returned_workers;  ///< ... and whose announcements are alive again
   };
   News take_news();
 

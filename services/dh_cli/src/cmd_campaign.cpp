@@ -208,6 +208,7 @@ std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
       for (const auto& r : news.results)
         scheduler.result({r.episode_id(), r.success(), r.steps(), convert::from_msg(r.outcome()), r.reason(), r.evidence_path()}, now);
       for (const auto& w : news.lost_workers) scheduler.worker_lost(w, now);
+      for (const auto& w : news.returned_workers) scheduler.worker_back(w);
       if (!scheduler.conflict().empty()) throw std::runtime_error(scheduler.conflict());
       scheduler.expire(now);
       record_losses();

@@ -85,10 +85,14 @@ int cmd_view(const ViewArgs& a) {
                           view::Clock::now());
        },
        [&](const eprosima::fastdds::dds::LivelinessChangedStatus& st) {
-         if (st.alive_count_change >= 0) return;
+         if (st.alive_count_change == 0) return;
          std::lock_guard l(m);
-         if (const auto it = worker_of_writer.find(st.last_publication_handle); it != worker_of_writer.end())
+         const auto it = worker_of_writer.find(st.last_publication_handle);
+         if (it == worker_of_writer.end()) return;
+         if (st.alive_count_change < 0)
            board.on_worker_lost(it->second, view::Clock::now());
+         else
+           board.on_worker_back(it->second, view::Clock::now());
        },
        {}});
   dds::Reader<msg::EpisodeLivePubSubType> live(

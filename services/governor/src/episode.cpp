@@ -556,6 +556,30 @@ Effects EpisodeMachine::then(const Effects& first, Effects next) {
   return next;
 }
 
+nlohmann::json EpisodeMachine::perceived_verdict_end(std::uint32_t step) {
+  nlohmann::json out = {{"step", step}, {"value", perceived_->value()}, {"oracle", last_obs_.goal_holds}};
+  Observation seen = last_obs_;
+  if (const auto why = world_->view(seen, {})) {
+    out["unperceived"] = why->reason;
+    return out;
+  }
+  nlohmann::json terms = nlohmann::json::array();
+  const std::vector<TermCheck> checks = check_terms(spec_.goal, seen, last_obs_);
+  for (std::size_t i = 0; i < checks.size(); ++i) {
+    const TermCheck& c = checks[i];
+    // Where the subject is: an articulated part's joint, otherwise its bottom centre.
+    const auto where = [articulated = spec_.goal[i].articulated()](const EntityState* e) {
+      if (!e) return nlohmann::json(nullptr);
+      return articulated ? nlohmann::json(e->joint) : nlohmann::json{e->p[0], e->p[1], e->p[2]};
+    };
+    nlohmann::json t = {{"term", c.term}, {"perceived", c.perceived}, {"seen", where(c.seen)}};
+    if (c.on_true_poses) t.update({{"on_true_poses", *c.on_true_poses}, {"true", where(c.truth)}});
+    terms.push_back(std::move(t));
+  }
+  out["terms"] = std::move(terms);
+  return out;
+}
+
 Effects EpisodeMachine::end(bool success, Outcome outcome_in, const std::string& reason) {
   Effects fx = stop_command();
   Outcome outcome = outcome_in;
@@ -570,7 +594,7 @@ Effects EpisodeMachine::end(bool success, Outcome outcome_in, const std::string&
                    {{"step", e.steps}, {"success", success}, {"outcome", to_string(outcome)}, {"reason", reason},
                     {"latched", latch_.latched()}, {"verdict_step", latch_.event_step()},
                     {"decisions", decisions_}, {"refusals", refusals_total_}});
-  if (perceived_) evidence_.append("governor", "perceived_verdict_end", {{"step", e.steps}, {"value", perceived_->value()}, {"oracle", last_obs_.goal_holds}});
+  if (perceived_) evidence_.append("governor", "perceived_verdict_end", perceived_verdict_end(e.steps));
   fx.end = e;
   return fx;
 }

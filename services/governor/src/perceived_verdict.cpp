@@ -48,6 +48,19 @@ bool term_holds(const GoalTerm& term, const Observation& seen) {
   return holds_spatial(term, seen);
 }
 
+std::vector<TermCheck> check_terms(const std::vector<GoalTerm>& goal, const Observation& seen, const Observation& truth) {
+  std::vector<TermCheck> checks;
+  for (const GoalTerm& t : goal) {
+    TermCheck c{t.text(), t.articulated() ? t.part : t.args.empty() ? "" : t.args[0], term_holds(t, seen), std::nullopt,
+                nullptr, nullptr};
+    c.seen = seen.entity(c.subject);
+    c.truth = truth.entity(c.subject);
+    if (c.truth) c.on_true_poses = term_holds(t, truth);
+    checks.push_back(std::move(c));
+  }
+  return checks;
+}
+
 PerceivedVerdict::PerceivedVerdict(std::vector<GoalTerm> goal, std::uint32_t frames)
     : goal_(std::move(goal)), frames_(frames) {
   if (frames_ == 0) throw std::invalid_argument("a perceived verdict needs at least one frame in agreement");

@@ -86,6 +86,26 @@ TEST(TermHolds, AnObjectTheJawHoldsIsNotPlacedAndAnUnseenOneIsNowhere) {
   EXPECT_FALSE(term_holds(kOnPlate, unseen));
 }
 
+TEST(CheckTerms, EachTermIsJudgedAsPerceivedAndOnTheSimulatorsPosesWhereThereAreAny) {
+  const Observation seen = view({0.01, 0.15, 0.012}), truth = view({0.01, 0.15, 0.07}, 0.16);
+  const auto checks = check_terms({kOnPlate, kDrawerOpen}, seen, truth);
+  ASSERT_EQ(checks.size(), 2u);
+  EXPECT_EQ(checks[0].term, "On(bowl, plate)");
+  EXPECT_EQ(checks[0].subject, "bowl");
+  EXPECT_TRUE(checks[0].perceived);
+  EXPECT_EQ(checks[0].on_true_poses, false) << "7 cm above the plate's bottom in truth";
+  ASSERT_TRUE(checks[0].seen && checks[0].truth);
+  EXPECT_DOUBLE_EQ(checks[0].truth->p[2], 0.07);
+  EXPECT_EQ(checks[1].subject, "cabinet_top_drawer");
+  EXPECT_FALSE(checks[1].perceived);
+  EXPECT_EQ(checks[1].on_true_poses, true);
+  Observation cell = truth;  // a cell's observation carries no poses of its objects
+  cell.entities.clear();
+  const auto on_cell = check_terms({kOnPlate}, seen, cell);
+  EXPECT_FALSE(on_cell[0].on_true_poses.has_value());
+  EXPECT_EQ(on_cell[0].truth, nullptr);
+}
+
 TEST(PerceivedVerdictFilter, ChangesOnlyAfterKFramesAgreeAndIgnoresOldFrames) {
   PerceivedVerdict v({kOnPlate}, 3);
   const Observation on = view({0, 0.15, 0.012}), off = view({0, -0.15, 0});
@@ -181,6 +201,15 @@ TEST_F(PerceptionVerifier, TheSimulatorsVerdictIsRecordedButThePerceivedOneEndsT
   const auto end = records("perceived_verdict_end");
   ASSERT_EQ(end.size(), 1u);
   EXPECT_EQ(end[0]["value"], true);
+  // The end judges each term twice: the bowl is on the plate as perceived; the simulator's bowl, which
+  // this test never moved, is not.
+  ASSERT_EQ(end[0]["terms"].size(), 1u);
+  const auto& term = end[0]["terms"][0];
+  EXPECT_EQ(term["term"], "On(bowl, plate)");
+  EXPECT_EQ(term["perceived"], true);
+  EXPECT_EQ(term["on_true_poses"], false);
+  EXPECT_EQ(term["seen"], nlohmann::json({0, 0.15, 0.012}));
+  EXPECT_EQ(term["true"].size(), 3u);
 }
 
 struct OracleWithPerception : PerceptionVerifier {

@@ -103,7 +103,7 @@ void overview(const json& s, Document& doc) {
   // agrees with the simulator's.
   std::string sources_of_verdict;
   Table agreement{{"Arm", "Predicate", "Episodes", "Oracle true", "Perceived true", "False success (%)",
-                   "Wilson 95 % (%)", "False failure (%)", "Wilson 95 % (%)"},
+                   "Wilson 95 % (%)", "By cause", "False failure (%)", "Wilson 95 % (%)", "By cause"},
                   {}};
   for (const json& a : v["by_arm"]) {
     std::string verifiers;
@@ -115,22 +115,33 @@ void overview(const json& s, Document& doc) {
       return r["rate"].is_null() ? kNone
                                  : range(fixed(100.0 * r["wilson_lo"].get<double>(), 1), fixed(100.0 * r["wilson_hi"].get<double>(), 1));
     };
+    const auto causes = [](const json& c) {
+      std::string text;
+      for (const auto& [cause, k] : c.items()) text += (text.empty() ? "" : ", ") + cause + " " + count(k);
+      return text.empty() ? kNone : text;
+    };
     for (const json& p : a["predicates"])
       agreement.rows.push_back({a["arm"].get<std::string>(), p["predicate"].get<std::string>(), count(p["episodes"]),
                                 count(p["oracle_true"]), count(p["perceived_true"]),
                                 pct(p["false_success"]) + " (" + count(p["false_success"]["k"]) + "/" + count(p["false_success"]["n"]) + ")",
-                                ci(p["false_success"]),
+                                ci(p["false_success"]), causes(p["false_success_causes"]),
                                 pct(p["false_failure"]) + " (" + count(p["false_failure"]["k"]) + "/" + count(p["false_failure"]["n"]) + ")",
-                                ci(p["false_failure"])});
+                                ci(p["false_failure"]), causes(p["false_failure_causes"])});
   }
   doc.push_back(Paragraph{"The verdict each arm's episodes ended on (oracle: the simulator's; perception: the goal "
                           "judged on perceived frames): " + (sources_of_verdict.empty() ? kNone : sources_of_verdict) + "."});
   if (!agreement.rows.empty()) {
-    doc.push_back(Paragraph{"The verdict from perception against the simulator's, per goal predicate (an episode "
-                            "counts under each predicate its goal names). False success: the perceived verdict "
+    doc.push_back(Paragraph{"The verdict from perception against the simulator's, over the episodes that ended on "
+                            "it (under the oracle an episode ends before its perceived frames can follow), per "
+                            "goal predicate (an episode counts under each predicate its goal names). False success: the perceived verdict "
                             "latched true where the goal never held (of those episodes). False failure: the goal held at some step and the perceived verdict "
-                            "never latched (of the episodes where it held). Articulated parts' joints are the "
-                            "cell's reported values, not perceived."});
+                            "never latched (of the episodes where it held). Their causes, from the goal's terms judged "
+                            "at the end both as perceived and on the simulator's own poses: lost (a false failure "
+                            "whose goal no longer held at the end), band (on the simulator's poses the perceived "
+                            "verdict's bands say what perception said: they disagree with the simulator's "
+                            "contacts), perception (on those poses the bands agree with the simulator: the "
+                            "perceived poses were wrong, or there was no view at the end), unknown (the evidence "
+                            "does not say). Articulated parts' joints are the cell's reported values, not perceived."});
     doc.push_back(std::move(agreement));
   }
   const json& e = s["evidence"];

@@ -21,6 +21,20 @@ bool has_number(const nlohmann::json& record, const char* key) {
   return it != record.end() && it->is_number();
 }
 
+void read_verdict_end(const nlohmann::json& end, EpisodeTrace& trace) {
+  if (const auto o = end.find("oracle"); o != end.end() && o->is_boolean()) trace.oracle_at_end = o->get<bool>();
+  trace.unperceived_at_end = end.contains("unperceived");
+  const auto terms = end.find("terms");
+  if (terms == end.end() || !terms->is_array()) return;
+  bool all = true;
+  for (const auto& t : *terms) {
+    const auto v = t.find("on_true_poses");
+    if (v == t.end() || !v->is_boolean()) return;
+    all = all && v->get<bool>();
+  }
+  trace.terms_hold_on_true_poses = all;
+}
+
 }  // namespace
 
 void Latencies::merge(const Latencies& other) {
@@ -113,8 +127,9 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
           }
     } else if (kind == "perceived_verdict" && r.value("value", false)) {
       trace.perceived = true;
-    } else if (kind == "perceived_verdict_end" && !trace.perceived) {
-      trace.perceived = false;
+    } else if (kind == "perceived_verdict_end") {
+      if (!trace.perceived) trace.perceived = false;
+      read_verdict_end(r, trace);
     }
     if (kind == to_string(SeamEventKind::SafetyHold)) ++holds;
     if (kind == to_string(SeamEventKind::SpeedLimited)) ++episode.speed_limited;

@@ -45,6 +45,11 @@ struct EpisodeTrace {
   /// The goal judged on perceived frames latched true at some step; unset: no perceived verdict was kept
   /// (an arm that grounds from the robot's state, or evidence from before the verdict from perception).
   std::optional<bool> perceived;
+  /// From the perceived_verdict_end record, to put a disagreement down to its cause: the oracle at the
+  /// end; whether every goal term holds on the simulator's own poses under the perceived verdict's bands
+  /// (unset when the record does not say: older evidence, a cell, no view at the end); no view at the end.
+  std::optional<bool> oracle_at_end, terms_hold_on_true_poses;
+  bool unperceived_at_end = false;
 };
 
 enum class EvidenceStatus { Read, Missing, NotRecorded };

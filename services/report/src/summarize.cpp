@@ -207,17 +207,36 @@ struct VerdictAgreement {
   std::set<std::string> verifiers;
   struct Counts {
     unsigned episodes = 0, oracle_true = 0, perceived_true = 0, false_success = 0, false_failure = 0;
+    std::map<std::string, unsigned> false_success_causes, false_failure_causes;  // by cause(), below
   };
+  // What a disagreement comes from, judged at the end: "lost" (a false failure whose goal no longer
+  // held), "band" (the bands judge the simulator's own poses as the perceived verdict did: they disagree
+  // with its contacts), "perception" (on those poses the bands agree with the oracle, so the perceived
+  // poses were wrong; or there was no view at the end), "unknown" (the evidence does not say).
+  static std::string cause(const EpisodeTrace& t, bool perceived) {
+    if (!perceived && t.oracle_at_end == false) return "lost";
+    if (t.unperceived_at_end) return perceived ? "unknown" : "perception";
+    if (!t.terms_hold_on_true_poses) return "unknown";
+    return *t.terms_hold_on_true_poses == perceived ? "band" : "perception";
+  }
   std::map<std::string, Counts> by_predicate;  // "all" too
   void add(const EpisodeRecord& r, const EpisodeTrace& t) {
     if (!t.verifier.empty()) verifiers.insert(t.verifier);
-    if (!t.perceived || !r.sim_success || r.infrastructure) return;
+    // Under the oracle an episode ends at the simulator's verdict, before k perceived frames can follow it:
+    // only episodes that ended on the perceived verdict compare the two.
+    if (t.verifier != "perception" || !t.perceived || !r.sim_success || r.infrastructure) return;
     auto count = [&](Counts& c) {
       ++c.episodes;
       c.oracle_true += *r.sim_success;
       c.perceived_true += *t.perceived;
-      c.false_success += *t.perceived && !*r.sim_success;
-      c.false_failure += !*t.perceived && *r.sim_success;
+      if (*t.perceived && !*r.sim_success) {
+        ++c.false_success;
+        ++c.false_success_causes[cause(t, true)];
+      }
+      if (!*t.perceived && *r.sim_success) {
+        ++c.false_failure;
+        ++c.false_failure_causes[cause(t, false)];
+      }
     };
     count(by_predicate["all"]);
     for (const auto& p : std::set<std::string>(t.predicates.begin(), t.predicates.end())) count(by_predicate[p]);
@@ -233,7 +252,9 @@ struct VerdictAgreement {
       };
       rows.push_back({{"predicate", predicate}, {"episodes", c.episodes}, {"oracle_true", c.oracle_true},
                       {"perceived_true", c.perceived_true}, {"false_success", rate(c.false_success, oracle_false)},
-                      {"false_failure", rate(c.false_failure, c.oracle_true)}});
+                      {"false_failure", rate(c.false_failure, c.oracle_true)},
+                      {"false_success_causes", c.false_success_causes},
+                      {"false_failure_causes", c.false_failure_causes}});
     }
     return {{"arm", arm}, {"verifiers", verifiers}, {"predicates", rows}};
   }

@@ -373,6 +373,51 @@ TEST(Summarize, EpisodesWhereTheSimulatorsVerdictDiffersFromTheGovernorsAreFlagg
   EXPECT_NE(md.find("| full | goal | 1 | 1 | success | failure | – | ep-differs |"), std::string::npos) << md;
 }
 
+// Each disagreement is put down to its cause from the terms judged at the end: the goal lost by then,
+// the rests bands disagreeing with the simulator's contacts, or perception's view; older evidence that
+// does not judge the terms says unknown.
+TEST(Summarize, ADisagreementWithTheOracleIsPutDownToItsCause) {
+  TempDir dir;
+  const auto episode = [&](unsigned seed, bool oracle_at_end, std::optional<bool> on_true_poses, bool perceived = false) {
+    EpisodeRecord r = row("full-perception", "goal", 1, seed, perceived, 10);
+    r.sim_success = !perceived;  // every episode here is a disagreement
+    r.sim_goal_step = perceived ? -1 : 100;
+    r.sim_goal_at_end = oracle_at_end;
+    r.evidence_path = (dir.path() / ("c" + std::to_string(seed) + ".jsonl")).string();
+    std::ofstream out(r.evidence_path);
+    out << json{{"kind", "episode_start"}, {"verifier", "perception"}, {"goal", {"On(bowl, plate)", "On(cup, plate)"}}}.dump() << "\n";
+    if (perceived) out << json{{"kind", "perceived_verdict"}, {"step", 130}, {"value", true}}.dump() << "\n";
+    json end = {{"kind", "perceived_verdict_end"}, {"step", 140}, {"value", perceived}, {"oracle", oracle_at_end}};
+    if (on_true_poses)
+      end["terms"] = {{{"term", "On(bowl, plate)"}, {"perceived", false}, {"on_true_poses", true}},
+                      {{"term", "On(cup, plate)"}, {"perceived", true}, {"on_true_poses", *on_true_poses}}};
+    out << end.dump() << "\n";
+    return r;
+  };
+  EpisodeRecord under_oracle = episode(7, true, false);  // ended on the oracle: not compared
+  {
+    std::ofstream out(under_oracle.evidence_path);
+    out << json{{"kind", "episode_start"}, {"verifier", "oracle"}, {"goal", {"On(bowl, plate)"}}}.dump() << "\n"
+        << json{{"kind", "perceived_verdict_end"}, {"step", 140}, {"value", false}, {"oracle", true}}.dump() << "\n";
+  }
+  const std::vector<Source> sources{{"c.db", {episode(0, false, true), episode(1, true, false), episode(2, true, true),
+                                              episode(3, true, true), episode(4, true, std::nullopt),
+                                              episode(5, false, true, true), episode(6, false, false, true),
+                                              under_oracle}}};
+  const json s = summarize(sources, options(dir.path()));
+  json all;
+  for (const json& p : s["verdict"]["by_arm"][0]["predicates"])
+    if (p["predicate"] == "all") all = p;
+  ASSERT_TRUE(all.is_object());
+  EXPECT_EQ(all["false_failure"]["k"], 5);
+  EXPECT_EQ(all["false_failure_causes"], (json{{"band", 1}, {"lost", 1}, {"perception", 2}, {"unknown", 1}}));
+  // A false success: the bands accept the simulator's own poses (band) or do not (perception).
+  EXPECT_EQ(all["false_success"]["k"], 2);
+  EXPECT_EQ(all["false_success_causes"], (json{{"band", 1}, {"perception", 1}}));
+  const std::string md = read(render(sources, options(dir.path())).markdown);
+  EXPECT_NE(md.find("| band 1, lost 1, perception 2, unknown 1 |"), std::string::npos) << md;
+}
+
 // Four episodes of an arm that ends on the verdict from perception: one where both verdicts agree on
 // success, one false success (perceived, the goal never held), one false failure (the goal held, never
 // perceived) and one where both say failure; plus one without a perceived verdict, counted nowhere.

@@ -26,6 +26,14 @@ void Board::on_worker_lost(const std::string& worker, Clock::time_point now) {
     }
 }
 
+void Board::on_worker_back(const std::string& worker, Clock::time_point now) {
+  for (auto& [id, r] : channels_)
+    if (r.announced && r.announce.worker == worker && r.lost) {
+      r.lost = false;
+      r.changed = now;
+    }
+}
+
 void Board::on_live(const EpisodeLive& e, Clock::time_point now) {
   Row& r = channels_[e.channel];
   // A sample of an older episode than the one shown (a late one of a finished episode) is not news.

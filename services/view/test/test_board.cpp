@@ -59,6 +59,9 @@ TEST(Board, ChannelsJoinTheirAnnouncementAndTheGovernorsLiveState) {
   EXPECT_EQ(s["channels"][1]["state"], "lost");
   b.on_channel({0, "local_a", false, ""}, t0 + 6s);
   EXPECT_EQ(b.snapshot(t0 + 6s)["channels"][0]["state"], "idle");
+  // The worker comes back without announcing: channel 1 shows what it last said.
+  b.on_worker_back("local_a", t0 + 7s);
+  EXPECT_EQ(b.snapshot(t0 + 7s)["channels"][1]["state"], "ended");
 }
 
 TEST(Board, CampaignsCarryTheirTalliesAndAreForgottenWhenSilent) {

@@ -80,8 +80,12 @@ class Scheduler {
   /// until they announce themselves idle after that.
   void expire(Clock::time_point now);
   /// `worker` is gone (its announcements lost liveliness): what its channels were running is lost at
-  /// once, and they are not used again until they announce themselves again.
+  /// once, and they are not used again until they announce themselves again or the worker comes back.
   void worker_lost(const std::string& worker, Clock::time_point now);
+  /// `worker`'s announcements are alive again (it was starved, not dead): its channels are in the state
+  /// they last announced. A worker announces only changes, so a channel idle when it was lost would
+  /// otherwise never serve again.
+  void worker_back(const std::string& worker);
   /// Finished episodes ready to be recorded (their channel's report arrived or stopped being awaited).
   std::vector<EpisodeRecord> take_finished(Clock::time_point now);
   /// Attempts lost to infrastructure that were put back to run again (SchedulerOptions::reruns).
@@ -97,6 +101,8 @@ class Scheduler {
   struct ChannelInfo {
     std::string worker;
     bool idle = false;
+    bool announced_idle = false;  ///< what it last announced (idle may be cleared meanwhile)
+    bool lost = false;  ///< its worker lost liveliness and the channel has not been heard of since
     bool ours = false;  ///< we dispatched to it and it has not announced itself idle since
     std::string last_episode;  ///< the last episode it announced as finished
     std::string governor_episode;  ///< the simulator ended it, the governor has not yet (governor_release)

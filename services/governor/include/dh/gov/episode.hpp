@@ -212,6 +212,8 @@ class EpisodeMachine {
   /// Folds the progress reports of steps before `step` (through it, with `through`) into last_progress_.
   void take_progress(std::uint32_t step, bool through);
   nlohmann::json obs_summary(const Observation& o) const;
+  /// The perceived verdict at the end, each goal term judged as perceived and on the simulator's poses.
+  nlohmann::json perceived_verdict_end(std::uint32_t step);
 
   EpisodeSpec spec_;
   GovernorConfig config_;

@@ -26,6 +26,20 @@ inline constexpr double kPerceivedInFloor = 0.02;   ///< In(a, region): the regi
 /// seen) makes its term false.
 bool term_holds(const GoalTerm& term, const Observation& seen);
 
+/// One term judged twice, for attributing a disagreement with the simulator: on the perceived view and,
+/// where the observation carries the simulator's poses of the term's entities, on those true poses with
+/// the same bands. A term false on true poses while the oracle holds is the band's disagreement with the
+/// simulator's contacts; true on true poses but false as perceived is perception's error.
+struct TermCheck {
+  std::string term;                  ///< "On(bowl, plate)"
+  std::string subject;               ///< the entity that moves: the first argument, or the part
+  bool perceived = false;
+  std::optional<bool> on_true_poses; ///< unset on a cell (no simulator poses)
+  const EntityState* seen = nullptr; ///< the subject in the perceived view; null when never seen
+  const EntityState* truth = nullptr;
+};
+std::vector<TermCheck> check_terms(const std::vector<GoalTerm>& goal, const Observation& seen, const Observation& truth);
+
 /// The goal's verdict from consecutive perceived frames: the verdict changes only when `frames` frames in a
 /// row agree on the other value, so one false frame cannot latch success (nor lose it).
 class PerceivedVerdict {

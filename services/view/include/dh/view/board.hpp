@@ -59,8 +59,10 @@ class Board {
 
   void on_channel(const ChannelAnnounce& a, Clock::time_point now);
   /// A simulator worker whose announcements lost their liveliness: its channels are shown as lost until
-  /// they announce themselves again.
+  /// they announce themselves again or the worker comes back.
   void on_worker_lost(const std::string& worker, Clock::time_point now);
+  /// Its announcements are alive again: its channels show what they last announced.
+  void on_worker_back(const std::string& worker, Clock::time_point now);
   void on_live(const EpisodeLive& e, Clock::time_point now);
   void on_progress(const CampaignProgress& p, Clock::time_point now);
 
