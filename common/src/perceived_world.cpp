@@ -21,6 +21,11 @@ namespace {
 constexpr double kHeldMarginM = 0.03;  ///< how far outside a footprint the jaw may close and still hold it
 constexpr double kHandOverMarginM = 0.05;  ///< around a footprint, the hand hides part of the object
 constexpr double kHandOverHeightM = 0.15;  ///< above the object's top, ditto
+constexpr double kSettleXyM = 0.02;  ///< a let-go object seen this near where it was let go has fallen there
+/// Another object rests on (or in) an object when its bottom centre is inside the object's footprint,
+/// from this far above the object's bottom (not beside it on the table) ...
+constexpr double kRestingAboveBottomM = 0.01;
+constexpr double kRestingAboveTopM = 0.03;  ///< ... to this far above its top
 
 /// The tool is over `e`'s footprint (its box turned by its yaw) grown by `margin`, at most `height` above
 /// its top.
@@ -35,15 +40,38 @@ void PerceivedWorld::on_estimate(const SceneEstimate& e) {
   if (latest_ && latest_->episode_id != e.episode_id) *this = PerceivedWorld(limits_);
   if (latest_ && e.step < latest_->step) return;
   latest_ = e;
+  // Where every other object is for the resting test: as this frame sees it, else as kept.
+  std::map<std::string, std::array<double, 3>> bottoms;
+  for (const auto& [name, s] : seen_) bottoms[name] = s.entity.p;
+  for (const auto& s : e.seen)
+    if (s.confidence >= limits_.min_confidence) bottoms[s.name] = s.p;
+  if (held_) bottoms.erase(*held_);
   for (const auto& s : e.seen) {
     if (s.confidence < limits_.min_confidence || held_ == s.name) continue;
     auto it = seen_.find(s.name);
     if (it != seen_.end()) {
       if (it->second.step > e.step) continue;  // put down after this frame was taken
-      if (tool_ && tool_over(*tool_, it->second.entity, kHandOverMarginM, kHandOverHeightM)) continue;
+      if (hidden(s.name, it->second, s, bottoms)) continue;
     }
-    seen_[s.name] = {s, e.step};
+    seen_[s.name] = {s, e.step, false};
   }
+}
+
+bool PerceivedWorld::hidden(const std::string& name, const Seen& s, const PerceivedEntity& estimate,
+                            const std::map<std::string, std::array<double, 3>>& bottoms) const {
+  const PerceivedEntity& o = s.entity;
+  // Let go and seen where it was let go: it fell straight down, and the frame knows how far.
+  if (s.released && std::hypot(estimate.p[0] - o.p[0], estimate.p[1] - o.p[1]) < kSettleXyM) return false;
+  if (tool_ && tool_over(*tool_, o, kHandOverMarginM, kHandOverHeightM)) return true;
+  for (const auto& [other, q] : bottoms)
+    if (other != name && tool_over(q, o, 0, kRestingAboveTopM) && q[2] > o.p[2] + kRestingAboveBottomM) return true;
+  return false;
+}
+
+std::optional<PerceivedWorld::Placement> PerceivedWorld::placement(const std::string& name) const {
+  const auto it = seen_.find(name);
+  if (it == seen_.end()) return std::nullopt;
+  return Placement{it->second.step, it->second.released};
 }
 
 void PerceivedWorld::track(const Observation& obs) {
@@ -53,6 +81,7 @@ void PerceivedWorld::track(const Observation& obs) {
     Seen& s = seen_[*held_];
     for (int i = 0; i < 3; ++i) s.entity.p[i] = obs.ee_p[i] + held_offset_[i];
     s.step = obs.step;
+    s.released = true;
     held_.reset();
   }
   if (!held_ && obs.holding()) {

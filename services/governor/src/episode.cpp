@@ -574,6 +574,10 @@ nlohmann::json EpisodeMachine::perceived_verdict_end(std::uint32_t step) {
     };
     nlohmann::json t = {{"term", c.term}, {"perceived", c.perceived}, {"seen", where(c.seen)}};
     if (c.on_true_poses) t.update({{"on_true_poses", *c.on_true_poses}, {"true", where(c.truth)}});
+    if (const auto at = world_->placement(c.subject))
+      t["seen_from"] = {{"step", at->step}, {"released", at->released}};
+    if (c.support_seen) t["support_seen"] = where(c.support_seen);
+    if (c.support_truth) t["support_true"] = where(c.support_truth);
     terms.push_back(std::move(t));
   }
   out["terms"] = std::move(terms);

@@ -34,7 +34,12 @@ bool holds_spatial(const GoalTerm& t, const Observation& seen) {
   const auto& h = b->half_extents;
   if (std::abs(local[0]) >= h[0] || std::abs(local[1]) >= h[1]) return false;
   if (t.predicate == "In") return local[2] > -h[2] - kPerceivedInFloor && local[2] < h[2];
-  return rests_on(local[2], h[2]);  // the region's top face is the surface
+  if (rests_on(local[2], h[2])) return true;  // the region's top face is the surface
+  // Or what it rests on is its fixture's top above that face (a wine rack's rails over its cradle's
+  // floor): the region says where, the fixture's box how high.
+  const EntityState* owner = b->relation == "on" ? seen.entity(b->owner) : nullptr;
+  const bool is_part = owner && !owner->owner.empty();  // a part's place is its grip, not its box
+  return owner && !is_part && rests_on(a->p[2], owner->p[2] + 2 * owner->half_extents[2]);
 }
 
 }  // namespace
@@ -55,6 +60,11 @@ std::vector<TermCheck> check_terms(const std::vector<GoalTerm>& goal, const Obse
                 nullptr, nullptr};
     c.seen = seen.entity(c.subject);
     c.truth = truth.entity(c.subject);
+    if (!t.articulated() && t.args.size() == 2) {
+      c.support_seen = seen.entity(t.args[1]);
+      c.support_truth = truth.entity(t.args[1]);
+      if (c.support_seen && c.support_seen->kind == "region") c.support_seen = c.support_truth = nullptr;
+    }
     if (c.truth) c.on_true_poses = term_holds(t, truth);
     checks.push_back(std::move(c));
   }

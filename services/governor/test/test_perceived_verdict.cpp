@@ -68,6 +68,30 @@ TEST(TermHolds, OnARegionIsInsideItsFootprintOnItsTopFaceInTheRegionsOwnFrame) {
   EXPECT_FALSE(term_holds(kOnStove, view({0.3 + 0.06 * c, 0.06 * s, 0.02}))) << "0.06 along its own x";
 }
 
+// A cradle: the region's top face is its floor, 2 cm up; a bowl rests on the rails, the fixture's top at
+// 6 cm. Either surface holds it within the footprint; a region beside its owner takes no such surface.
+TEST(TermHolds, OnARegionOnAFixtureRestsOnItsFaceOrOnTheFixturesTop) {
+  Observation o = view({0.3, 0.4, 0.06});
+  EntityState rack = region("wine_rack", {0.3, 0.4, 0}, {0.08, 0.12, 0.03});
+  rack.kind = "wine_rack";
+  EntityState cradle = region("wine_rack_top_region", {0.3, 0.4, 0.015}, {0.075, 0.045, 0.005});
+  cradle.owner = "wine_rack";
+  cradle.relation = "on";
+  o.entities.push_back(rack);
+  o.entities.push_back(cradle);
+  const GoalTerm on_rack{"On", {"bowl", "wine_rack_top_region"}, "", 0, 0};
+  EXPECT_TRUE(term_holds(on_rack, o)) << "on the rails";
+  o.entities[0].p = {0.3, 0.4, 0.025};
+  EXPECT_TRUE(term_holds(on_rack, o)) << "on the cradle's floor";
+  o.entities[0].p = {0.3, 0.4, 0.12};
+  EXPECT_FALSE(term_holds(on_rack, o)) << "6 cm over the rails";
+  o.entities[0].p = {0.3, 0.5, 0.06};
+  EXPECT_FALSE(term_holds(on_rack, o)) << "on the rack, outside the region's footprint";
+  o.entities[0].p = {0.3, 0.4, 0.06};
+  o.entities.back().relation = "front_of";
+  EXPECT_FALSE(term_holds(on_rack, o)) << "a region beside its owner: only its own face";
+}
+
 TEST(TermHolds, InARegionAndAPartsStateFromItsJoint) {
   EXPECT_TRUE(term_holds(kInDrawer, view({-0.3, 0, 0.17})));
   EXPECT_FALSE(term_holds(kInDrawer, view({-0.3, 0, 0.25}))) << "above the region's top";
@@ -96,6 +120,10 @@ TEST(CheckTerms, EachTermIsJudgedAsPerceivedAndOnTheSimulatorsPosesWhereThereAre
   EXPECT_EQ(checks[0].on_true_poses, false) << "7 cm above the plate's bottom in truth";
   ASSERT_TRUE(checks[0].seen && checks[0].truth);
   EXPECT_DOUBLE_EQ(checks[0].truth->p[2], 0.07);
+  ASSERT_TRUE(checks[0].support_seen && checks[0].support_truth) << "the plate is an object";
+  EXPECT_EQ(checks[0].support_seen->name, "plate");
+  EXPECT_EQ(checks[1].support_seen, nullptr) << "a part's state has no support";
+  EXPECT_EQ(check_terms({kInDrawer}, seen, truth)[0].support_seen, nullptr) << "nor has a region's term";
   EXPECT_EQ(checks[1].subject, "cabinet_top_drawer");
   EXPECT_FALSE(checks[1].perceived);
   EXPECT_EQ(checks[1].on_true_poses, true);
@@ -210,6 +238,9 @@ TEST_F(PerceptionVerifier, TheSimulatorsVerdictIsRecordedButThePerceivedOneEndsT
   EXPECT_EQ(term["on_true_poses"], false);
   EXPECT_EQ(term["seen"], nlohmann::json({0, 0.15, 0.012}));
   EXPECT_EQ(term["true"].size(), 3u);
+  EXPECT_EQ(term["seen_from"], nlohmann::json({{"step", 20}, {"released", false}})) << "the frame that saw it";
+  EXPECT_EQ(term["support_seen"], nlohmann::json({0, 0.15, 0})) << "the plate as perceived";
+  EXPECT_EQ(term["support_true"].size(), 3u);
 }
 
 struct OracleWithPerception : PerceptionVerifier {

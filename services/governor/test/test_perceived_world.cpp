@@ -166,6 +166,66 @@ TEST(PerceivedWorld, FramesTakenWhileTheHandIsOverAnObjectDoNotMoveIt) {
   expect_at(obs, "bowl", {0.04, -0.1, 0.002});
 }
 
+// What the jaw lets go falls. The open hand, risen 10 cm, is still over it, yet a frame that sees it where
+// it was let go places it at the height it fell to; a frame that sees it elsewhere under the hand does not.
+TEST(PerceivedWorld, ALetGoObjectSettlesWhereAFrameSeesItBelowTheHand) {
+  PerceivedWorld w{PerceptionLimits{}};
+  w.on_estimate(estimate(0));
+  w.track(holding_at(10, {0.01, -0.14, 0.05}));
+  w.track(holding_at(20, {0, 0.15, 0.09}));  // carried 4 cm higher than it was taken
+  Observation let_go = test::scene_observation(21);
+  let_go.ee_p = {0, 0.15, 0.09};
+  w.track(let_go);
+  Observation above = test::scene_observation(22);
+  above.ee_p = {0, 0.15, 0.19};  // the open hand risen 10 cm
+  w.track(above);
+  EXPECT_EQ(w.placement("bowl")->released, true);
+  SceneEstimate shifted = estimate(25);
+  shifted.seen[0].p = {0.03, 0.17, 0.01};  // 3.6 cm off, under the hand: a fragment
+  w.on_estimate(shifted);
+  Observation obs = test::scene_observation(26);
+  obs.ee_p = above.ee_p;
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  expect_at(obs, "bowl", {0, 0.15, 0.042});
+  SceneEstimate fallen = estimate(30);
+  fallen.seen[0].p = {0.005, 0.152, 0.007};
+  w.on_estimate(fallen);
+  obs = test::scene_observation(31);
+  obs.ee_p = above.ee_p;
+  EXPECT_FALSE(w.view(obs, {"bowl"}));
+  expect_at(obs, "bowl", {0.005, 0.152, 0.007});
+  EXPECT_EQ(w.placement("bowl")->released, false);
+  EXPECT_EQ(w.placement("bowl")->step, 30u);
+  EXPECT_FALSE(w.placement("mug")) << "never seen";
+}
+
+// An object with another resting on it is partly hidden, as under the hand: frames do not move it until
+// the other is taken away.
+TEST(PerceivedWorld, AnObjectWithAnotherRestingOnItKeepsItsPlace) {
+  PerceivedWorld w{PerceptionLimits{}};
+  w.on_estimate(estimate(0));
+  SceneEstimate stacked = estimate(10);
+  stacked.seen[0].p = {0.01, 0.16, 0.012};  // the bowl on the plate
+  stacked.seen[1].p = {0.04, 0.12, 0.0};    // the plate, its visible rim only
+  w.on_estimate(stacked);
+  Observation obs = test::scene_observation(11);
+  EXPECT_FALSE(w.view(obs, {"bowl", "plate"}));
+  expect_at(obs, "bowl", {0.01, 0.16, 0.012});
+  expect_at(obs, "plate", {0.0, 0.15, 0.0});  // the frame that sees the bowl on it does not move it
+  std::swap(stacked.seen[0], stacked.seen[1]);  // the order of a frame's estimates does not matter
+  stacked.step = 20;
+  w.on_estimate(stacked);
+  obs = test::scene_observation(21);
+  EXPECT_FALSE(w.view(obs, {"plate"}));
+  expect_at(obs, "plate", {0.0, 0.15, 0.0});
+  SceneEstimate cleared = estimate(30);  // the bowl back where it was: the plate shows whole again
+  cleared.seen[1].p = {0.002, 0.151, 0.0};
+  w.on_estimate(cleared);
+  obs = test::scene_observation(31);
+  EXPECT_FALSE(w.view(obs, {"plate"}));
+  expect_at(obs, "plate", {0.002, 0.151, 0.0});
+}
+
 TEST(PerceivedWorld, TheClosedJawCorrectsAPerceivedPlaceThatMissesIt) {
   PerceivedWorld w{PerceptionLimits{}};
   w.on_estimate(estimate(0));

@@ -52,10 +52,11 @@ struct Unperceived {
 };
 
 /// One episode's perceived world on one channel. An object keeps the place of the last frame that saw it
-/// with the hand away: while the tool is over it, the hand hides part of it and frames would shift it. The
-/// object the closed jaw holds (the nearest one whose footprint, 3 cm wider, has the tool over it) moves
-/// with the tool until the jaw opens, where it stays until a later frame sees it; the contact corrects its
-/// perceived place so far that the tool is inside its footprint and above its bottom.
+/// unhidden: while the tool is over it, or another object rests on it, part of it is hidden and frames
+/// would shift it. The object the closed jaw holds (the nearest one whose footprint, 3 cm wider, has the
+/// tool over it) moves with the tool until the jaw opens; the contact corrects its perceived place so far
+/// that the tool is inside its footprint and above its bottom. What the jaw let go falls: a frame that
+/// sees it where it was let go (its footprint's centre within 2 cm) places it, the hand over it or not.
 class PerceivedWorld {
  public:
   explicit PerceivedWorld(PerceptionLimits limits) : limits_(limits) {}
@@ -78,11 +79,24 @@ class PerceivedWorld {
   /// Returns why it cannot — no estimate, a stale one, or an entity of `needed` never seen — or nullopt.
   std::optional<Unperceived> view(Observation& obs, const std::vector<std::string>& needed);
 
+  /// Where `name`'s perceived place comes from: the step of the frame or of the release that put it
+  /// there; unset when no frame saw it.
+  struct Placement {
+    std::uint32_t step = 0;
+    bool released = false;  ///< let go by the jaw there, not seen there by a frame since
+  };
+  std::optional<Placement> placement(const std::string& name) const;
+
  private:
   struct Seen {
     PerceivedEntity entity;
     std::uint32_t step = 0;  ///< the frame (or the release) it was last placed at
+    bool released = false;   ///< placed by the release, not by a frame
   };
+  /// Whether a frame's `estimate` may not move `s` now: the tool, or another object resting on it (the
+  /// others' bottom centres in `bottoms`), hides part of it.
+  bool hidden(const std::string& name, const Seen& s, const PerceivedEntity& estimate,
+              const std::map<std::string, std::array<double, 3>>& bottoms) const;
   PerceptionLimits limits_;
   std::optional<SceneEstimate> latest_;
   std::map<std::string, Seen> seen_;

@@ -2,7 +2,9 @@
 // world, frame by frame, for a cell with no oracle. Pure logic, no DDS.
 //
 // Without the simulator's contacts, "touches" becomes "rests": an object counts as placed when its
-// perceived bottom lies within a band of the support's top and the jaw does not hold it. The bands are
+// perceived bottom lies within a band of the support's top and the jaw does not hold it. On a region
+// "on" a fixture, the support is the region's top face or the fixture's top over the region's footprint
+// (a wine rack's cradle: the region is its floor, a bowl rests on its rails). The bands are
 // declared below, chosen from perception's accuracy (its boxes' bottoms are within about 1 cm), not fitted
 // to any block of episodes.
 #pragma once
@@ -37,6 +39,9 @@ struct TermCheck {
   std::optional<bool> on_true_poses; ///< unset on a cell (no simulator poses)
   const EntityState* seen = nullptr; ///< the subject in the perceived view; null when never seen
   const EntityState* truth = nullptr;
+  /// On(a, b) with b an object: b as perceived and as it is (a support's own estimate can be off too)
+  const EntityState* support_seen = nullptr;
+  const EntityState* support_truth = nullptr;
 };
 std::vector<TermCheck> check_terms(const std::vector<GoalTerm>& goal, const Observation& seen, const Observation& truth);
 
