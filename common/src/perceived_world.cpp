@@ -23,13 +23,9 @@ constexpr double kHandOverMarginM = 0.05;  ///< around a footprint, the hand hid
 constexpr double kHandOverHeightM = 0.15;  ///< above the object's top, ditto
 constexpr double kSettleXyM = 0.02;  ///< a let-go object seen this near where it was let go has fallen there
 /// Another object rests on (or in) an object when its bottom centre is inside the object's footprint,
-/// from this far above the object's bottom (not beside it on the table), or half its height for a thin
-/// one (a plate 1.2 cm tall) ...
+/// from this far above the object's bottom (not beside it on the table) ...
 constexpr double kRestingAboveBottomM = 0.01;
 constexpr double kRestingAboveTopM = 0.03;  ///< ... to this far above its top
-
-constexpr double kSameFootprintM = 0.015;  ///< half sizes this alike: the same face up
-constexpr double kTopOnlyM = 0.01;  ///< a box this much lower than its object's height shows only its top
 
 /// The tool is over `e`'s footprint (its box turned by its yaw) grown by `margin`, at most `height` above
 /// its top.
@@ -44,41 +40,21 @@ void PerceivedWorld::on_estimate(const SceneEstimate& e) {
   if (latest_ && latest_->episode_id != e.episode_id) *this = PerceivedWorld(limits_);
   if (latest_ && e.step < latest_->step) return;
   latest_ = e;
-  std::vector<PerceivedEntity> seen;
-  for (const auto& s : e.seen)
-    if (s.confidence >= limits_.min_confidence && held_ != s.name) seen.push_back(completed(s));
   // Where every other object is for the resting test: as this frame sees it, else as kept.
   std::map<std::string, std::array<double, 3>> bottoms;
   for (const auto& [name, s] : seen_) bottoms[name] = s.entity.p;
-  for (const auto& s : seen) bottoms[s.name] = s.p;
+  for (const auto& s : e.seen)
+    if (s.confidence >= limits_.min_confidence) bottoms[s.name] = s.p;
   if (held_) bottoms.erase(*held_);
-  for (const auto& s : seen) {
+  for (const auto& s : e.seen) {
+    if (s.confidence < limits_.min_confidence || held_ == s.name) continue;
     auto it = seen_.find(s.name);
     if (it != seen_.end()) {
       if (it->second.step > e.step) continue;  // put down after this frame was taken
       if (hidden(s.name, it->second, s, bottoms)) continue;
     }
     seen_[s.name] = {s, e.step, false};
-    Shape& shape = shapes_[s.name];
-    shape.height = std::max(shape.height, 2 * s.half_extents[2]);
-    shape.half_xy = {s.half_extents[0], s.half_extents[1]};
   }
-}
-
-PerceivedEntity PerceivedWorld::completed(const PerceivedEntity& s) const {
-  const auto it = shapes_.find(s.name);
-  const double height = 2 * s.half_extents[2];
-  if (it == shapes_.end() || it->second.height - height < kTopOnlyM) return s;
-  // The same footprint either way round: the same face up (a toppled object shows another).
-  const auto& h = it->second.half_xy;
-  const auto alike = [&](double a, double b) { return std::abs(a - b) < kSameFootprintM; };
-  if (!(alike(h[0], s.half_extents[0]) && alike(h[1], s.half_extents[1])) &&
-      !(alike(h[0], s.half_extents[1]) && alike(h[1], s.half_extents[0])))
-    return s;
-  PerceivedEntity out = s;
-  out.p[2] -= it->second.height - height;
-  out.half_extents[2] = it->second.height / 2;
-  return out;
 }
 
 bool PerceivedWorld::hidden(const std::string& name, const Seen& s, const PerceivedEntity& estimate,
@@ -87,9 +63,8 @@ bool PerceivedWorld::hidden(const std::string& name, const Seen& s, const Percei
   // Let go and seen where it was let go: it fell straight down, and the frame knows how far.
   if (s.released && std::hypot(estimate.p[0] - o.p[0], estimate.p[1] - o.p[1]) < kSettleXyM) return false;
   if (tool_ && tool_over(*tool_, o, kHandOverMarginM, kHandOverHeightM)) return true;
-  const double above_bottom = std::min(kRestingAboveBottomM, o.half_extents[2]);
   for (const auto& [other, q] : bottoms)
-    if (other != name && tool_over(q, o, 0, kRestingAboveTopM) && q[2] > o.p[2] + above_bottom) return true;
+    if (other != name && tool_over(q, o, 0, kRestingAboveTopM) && q[2] > o.p[2] + kRestingAboveBottomM) return true;
   return false;
 }
 

@@ -574,6 +574,8 @@ nlohmann::json EpisodeMachine::perceived_verdict_end(std::uint32_t step) {
     };
     nlohmann::json t = {{"term", c.term}, {"perceived", c.perceived}, {"seen", where(c.seen)}};
     if (c.on_true_poses) t.update({{"on_true_poses", *c.on_true_poses}, {"true", where(c.truth)}});
+    if (c.seen && !spec_.goal[i].articulated())
+      t["seen_half"] = {c.seen->half_extents[0], c.seen->half_extents[1], c.seen->half_extents[2]};
     if (const auto at = world_->placement(c.subject))
       t["seen_from"] = {{"step", at->step}, {"released", at->released}};
     if (c.support_seen) t["support_seen"] = where(c.support_seen);

@@ -56,8 +56,10 @@ bool term_holds(const GoalTerm& term, const Observation& seen) {
 std::vector<TermCheck> check_terms(const std::vector<GoalTerm>& goal, const Observation& seen, const Observation& truth) {
   std::vector<TermCheck> checks;
   for (const GoalTerm& t : goal) {
-    TermCheck c{t.text(), t.articulated() ? t.part : t.args.empty() ? "" : t.args[0], term_holds(t, seen), std::nullopt,
-                nullptr, nullptr};
+    TermCheck c;
+    c.term = t.text();
+    c.subject = t.articulated() ? t.part : t.args.empty() ? "" : t.args[0];
+    c.perceived = term_holds(t, seen);
     c.seen = seen.entity(c.subject);
     c.truth = truth.entity(c.subject);
     if (!t.articulated() && t.args.size() == 2) {

@@ -239,6 +239,7 @@ TEST_F(PerceptionVerifier, TheSimulatorsVerdictIsRecordedButThePerceivedOneEndsT
   EXPECT_EQ(term["seen"], nlohmann::json({0, 0.15, 0.012}));
   EXPECT_EQ(term["true"].size(), 3u);
   EXPECT_EQ(term["seen_from"], nlohmann::json({{"step", 20}, {"released", false}})) << "the frame that saw it";
+  EXPECT_EQ(term["seen_half"], nlohmann::json({0.065, 0.065, 0.025})) << "its box as perceived";
   EXPECT_EQ(term["support_seen"], nlohmann::json({0, 0.15, 0})) << "the plate as perceived";
   EXPECT_EQ(term["support_true"].size(), 3u);
 }

@@ -57,8 +57,6 @@ struct Unperceived {
 /// tool over it) moves with the tool until the jaw opens; the contact corrects its perceived place so far
 /// that the tool is inside its footprint and above its bottom. What the jaw let go falls: a frame that
 /// sees it where it was let go (its footprint's centre within 2 cm) places it, the hand over it or not.
-/// An object keeps the height it showed: a frame that sees only its top (standing on a stove, a plate, in
-/// a basket) places its bottom that far below.
 class PerceivedWorld {
  public:
   explicit PerceivedWorld(PerceptionLimits limits) : limits_(limits) {}
@@ -95,14 +93,6 @@ class PerceivedWorld {
     std::uint32_t step = 0;  ///< the frame (or the release) it was last placed at
     bool released = false;   ///< placed by the release, not by a frame
   };
-  struct Shape {
-    double height = 0;                ///< the tallest box it showed (m)
-    std::array<double, 2> half_xy{};  ///< its footprint's half sizes at the latest frame that placed it
-  };
-  /// A rigid object keeps its height. A frame's box lower than the tallest its object showed, on the same
-  /// footprint, is its top with the rest hidden (on a raised surface, a stove's or a plate's, the frame's
-  /// support plane is the table's and the box is not extended down to it): the box is extended down.
-  PerceivedEntity completed(const PerceivedEntity& s) const;
   /// Whether a frame's `estimate` may not move `s` now: the tool, or another object resting on it (the
   /// others' bottom centres in `bottoms`), hides part of it.
   bool hidden(const std::string& name, const Seen& s, const PerceivedEntity& estimate,
@@ -110,7 +100,6 @@ class PerceivedWorld {
   PerceptionLimits limits_;
   std::optional<SceneEstimate> latest_;
   std::map<std::string, Seen> seen_;
-  std::map<std::string, Shape> shapes_;
   std::optional<std::string> held_;          ///< the object moving with the tool
   std::array<double, 3> held_offset_{};      ///< its bottom centre relative to the tool
   std::optional<std::array<double, 3>> tool_;  ///< the tool's position at the latest observation tracked
