@@ -19,18 +19,17 @@ Client::Client(dds::Participant& p)
                 {[this](const msg::ChannelStatus& s, const eprosima::fastdds::dds::SampleInfo& info) {
                    std::lock_guard l(m_);
                    idle_[s.channel()] = s.state() == msg::CHANNEL_IDLE;
-                   worker_of_writer_[info.publication_handle] = s.worker();
+                   workers_.saw(info.publication_handle, s.worker());
                    news_.channels.push_back(s);
                    cv_.notify_all();
                  },
                  // A worker whose announcements stop being alive (process dead, host cut off) has lost
                  // whatever its channels were running; one that was only starved comes back alive.
                  [this](const eprosima::fastdds::dds::LivelinessChangedStatus& st) {
-                   if (st.alive_count_change == 0) return;
                    std::lock_guard l(m_);
-                   const auto it = worker_of_writer_.find(st.last_publication_handle);
-                   if (it == worker_of_writer_.end()) return;  // first discovery: its announcements follow
-                   (st.alive_count_change < 0 ? news_.lost_workers : news_.returned_workers).push_back(it->second);
+                   const auto change = workers_.changed(st);
+                   if (!change) return;
+                   (change->alive ? news_.returned_workers : news_.lost_workers).push_back(change->worker);
                    cv_.notify_all();
                  },
                  {}}),

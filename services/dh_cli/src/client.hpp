@@ -22,6 +22,7 @@
 #include "dh/common/dds.hpp"
 #include "dh/msg/capabilityPubSubTypes.h"
 #include "dh/msg/episodePubSubTypes.h"
+#include "worker_writers.hpp"
 
 namespace dh::cli {
 
@@ -50,7 +51,7 @@ class Client {
   std::map<std::uint32_t, bool> idle_;
   std::set<std::string> capabilities_;
   std::map<std::string, msg::EpisodeResult> results_seen_;
-  std::map<eprosima::fastdds::dds::InstanceHandle_t, std::string> worker_of_writer_;
+  WorkerWriters workers_;
   News news_;
   dds::Writer<msg::EpisodeRequestPubSubType> request_;
   dds::Reader<msg::ChannelStatusPubSubType> channels_;

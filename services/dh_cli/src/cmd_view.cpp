@@ -22,6 +22,7 @@
 #include "dh/view/board.hpp"
 #include "dh/view/server.hpp"
 #include "dh/view/timeline.hpp"
+#include "worker_writers.hpp"
 
 namespace dh::cli {
 namespace {
@@ -73,26 +74,25 @@ int cmd_view(const ViewArgs& a) {
 
   std::mutex m;
   view::Board board;
-  std::map<eprosima::fastdds::dds::InstanceHandle_t, std::string> worker_of_writer;
+  WorkerWriters workers;
   dds::Participant participant("dh_view");
   using Info = eprosima::fastdds::dds::SampleInfo;
   dds::Reader<msg::ChannelStatusPubSubType> channels(
       participant, topics::kChannelStatus, dds::Qos::ChannelStatus,
       {[&](const msg::ChannelStatus& s, const Info& info) {
          std::lock_guard l(m);
-         worker_of_writer[info.publication_handle] = s.worker();
+         workers.saw(info.publication_handle, s.worker());
          board.on_channel({s.channel(), s.worker(), s.state() == msg::CHANNEL_RUNNING, s.episode_id()},
                           view::Clock::now());
        },
        [&](const eprosima::fastdds::dds::LivelinessChangedStatus& st) {
-         if (st.alive_count_change == 0) return;
          std::lock_guard l(m);
-         const auto it = worker_of_writer.find(st.last_publication_handle);
-         if (it == worker_of_writer.end()) return;
-         if (st.alive_count_change < 0)
-           board.on_worker_lost(it->second, view::Clock::now());
+         const auto change = workers.changed(st);
+         if (!change) return;
+         if (change->alive)
+           board.on_worker_back(change->worker, view::Clock::now());
          else
-           board.on_worker_back(it->second, view::Clock::now());
+           board.on_worker_lost(change->worker, view::Clock::now());
        },
        {}});
   dds::Reader<msg::EpisodeLivePubSubType> live(
