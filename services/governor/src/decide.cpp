@@ -112,6 +112,12 @@ Decision after_failure(const DecisionState& s, const DecisionLimits& limits) {
     return {DecisionKind::Retry, what + "; " + retry};
   }
   if (s.substitute_available) return {DecisionKind::Substitute, what + "; substitute an eligible capability for the same goal"};
+  // A step no eligible capability will take goes back to the slow brain first (the paper's §3 rule): the
+  // planner may have named the wrong object or capability, and a new plan costs no control step, where
+  // vla_act spends its whole budget on a step the library already judged infeasible. The step comes back
+  // to vla_act only when the planner advises it again.
+  if (s.phase == CommandPhase::Refused && s.failures_of_step <= 1 && s.replans_used < limits.max_replans)
+    return {DecisionKind::RequestReplan, what + "; no eligible capability takes the step: return it to the planner"};
   if (s.vla_available) return {DecisionKind::HandToVla, what + "; no analytic route left: hand the segment to vla_act"};
   if (s.replans_used < limits.max_replans) return {DecisionKind::RequestReplan, what + "; ask the planner"};
   return {DecisionKind::GiveUp, what + "; no retry, substitute, policy or replan left"};

@@ -102,6 +102,27 @@ TEST(Decide, ARefusalIsNotRetriedButSubstituted) {
   EXPECT_EQ(decide(s, {}).kind, DecisionKind::RequestReplan);
 }
 
+TEST(Decide, ARefusedStepNoCapabilityTakesGoesBackToThePlannerBeforeThePolicy) {
+  // The planner named a basket for the pick: the pick and the push both refuse it at their checks. A new plan
+  // costs no control step; vla_act would spend its budget on the same infeasible step.
+  DecisionState s = running();
+  s.phase = CommandPhase::Refused;
+  s.failures_of_step = 1;
+  s.vla_available = true;
+  const Decision d = decide(s, {});
+  EXPECT_EQ(d.kind, DecisionKind::RequestReplan);
+  EXPECT_NE(d.reason.find("planner"), std::string::npos) << d.reason;
+  s.failures_of_step = 2;  // the planner advised the refused step again
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::HandToVla);
+  s.failures_of_step = 1;
+  s.replans_used = 4;  // no replan left: the policy is what remains
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::HandToVla);
+  s.replans_used = 0;
+  s.phase = CommandPhase::Failed;  // a step that moved and failed twice still goes to the policy
+  s.failures_of_step = 2;
+  EXPECT_EQ(decide(s, {}).kind, DecisionKind::HandToVla);
+}
+
 TEST(Decide, StaticModeRetriesThenReexecutesThePlanNeverSubstitutes) {
   DecisionState s = running();
   s.mode = ExecutorMode::Static;

@@ -133,7 +133,10 @@ TEST_F(Machine, AStepWithNoAnalyticRouteLeftIsHandedToThePolicyWithTheInstructio
   ASSERT_TRUE(fx.plan_request);
   EXPECT_EQ(fx.plan_request->capabilities, std::vector<std::string>{"vla_act"});
   fx = m->on_advice(good(fx.plan_request->request_id), t0);
-  ASSERT_TRUE(fx.command) << "the masked pick_place is refused and the segment handed over";
+  ASSERT_FALSE(fx.command);
+  ASSERT_TRUE(fx.plan_request) << "the masked pick_place is refused: the step goes back to the planner first";
+  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  ASSERT_TRUE(fx.command) << "advised again, the refused step is handed to the policy";
   EXPECT_EQ(fx.command->capability, "vla_act");
   EXPECT_EQ(fx.command->args, (Bindings{{"instruction", "put the bowl on the plate"}}));
   EXPECT_EQ(fx.command->budget_steps, 160u) << "ceil(1.5 x 100) + 10";
