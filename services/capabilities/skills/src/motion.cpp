@@ -88,9 +88,13 @@ Eigen::Vector2d front_of(const EntityState& part) {
   return Eigen::Vector2d(f.x(), f.y()).normalized();
 }
 
+bool part_or_region(const EntityState& e) {
+  return e.kind == "region" || e.kind == "drawer" || e.kind == "knob" || e.kind == "door";
+}
+
 double top_of(const EntityState& e) {
   // Regions and articulated parts are observed at their centre; objects and fixtures at their bottom.
-  if (e.kind == "region" || e.kind == "drawer" || e.kind == "knob" || e.kind == "door") return e.p[2] + e.half_extents[2];
+  if (part_or_region(e)) return e.p[2] + e.half_extents[2];
   return e.p[2] + 2 * e.half_extents[2];
 }
 

@@ -22,7 +22,7 @@ std::optional<Cavity> find_cavity(const Observation& obs, const std::string& tar
   const EntityState* t = obs.entity(target);
   if (!t || t->kind != "region") return std::nullopt;
   for (const auto& c : obs.entities) {
-    if (c.kind == "region" || c.kind == "drawer" || c.kind == "knob" || c.kind == "door" || c.name == object) continue;
+    if (part_or_region(c) || c.name == object) continue;
     if (!inside_xy(c, {t->p[0], t->p[1]}, 0) || top_of(c) <= top_of(*t) + 0.005 || c.p[2] > t->p[2]) continue;
     // Closed over the top: a fixture with a door (a microwave), not an open container (a caddy, a basket).
     const bool has_door = std::any_of(obs.entities.begin(), obs.entities.end(), [&](const EntityState& d) {
@@ -95,7 +95,7 @@ std::optional<std::string> PickPlaceSkill::check(const Bindings& args, const Obs
   const EntityState* t = obs.entity(target);
   if (!t) return "target '" + target + "' is not in the scene";
   if (object == target) return "object and target are the same entity '" + object + "'";
-  if (o->kind == "region" || o->kind == "drawer" || o->kind == "knob" || o->kind == "door")
+  if (part_or_region(*o))
     return "'" + object + "' is a " + o->kind + ", not an object a jaw can carry";
   if (!has_rim(*o) && 2 * std::min(o->half_extents[0], o->half_extents[1]) > kMaxJaw - 0.002)
     return "object '" + object + "' is wider than the jaw opens";
@@ -181,13 +181,12 @@ Eigen::Vector2d PickPlaceSkill::place_xy(const Observation& obs) const {
   const double r = has_rim(o) || o.kind == "moka_pot" ? std::min(o.half_extents[0], o.half_extents[1])
                                                      : std::max(o.half_extents[0], o.half_extents[1]);
   const double fx = std::max(0.0, t.half_extents[0] - r - 0.005), fy = std::max(0.0, t.half_extents[1] - r - 0.005);
-  auto part = [](const EntityState& e) { return e.kind == "region" || e.kind == "drawer" || e.kind == "knob" || e.kind == "door"; };
   auto handle = [](const EntityState& e) { return e.kind == "drawer" || e.kind == "door"; };
   // Objects already resting in or on the target take their room; the slots are the centre and the
   // eight points half a free width away from it.
   std::vector<Eigen::Vector2d> occupants;
   for (const auto& e : obs.entities)
-    if (e.name != object_ && e.name != target_ && !part(e) && e.half_extents[0] < t.half_extents[0] &&
+    if (e.name != object_ && e.name != target_ && !part_or_region(e) && e.half_extents[0] < t.half_extents[0] &&
         inside_xy(t, {e.p[0], e.p[1]}, 0) && e.p[2] >= t.p[2] - t.half_extents[2] - 0.01)
       occupants.emplace_back(e.p[0], e.p[1]);
   Eigen::Vector2d best = centre;
@@ -209,7 +208,7 @@ Eigen::Vector2d PickPlaceSkill::place_xy(const Observation& obs) const {
   for (const auto& c : obs.entities) {
     // Fixtures and the handles of other drawers count; regions, knobs and what rests inside do not.
     const bool rests_inside = inside_xy(t, {c.p[0], c.p[1]}, 0) && c.p[2] <= top_of(t);
-    if ((part(c) && !handle(c)) || c.name == object_ || top_of(c) <= top_of(t) + 0.01 || rests_inside) continue;
+    if ((part_or_region(c) && !handle(c)) || c.name == object_ || top_of(c) <= top_of(t) + 0.01 || rests_inside) continue;
     const double ox = c.half_extents[0] + r + 0.005 - std::abs(best.x() - c.p[0]);
     const double oy = c.half_extents[1] + r + 0.005 - std::abs(best.y() - c.p[1]);
     if (ox <= 0 || oy <= 0) continue;

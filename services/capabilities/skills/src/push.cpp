@@ -50,6 +50,7 @@ std::optional<std::string> PushSkill::check(const Bindings& args, const Observat
   const EntityState* t = obs.entity(target);
   if (!o) return "object '" + object + "' is not in the scene";
   if (!t) return "target '" + target + "' is not in the scene";
+  if (part_or_region(*o)) return "'" + object + "' is a " + o->kind + ", not an object a push can move";
   if (t->kind != "region") return "target '" + target + "' is not a table region an object can be pushed into";
   const double need = p_.contact_fraction * width_of(*o);
   const double span = p_.push_opening + 2 * kPadThickness;

@@ -143,6 +143,10 @@ TEST_F(SkillsPhysics, PushRefusesWhatIsWiderThanTheJawAndPushesWithARevisedTheta
         << wide << ": the paper's Figure 3, the jaw is too narrow for the contact the push needs";
     EXPECT_NE(r.reason.find("jaw is too narrow"), std::string::npos) << r.reason;
   }
+  // A drawer is a part of its cabinet: a planner's wrong argument is refused before any motion.
+  const auto part = run(task("goal", 8), 1, "push", {{"object", "cabinet_top_drawer"}, {"target", "plate"}});
+  ASSERT_EQ(part.state, CommandState::Refused);
+  EXPECT_NE(part.reason.find("not an object a push can move"), std::string::npos) << part.reason;
   // With a revised θ (a smaller share of the bowl's width must bear on the pads) the bowl is pushed.
   const TaskDef& bowl = task("goal-task", 5);
   int ok = 0;

@@ -73,6 +73,9 @@ Eigen::Quaterniond jaw_along(const Observation& obs, const Eigen::Vector2d& axis
 /// Direction a fixture's part faces (its -x axis in the world), on the table plane.
 Eigen::Vector2d front_of(const EntityState& part);
 
+/// A region or an articulated part (drawer, door, knob): observed at its centre, and nothing a hand carries
+/// or pushes.
+bool part_or_region(const EntityState& e);
 /// Height of an entity's top surface: an object or fixture from its bottom, a region from its centre.
 double top_of(const EntityState& e);
 /// The height to come down from onto `at`: at least `at`'s own, and `clearance` above the top of every
