@@ -112,7 +112,7 @@ Decision after_failure(const DecisionState& s, const DecisionLimits& limits) {
     return {DecisionKind::Retry, what + "; " + retry};
   }
   if (s.substitute_available) return {DecisionKind::Substitute, what + "; substitute an eligible capability for the same goal"};
-  // A step no eligible capability will take goes back to the slow brain first (the paper's §3 rule): the
+  // A step no eligible capability will take goes back to the slow brain first (the paper, Appendix A): the
   // planner may have named the wrong object or capability, and a new plan costs no control step, where
   // vla_act spends its whole budget on a step the library already judged infeasible. The step comes back
   // to vla_act only when the planner advises it again.
