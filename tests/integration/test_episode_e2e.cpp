@@ -28,6 +28,21 @@ TEST(EpisodeEndToEnd, BowlOnPlateThroughRealProcesses) {
   EXPECT_EQ(last["outcome"], "success");
 }
 
+// `--robot ur7e`: the simulator worker puts the UR7e on the scene's mount; the rest of the stack is the same.
+TEST(EpisodeEndToEnd, TheUr7eOnTheScenesMountThroughRealProcesses) {
+  itest::IsolatedEnv env;
+  const auto dh = paths::bin_dir() / "dh";
+  const auto [out, status] =
+      itest::run_command(dh.string() + " run --suite goal --task 1 --seed 21 --robot ur7e --json");
+  ASSERT_EQ(status, 0) << out;
+  const auto j = nlohmann::json::parse(out);
+  EXPECT_TRUE(j["success"].get<bool>()) << out;
+  const auto records = read_evidence(j["evidence"].get<std::string>());
+  ASSERT_FALSE(records.empty());
+  EXPECT_EQ(records.front()["kind"], "episode_request");
+  EXPECT_EQ(records.front().value("robot", ""), "ur7e");
+}
+
 TEST(EpisodeEndToEnd, BadInputGetsAClearErrorAndNonZeroExit) {
   itest::IsolatedEnv env;
   const auto dh = paths::bin_dir() / "dh";
@@ -37,6 +52,10 @@ TEST(EpisodeEndToEnd, BadInputGetsAClearErrorAndNonZeroExit) {
   std::tie(out, status) = itest::run_command(dh.string() + " run --suite goal --task 42 --seed 1 2>&1");
   EXPECT_EQ(status, 2);
   EXPECT_NE(out.find("has no task 42"), std::string::npos) << out;
+  std::tie(out, status) = itest::run_command(dh.string() + " run --suite goal --task 8 --seed 1 --robot kuka 2>&1");
+  EXPECT_NE(status, 0);
+  EXPECT_NE(out.find("no robot 'kuka'"), std::string::npos) << out;
+  EXPECT_NE(out.find("robots: "), std::string::npos) << out;
   std::tie(out, status) = itest::run_command(dh.string() + " run --suite goal --task 8 --seed -4 2>&1");
   EXPECT_NE(status, 0);
   std::tie(out, status) = itest::run_command("DH_CONFIG_DIR=/nonexistent " + dh.string() + " tasks 2>&1");

@@ -124,7 +124,8 @@ std::string to_json(const Plan& p) {
                         {"rerun_rule", p.rerun_rule},
                         {"library_version", p.library_version},
                         {"planner_errors", p.planner_errors},
-                        {"verifier", p.verifier}}
+                        {"verifier", p.verifier},
+                        {"robot", p.robot}}
       .dump();
 }
 
@@ -140,6 +141,7 @@ Plan plan_from_json(const std::string& json) {
     p.library_version = j.value("library_version", "");  // not stored before the library travelled
     p.planner_errors = j.value("planner_errors", "");    // not stored before planner errors existed
     p.verifier = j.value("verifier", "oracle");           // not stored before the verdict from perception
+    p.robot = j.value("robot", "");                       // not stored before --robot
     return p;
   } catch (const nlohmann::json::exception& e) {
     throw PlanError(std::string("stored plan is malformed (") + e.what() + "): " + json);
@@ -173,6 +175,9 @@ std::vector<std::string> plan_differences(const Plan& stored, const Plan& reques
     out.push_back("planner errors: stored '" + stored.planner_errors + "', requested '" + requested.planner_errors + "'");
   if (stored.verifier != requested.verifier)
     out.push_back("verifier: stored '" + stored.verifier + "', requested '" + requested.verifier + "'");
+  if (stored.robot != requested.robot)
+    out.push_back("robot: stored '" + (stored.robot.empty() ? "the scenes' own" : stored.robot) + "', requested '" +
+                  (requested.robot.empty() ? "the scenes' own" : requested.robot) + "'");
   return out;
 }
 

@@ -421,8 +421,11 @@ TEST(CampaignPlan, RejectsBadSeedsNamingOptionAndToken) {
 }
 
 TEST(CampaignPlan, JsonRoundTrip) {
-  const Plan p{{"full", "seq"}, {"goal", "long-swap"}, {8, 2}, {1000001, 5}, "none", "lib-0123", "vlm"};
+  const Plan p{{"full", "seq"}, {"goal", "long-swap"}, {8, 2}, {1000001, 5}, "none", "lib-0123", "vlm", "oracle", "ur7e"};
   EXPECT_EQ(plan_from_json(to_json(p)), p);
+  Plan panda = p;
+  panda.robot.clear();
+  EXPECT_EQ(plan_differences(panda, p), (std::vector<std::string>{"robot: stored 'the scenes' own', requested 'ur7e'"}));
   EXPECT_EQ(plan_from_json(to_json(Plan{})), Plan{});
   EXPECT_TRUE(
       contains(error_of<PlanError>([] { plan_from_json("{\"arms\": 3}"); }), "stored plan is malformed"));

@@ -22,6 +22,7 @@
 #include "dh/common/suite.hpp"
 #include "dh/common/topics.hpp"
 #include "dh/report/report.hpp"
+#include "dh/sim/scene.hpp"
 
 namespace dh::cli {
 
@@ -83,6 +84,8 @@ std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
   plan.library_version = library.version;
   plan.planner_errors = a.planner_errors;
   plan.verifier = a.verifier;
+  plan.robot = a.robot;
+  if (!plan.robot.empty()) sim::robot_profile(plan.robot);  // an unknown robot is named before anything runs
   const msg::Verifier verifier = convert::to_msg(parse_verifier(a.verifier));
   const msg::PlannerErrorRates errors = convert::to_msg(planner_errors(a.planner_errors));
   const auto settings = arm_settings(paths::config_dir(), plan.arms);
@@ -244,6 +247,7 @@ std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
         if (goal == goals.end()) goal = goals.emplace(std::pair(t.suite, t.id), goal_terms(t)).first;
         r.goal(goal->second);
         r.verifier(verifier);
+        r.robot(plan.robot);
         client.request(r);
       }
       const bool changed = record(scheduler.take_finished(now));
@@ -264,7 +268,7 @@ std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
   nlohmann::json out = report::summarize({{a.db, db.rows()}}, report::ReportOptions{});
   out["campaign"] = {{"db", a.db},           {"episodes", all.size()},     {"recorded_before", done_before},
                      {"ran_now", ran_now},    {"remaining", all.size() - done_before - ran_now},
-                     {"interrupted", interrupted}, {"rerun_rule", plan.rerun_rule}, {"library_version", plan.library_version}, {"planner_errors", plan.planner_errors}, {"reran", reran}, {"run_wall_s", run_wall_s}};
+                     {"interrupted", interrupted}, {"rerun_rule", plan.rerun_rule}, {"library_version", plan.library_version}, {"planner_errors", plan.planner_errors}, {"robot", plan.robot}, {"reran", reran}, {"run_wall_s", run_wall_s}};
   return out;
 }
 

@@ -9,6 +9,7 @@
 #include "dh/common/paths.hpp"
 #include "dh/common/shutdown.hpp"
 #include "dh/common/suite.hpp"
+#include "dh/sim/scene.hpp"
 
 namespace dh::cli {
 
@@ -22,6 +23,7 @@ int cmd_run(const RunArgs& a) {
   const auto suites = load_suites(paths::config_dir());
   const TaskDef& t = find_task(suites, a.suite, a.task);
   find_arm(load_arms(paths::config_dir() / "governor.yaml"), a.arm);
+  if (!a.robot.empty()) sim::robot_profile(a.robot);  // an unknown robot is named before anything starts
   const cap::LibraryTheta library =
       cap::load_library_theta(a.library.empty() ? paths::config_dir() / "library" : std::filesystem::path(a.library));
   dds::Participant participant("dh_cli");
@@ -44,6 +46,7 @@ int cmd_run(const RunArgs& a) {
   r.planner_errors(convert::to_msg(planner_errors(a.planner_errors)));
   r.goal(goal_terms(t));
   r.verifier(convert::to_msg(parse_verifier(a.verifier)));
+  r.robot(a.robot);
   const auto t0 = std::chrono::steady_clock::now();
   client.request(r);
   if (!a.json) std::cerr << "episode " << r.episode_id() << " on channel " << *ch << ": " << r.instruction() << "\n";

@@ -122,6 +122,7 @@ struct RunArgs {
   std::string instruction;  ///< replaces the task's (a -lan cell's: the seed's wording) when not empty
   std::string planner_errors;  ///< a profile of configs/planner_errors.yaml; empty: none
   std::string verifier = "oracle";  ///< the verdict the episode ends on: oracle | perception
+  std::string robot;  ///< the arm on the scene's mount (configs/robots/<robot>.yaml); empty: the scene's own
   unsigned task = 0, seed = 0, timeout_s = 180, ready_ms = 2500;
   std::string arm = "full";
   std::optional<std::uint32_t> channel;
@@ -140,6 +141,7 @@ struct CampaignArgs {
   std::string arms = "full", cells = "goal", tasks, seeds, db, launch_file, library;
   std::string planner_errors;  ///< a profile of configs/planner_errors.yaml; empty: none
   std::string verifier = "oracle";  ///< the verdict every episode ends on: oracle | perception
+  std::string robot;  ///< the arm on every scene's mount (configs/robots/<robot>.yaml); empty: the scenes' own
   unsigned fresh_seeds = 0;
   std::uint64_t salt = 1;
   unsigned ready_ms = 2500;

@@ -88,6 +88,8 @@ int main(int argc, char** argv) {
                   "the verdict the episode ends on: oracle (the simulator's) or perception (the goal judged on "
                   "perceived frames; needs an arm that grounds from perception)")
       ->check(CLI::IsMember({"oracle", "perception"}));
+  run->add_option("--robot", run_args.robot,
+                  "the arm on the scene's mount, a profile of configs/robots (panda, ur7e); default: the scene's own");
   run->add_flag("--json", run_args.json, "one JSON object on stdout");
 
   CampaignArgs camp;
@@ -107,6 +109,9 @@ int main(int argc, char** argv) {
                        "the verdict every episode ends on: oracle (the simulator's) or perception (the goal judged "
                        "on perceived frames; arms that ground from perception); part of the plan")
       ->check(CLI::IsMember({"oracle", "perception"}));
+  campaign->add_option("--robot", camp.robot,
+                       "the arm on every scene's mount, a profile of configs/robots (panda, ur7e); default: the "
+                       "scenes' own; part of the plan");
   campaign->add_option("--library", camp.library,
                        "capability library every episode runs (a folder of descriptors; default configs/library): "
                        "its θ travels in each request, the running capability processes serve it");

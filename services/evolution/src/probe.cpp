@@ -137,7 +137,7 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
 
   const auto suites = load_suites(o.config_dir);
   const TaskDef& task = find_task(suites, rec.suite, rec.task);
-  sim::Workcell cell(sim::load_task_scene(task, rec.seed));
+  sim::Workcell cell(sim::load_task_scene(task, rec.seed, rec.robot));
   if (cell.model_hash() != states.header.model_hash)
     throw inproc::EvidenceError("state log " + states_file.string() + " is of another model than " +
                                 task.scene_file.string() + " compiles to (scene, assets or robot changed)");

@@ -53,6 +53,7 @@ gov::EpisodeRequest from_msg(const msg::EpisodeRequest& r) {
   q.cell = r.cell();
   q.task = r.task();
   q.seed = r.seed();
+  q.robot = r.robot();
   q.budget_steps = r.budget_steps();
   q.library_version = r.library_version();
   for (const auto& c : r.library()) {

@@ -148,7 +148,7 @@ CoreEffects GovernorCore::on_request(const EpisodeRequest& r, Clock::time_point 
   ch.evidence = std::make_unique<EvidenceWriter>(path);
   LiveTracker& live = live_[r.channel] = LiveTracker(r.channel, r.episode_id, path);
   ch.evidence->set_tap([&live](const std::string& kind, const nlohmann::json& record) { live.record(kind, record); });
-  record_request(*ch.evidence, r.suite, r.task, r.seed, r.cell, r.arm, r.planner_errors);
+  record_request(*ch.evidence, r.suite, r.task, r.seed, r.cell, r.arm, r.robot, r.planner_errors);
   if (!episode_config) {
     // Answered at once, so the client and the simulator channel do not wait for a deadline.
     ch.evidence->append("governor", "episode_rejected", {{"reason", why}});

@@ -535,9 +535,11 @@ Effects EpisodeMachine::stop_command() {
 }
 
 void record_request(EvidenceWriter& evidence, const std::string& suite, std::uint32_t task, std::uint64_t seed,
-                    const std::string& cell, const std::string& arm, const PlannerErrorRates& planner_errors) {
+                    const std::string& cell, const std::string& arm, const std::string& robot,
+                    const PlannerErrorRates& planner_errors) {
   nlohmann::json fields{{"suite", suite}, {"task", task}, {"seed", seed}, {"cell", cell}, {"arm", arm},
                         {"build", build_info().str()}};
+  if (!robot.empty()) fields["robot"] = robot;
   if (!planner_errors.none())
     fields["planner_errors"] = {{"wrong_capability", planner_errors.wrong_capability},
                                 {"wrong_argument", planner_errors.wrong_argument},

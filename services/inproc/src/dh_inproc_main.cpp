@@ -13,7 +13,7 @@
 
 int main(int argc, char** argv) {
   CLI::App app{"dh_inproc: episodes of the whole stack in one process (no DDS)"};
-  std::string cells = "goal", tasks = "0-9", seeds = "1-5", arm = "full", out = "runs/inproc", policy, library;
+  std::string cells = "goal", tasks = "0-9", seeds = "1-5", arm = "full", out = "runs/inproc", policy, library, robot;
   bool quiet = false;
   app.add_option("--cells", cells, "comma-separated cells (goal, goal-task, goal-swap, long, ...)");
   app.add_option("--tasks", tasks, "task ids, e.g. 0-9 or 1,3");
@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   app.add_option("--out", out, "evidence folder");
   app.add_option("--policy", policy, "embedded policy weight file: serve vla_act with it (dh train-policy)");
   app.add_option("--library", library, "capability library folder (default configs/library)");
+  app.add_option("--robot", robot, "the arm on the scene's mount, a profile of configs/robots (default: the scene's own)");
   app.add_flag("--quiet", quiet, "only the summary");
   CLI11_PARSE(app, argc, argv);
   auto range = [](const std::string& s) {
@@ -43,6 +44,7 @@ int main(int argc, char** argv) {
     const auto suites = dh::load_suites(dh::paths::config_dir());
     const auto library_dir = library.empty() ? dh::paths::config_dir() / "library" : std::filesystem::path(library);
     dh::inproc::Stack stack(dh::paths::config_dir(), library_dir);
+    stack.set_robot(robot);
     if (!policy.empty())
       stack.add_capability(dh::cap::vla_act_def(std::make_shared<dh::cap::EmbeddedPolicy>(dh::policy::load_policy(policy))),
                            library_dir);

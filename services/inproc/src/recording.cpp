@@ -68,6 +68,7 @@ Recording read_recording(const std::filesystem::path& evidence) {
         r.task = e.at("task").get<unsigned>();
         r.seed = e.at("seed").get<std::uint64_t>();
         r.arm = e.value("arm", "full");
+        r.robot = e.value("robot", "");
         r.build = e.value("build", "");
       } else if (kind == "episode_start") {
         start = true;

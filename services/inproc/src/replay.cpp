@@ -83,7 +83,7 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
 
   const auto suites = load_suites(o.config_dir);
   const TaskDef& task = find_task(suites, rec.suite, rec.task);
-  sim::Workcell cell(sim::load_task_scene(task, rec.seed));
+  sim::Workcell cell(sim::load_task_scene(task, rec.seed, rec.robot));
   const std::vector<cap::CapabilityDef> defs = cap::all_capabilities();
   const auto arms = load_arms(o.config_dir / "governor.yaml");
   const bool perception = find_arm(arms, rec.arm).grounding == "perception";

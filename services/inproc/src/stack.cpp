@@ -76,7 +76,7 @@ void Stack::add_capability(cap::CapabilityDef def, const std::filesystem::path& 
 
 EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::string& arm,
                           const std::filesystem::path& evidence_path, const StepTap& tap) {
-  sim::Workcell& cell = cells_.get(task, seed).cell;
+  sim::Workcell& cell = cells_.get(task, seed, robot_).cell;
   cell.reset(seed, task.goal);
   std::filesystem::remove(evidence_path);
   // Unique per run: the host core keeps a channel's keyframes for as long as its episode id stays the same.
@@ -89,6 +89,7 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   request.arm = arm;
   request.suite = task.suite;
   request.cell = task.suite;  // the cell is the suite here
+  request.robot = robot_;
   request.task = task.id;
   request.seed = seed;
   request.budget_steps = task.budget_steps;
@@ -133,7 +134,7 @@ EpisodeOutcome Stack::resume(const Resume& r, const std::filesystem::path& evide
   if (!from)
     throw EvidenceError(rec.evidence.string() + ": no state recorded at the start of command " + k.id +
                         " (its lease never reached the seam, so it never ran)");
-  sim::Workcell& cell = cells_.get(r.task, rec.seed).cell;
+  sim::Workcell& cell = cells_.get(r.task, rec.seed, rec.robot).cell;
   cell.reset(rec.seed, r.task.goal);
   host_ = cap::HostCore(served_);  // the earlier commands' keyframes only, not those of a run before
   restore_host(host_, cell, rec, r.states, r.command, "inproc");

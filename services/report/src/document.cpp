@@ -101,7 +101,7 @@ void overview(const json& s, Document& doc) {
   }
   // Which verdict each arm's episodes ended on, and, where perception judged the goal too, how its verdict
   // agrees with the simulator's.
-  std::string sources_of_verdict;
+  std::string sources_of_verdict, robots;
   Table agreement{{"Arm", "Predicate", "Episodes", "Oracle true", "Perceived true", "False success (%)",
                    "Wilson 95 % (%)", "By cause", "False failure (%)", "Wilson 95 % (%)", "By cause"},
                   {}};
@@ -110,6 +110,9 @@ void overview(const json& s, Document& doc) {
     for (const json& name : a["verifiers"]) verifiers += (verifiers.empty() ? "" : " and ") + name.get<std::string>();
     sources_of_verdict += (sources_of_verdict.empty() ? "" : "; ") + a["arm"].get<std::string>() + ": " +
                           (verifiers.empty() ? "unknown (no evidence read)" : verifiers);
+    std::string names;
+    for (const json& name : a["robots"]) names += (names.empty() ? "" : " and ") + name.get<std::string>();
+    robots += (robots.empty() ? "" : "; ") + a["arm"].get<std::string>() + ": " + (names.empty() ? "unknown (no evidence read)" : names);
     const auto pct = [](const json& r) { return r["rate"].is_null() ? kNone : fixed(100.0 * r["rate"].get<double>(), 1); };
     const auto ci = [](const json& r) {
       return r["rate"].is_null() ? kNone
@@ -129,7 +132,8 @@ void overview(const json& s, Document& doc) {
                                 ci(p["false_failure"]), causes(p["false_failure_causes"])});
   }
   doc.push_back(Paragraph{"The verdict each arm's episodes ended on (oracle: the simulator's; perception: the goal "
-                          "judged on perceived frames): " + (sources_of_verdict.empty() ? kNone : sources_of_verdict) + "."});
+                          "judged on perceived frames): " + (sources_of_verdict.empty() ? kNone : sources_of_verdict) +
+                          ". The robot they ran on: " + (robots.empty() ? kNone : robots) + "."});
   if (!agreement.rows.empty()) {
     doc.push_back(Paragraph{"The verdict from perception against the simulator's, over the episodes that ended on "
                             "it (under the oracle an episode ends before its perceived frames can follow), per "

@@ -116,7 +116,9 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
       }
       if (state == "refused") ++episode.refusals;
     }
-    if (kind == "episode_start") {
+    if (kind == "episode_request") {
+      trace.robot = text(r, "robot");
+    } else if (kind == "episode_start") {
       const auto v = text(r, "verifier");
       trace.verifier = v.empty() ? "oracle" : v;
       if (const auto g = r.find("goal"); g != r.end() && g->is_array())

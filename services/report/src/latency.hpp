@@ -41,6 +41,8 @@ struct EpisodeTrace {
   /// The verdict the episode ended on (its episode_start record; "oracle" in evidence from before the
   /// verifier was recorded); empty when the evidence was not read.
   std::string verifier;
+  /// The arm on the scene's mount (its episode_request record): "" for the scene's own, the Panda.
+  std::string robot;
   std::vector<std::string> predicates;  ///< the goal's predicate names (On, In, Open, ...), as recorded
   /// The goal judged on perceived frames latched true at some step; unset: no perceived verdict was kept
   /// (an arm that grounds from the robot's state, or evidence from before the verdict from perception).

@@ -205,6 +205,7 @@ struct Execution {
 // counts under each predicate its goal names.
 struct VerdictAgreement {
   std::set<std::string> verifiers;
+  std::set<std::string> robots;  ///< the arms the episodes ran on: "panda" for the scenes' own
   struct Counts {
     unsigned episodes = 0, oracle_true = 0, perceived_true = 0, false_success = 0, false_failure = 0;
     std::map<std::string, unsigned> false_success_causes, false_failure_causes;  // by cause(), below
@@ -221,7 +222,10 @@ struct VerdictAgreement {
   }
   std::map<std::string, Counts> by_predicate;  // "all" too
   void add(const EpisodeRecord& r, const EpisodeTrace& t) {
-    if (!t.verifier.empty()) verifiers.insert(t.verifier);
+    if (!t.verifier.empty()) {
+      verifiers.insert(t.verifier);
+      robots.insert(t.robot.empty() ? "panda" : t.robot);
+    }
     // Under the oracle an episode ends at the simulator's verdict, before k perceived frames can follow it:
     // only episodes that ended on the perceived verdict compare the two.
     if (t.verifier != "perception" || !t.perceived || !r.sim_success || r.infrastructure) return;
@@ -256,7 +260,7 @@ struct VerdictAgreement {
                       {"false_success_causes", c.false_success_causes},
                       {"false_failure_causes", c.false_failure_causes}});
     }
-    return {{"arm", arm}, {"verifiers", verifiers}, {"predicates", rows}};
+    return {{"arm", arm}, {"verifiers", verifiers}, {"robots", robots}, {"predicates", rows}};
   }
 };
 

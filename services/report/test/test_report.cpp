@@ -430,6 +430,8 @@ TEST(Summarize, TheVerdictFromPerceptionIsComparedWithTheSimulatorsPerPredicate)
     r.sim_goal_at_end = oracle;
     r.evidence_path = (dir.path() / ("e" + std::to_string(seed) + ".jsonl")).string();
     std::ofstream out(r.evidence_path);
+    // Episode 0 ran on the UR7e (`--robot ur7e`); the others on the scenes' own arm, which is not recorded.
+    if (seed == 0) out << json{{"kind", "episode_request"}, {"robot", "ur7e"}}.dump() << "\n";
     out << json{{"kind", "episode_start"}, {"verifier", "perception"}, {"goal", json::array({goal})}}.dump() << "\n";
     if (perceived) {
       if (*perceived) out << json{{"kind", "perceived_verdict"}, {"step", 130}, {"value", true}}.dump() << "\n";
@@ -445,6 +447,7 @@ TEST(Summarize, TheVerdictFromPerceptionIsComparedWithTheSimulatorsPerPredicate)
   const json s = summarize(sources, options(dir.path()));
   const json& arm = s["verdict"]["by_arm"][0];
   EXPECT_EQ(arm["verifiers"], json::array({"perception"}));
+  EXPECT_EQ(arm["robots"], json::array({"panda", "ur7e"}));
   std::map<std::string, json> by;
   for (const json& p : arm["predicates"]) by[p["predicate"]] = p;
   ASSERT_EQ(by.size(), 3u) << arm.dump();
@@ -459,7 +462,7 @@ TEST(Summarize, TheVerdictFromPerceptionIsComparedWithTheSimulatorsPerPredicate)
   EXPECT_EQ(by["In"]["false_success"]["k"], 0);
   const std::string md = read(render(sources, options(dir.path())).markdown);
   EXPECT_NE(md.find("ended on (oracle: the simulator's; perception: the goal judged on perceived frames): "
-                    "full-perception: perception."),
+                    "full-perception: perception. The robot they ran on: full-perception: panda and ur7e."),
             std::string::npos) << md;
   EXPECT_NE(md.find("| full-perception | all | 4 | 2 | 2 | 50.0 (1/2) |"), std::string::npos) << md;
   // Rows whose evidence was not kept say nothing of their verifier.

@@ -237,10 +237,10 @@ class Channel {
     try {
       const TaskDef& task = find_task(suites_, r.suite(), r.task());
       const auto b0 = Clock::now();
-      const auto got = cells_.get(task, r.seed());
+      const auto got = cells_.get(task, r.seed(), r.robot());
       if (got.compiled) {
         // The lane does not turn while a model is built: its time is logged beside the loop allowance.
-        log_.info("channel={} model for {} built in {:.0f} ms", id_, sim::task_scene_key(task, r.seed()),
+        log_.info("channel={} model for {} built in {:.0f} ms", id_, sim::task_scene_key(task, r.seed(), r.robot()),
                   std::chrono::duration<double, std::milli>(Clock::now() - b0).count());
         // An object cell's new model may sit where the freed one was: nothing may keep the old pointer.
         rig_.reset();
@@ -261,7 +261,7 @@ class Channel {
         rig_.reset();  // one scene's GPU state at a time (a few MB each)
         const auto r0 = Clock::now();
         rig_ = std::make_unique<sim::CameraRig>(*reset, render_.cameras, render_.size, render_.size);
-        log_.debug("channel={} camera rig for {} in {:.1f} ms", id_, sim::task_scene_key(task, r.seed()),
+        log_.debug("channel={} camera rig for {} in {:.1f} ms", id_, sim::task_scene_key(task, r.seed(), r.robot()),
                     std::chrono::duration<double, std::milli>(Clock::now() - r0).count());
       }
     } catch (const std::exception& e) {
@@ -280,8 +280,8 @@ class Channel {
       finish(r.episode_id(), e.what());
       return;
     }
-    log_.info("channel={} episode={} suite={} task={} seed={} started", id_, r.episode_id(), r.suite(), r.task(),
-               r.seed());
+    log_.info("channel={} episode={} suite={} task={} seed={}{} started", id_, r.episode_id(), r.suite(), r.task(),
+               r.seed(), r.robot().empty() ? "" : " robot=" + r.robot());
     announce(msg::CHANNEL_RUNNING);
     publish(fx);
   }

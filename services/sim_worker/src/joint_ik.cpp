@@ -19,8 +19,8 @@ constexpr double kNullGain = 0.1;
 
 void joint_pd(const mjData_* d, const std::array<int, 7>& dofs, const std::array<int, 7>& qpos,
               const std::array<double, 7>& q_ref, const std::array<double, 7>& dq_ref,
-              const std::array<double, 7>& effort, std::array<double, 7>& tau) {
-  for (int i = 0; i < 7; ++i)
+              const std::array<double, 7>& effort, std::array<double, 7>& tau, std::size_t joints) {
+  for (std::size_t i = 0; i < joints; ++i)
     tau[i] = std::clamp(kKp[i] * (q_ref[i] - d->qpos[qpos[i]]) + kKd[i] * (dq_ref[i] - d->qvel[dofs[i]]) +
                             d->qfrc_bias[dofs[i]],
                         -effort[i], effort[i]);

@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "dh/common/config.hpp"
+#include "dh/common/paths.hpp"
 #include "dh/sim/config_arrays.hpp"
 #include "dh/sim/object_variation.hpp"
 #include "mjcf_text.hpp"
@@ -158,7 +159,33 @@ const EntitySpec* SceneSpec::entity(const std::string& n) const {
   return nullptr;
 }
 
-SceneSpec load_scene(const std::filesystem::path& file) {
+std::filesystem::path robot_profile(const std::string& name) {
+  const auto dir = paths::config_dir() / "robots";
+  const auto file = dir / (name + ".yaml");
+  if (name.empty() || name.find('/') != std::string::npos || !std::filesystem::exists(file)) {
+    std::string known;
+    for (const auto& f : std::filesystem::directory_iterator(dir))
+      if (f.path().extension() == ".yaml") known += (known.empty() ? "" : ", ") + f.path().stem().string();
+    throw ConfigError("no robot '" + name + "' (" + file.string() + " does not exist; robots: " + known + ")");
+  }
+  return file;
+}
+
+namespace {
+// The arm of a scene from its profile file: URDF, ready pose, pad friction.
+void load_robot_profile(SceneSpec& s, const std::filesystem::path& file) {
+  const ConfigNode p = ConfigNode::load_file(file);
+  s.robot = load_robot(file.parent_path() / p.get<std::string>("urdf"));
+  s.robot_profile = file.stem().string();
+  s.ready_q = p.get<std::vector<double>>("ready_q");
+  if (s.ready_q.size() != s.robot.arm.size())
+    p.fail("ready_q", std::to_string(s.ready_q.size()) + " values for the " + std::to_string(s.robot.arm.size()) +
+                          " arm joints of " + s.robot.urdf.string());
+  s.finger_friction = p.get_or<double>("finger_friction", 1.5);
+}
+}  // namespace
+
+SceneSpec load_scene(const std::filesystem::path& file, const std::filesystem::path& robot) {
   const ConfigNode root = ConfigNode::load_file(file);
   SceneSpec s;
   s.file = file;
@@ -168,17 +195,15 @@ SceneSpec load_scene(const std::filesystem::path& file) {
   s.table_size = get_array<3>(table, "size");
   s.table_friction = table.get_or<double>("friction", 1.0);
   if (table.has("rgba")) s.table_rgba = get_array<4>(table, "rgba");
-  const ConfigNode robot = root.child("robot");
-  s.robot = load_robot(root.dir() / robot.get<std::string>("urdf"));
-  if (s.robot.arm.size() != 7)
-    throw ConfigError(s.file.string() + ": the workcell drives 7-joint arms (the observation carries 7 joints); " +
-                      s.robot.urdf.string() + " has " + std::to_string(s.robot.arm.size()));
-  s.robot_base = get_array<3>(robot, "base");
-  s.ready_q = get_array<7>(robot, "ready_q");
-  s.finger_friction = robot.get_or<double>("finger_friction", 1.5);
-  s.controller = robot.get_or<std::string>("controller", "osc_pose");
+  const ConfigNode mount = root.child("robot");
+  load_robot_profile(s, robot.empty() ? root.dir() / mount.get<std::string>("profile") : robot);
+  s.robot_base = get_array<3>(mount, "base");
+  s.controller = mount.get_or<std::string>("controller", "osc_pose");
   if (s.controller != "joint_ik" && s.controller != "osc_pose")
-    robot.fail("controller", "expected joint_ik or osc_pose, not '" + s.controller + "'");
+    mount.fail("controller", "expected joint_ik or osc_pose, not '" + s.controller + "'");
+  if (s.controller == "joint_ik" && s.robot.arm.size() != 7)
+    mount.fail("controller", "joint_ik drives 7-joint arms; " + s.robot.urdf.string() + " has " +
+                                 std::to_string(s.robot.arm.size()) + " (use osc_pose)");
   const ConfigNode ws = root.child("workspace");
   s.workspace_min = get_array<3>(ws, "min");
   s.workspace_max = get_array<3>(ws, "max");
@@ -211,20 +236,22 @@ SceneSpec apply_swap(SceneSpec scene, const SwapSpec& swap) {
   return scene;
 }
 
-SceneSpec load_nominal_scene(const TaskDef& task) {
-  SceneSpec scene = apply_swap(load_scene(task.scene_file), task.swap);
+SceneSpec load_nominal_scene(const TaskDef& task, const std::string& robot) {
+  SceneSpec scene = apply_swap(load_scene(task.scene_file, robot.empty() ? std::filesystem::path() : robot_profile(robot)),
+                               task.swap);
   scene.pos = task.pos;
   return scene;
 }
 
-SceneSpec load_task_scene(const TaskDef& task, std::uint64_t seed) {
-  SceneSpec scene = load_nominal_scene(task);
+SceneSpec load_task_scene(const TaskDef& task, std::uint64_t seed, const std::string& robot) {
+  SceneSpec scene = load_nominal_scene(task, robot);
   return task.object.empty() ? scene : vary_objects(std::move(scene), task.object, seed);
 }
 
-std::string task_scene_key(const TaskDef& task, std::uint64_t seed) {
+std::string task_scene_key(const TaskDef& task, std::uint64_t seed, const std::string& robot) {
   return task.scene_file.string() + "|" + task.swap.text() + (task.pos.empty() ? "" : "|" + task.pos.text()) +
-         (task.object.empty() ? "" : "|" + task.object.text() + " seed " + std::to_string(seed));
+         (task.object.empty() ? "" : "|" + task.object.text() + " seed " + std::to_string(seed)) +
+         (robot.empty() ? "" : "|robot " + robot);
 }
 
 std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t seed) {

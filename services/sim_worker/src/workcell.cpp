@@ -22,6 +22,7 @@ constexpr double kLimiterFraction = 0.9;
 }  // namespace
 
 struct Workcell::Ids {
+  std::size_t arm = 0;  ///< arm joints: 6 or 7; the arrays' first `arm` entries are used
   std::array<int, 7> arm_qpos{}, arm_dof{}, arm_act{};
   std::vector<int> finger_qpos;
   int gripper_act = -1;
@@ -74,7 +75,8 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
     if (id < 0) throw std::runtime_error("workcell model has no " + name);
     return id;
   };
-  for (int i = 0; i < 7; ++i) {
+  ids_->arm = scene_.robot.arm.size();
+  for (std::size_t i = 0; i < ids_->arm; ++i) {
     const auto& j = scene_.robot.arm[i];
     const int jid = need(mjOBJ_JOINT, j.name);
     ids_->arm_qpos[i] = m_->jnt_qposadr[jid];
@@ -108,7 +110,8 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
   std::array<double, 7> ready{};
   std::copy(scene_.ready_q.begin(), scene_.ready_q.end(), ready.begin());
   if (scene_.controller == "osc_pose") {
-    osc_ = std::make_unique<OscPose>(m_, ids_->arm_dof, ids_->arm_qpos, ids_->tcp_site, ready, ids_->effort, gains);
+    osc_ = std::make_unique<OscPose>(m_, ids_->arm, ids_->arm_dof, ids_->arm_qpos, ids_->tcp_site, ready, ids_->effort,
+                                     gains);
   } else {
     std::array<double, 7> lower{}, upper{};
     for (int i = 0; i < 7; ++i) lower[i] = scene_.robot.arm[i].lower, upper[i] = scene_.robot.arm[i].upper;
@@ -135,7 +138,7 @@ void Workcell::reset(std::uint64_t seed, const std::vector<PredicateSpec>& goal)
   const auto placements = sample_placements(scene_, seed);
   goal_ = std::move(evaluator);
   mj_resetData(m_, d_);
-  for (int i = 0; i < 7; ++i) d_->qpos[ids_->arm_qpos[i]] = scene_.ready_q[i];
+  for (std::size_t i = 0; i < ids_->arm; ++i) d_->qpos[ids_->arm_qpos[i]] = scene_.ready_q[i];
   for (int a : ids_->finger_qpos) d_->qpos[a] = 0.04;
   for (std::size_t i = 0; i < ids_->object_body.size(); ++i) {
     const Placement& p = placements[ids_->object_entity[i]];
@@ -207,21 +210,21 @@ std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
   for (int s = 1; s <= kSubsteps; ++s) {
     mj_step1(m_, d_);
     if (hold) {
-      joint_pd(d_, ids_->arm_dof, ids_->arm_qpos, q_hold, {}, ids_->effort, tau);
+      joint_pd(d_, ids_->arm_dof, ids_->arm_qpos, q_hold, {}, ids_->effort, tau, ids_->arm);
     } else if (osc_) {
       limited += osc_->torques(d_, tau);
     } else {
       ik_->torques(d_, s * 0.002, tau);
     }
-    for (int i = 0; i < 7; ++i) d_->ctrl[ids_->arm_act[i]] = tau[i];
+    for (std::size_t i = 0; i < ids_->arm; ++i) d_->ctrl[ids_->arm_act[i]] = tau[i];
     mj_step2(m_, d_);
     if (s % kSafetyEvery == 0 && !hold) {
       std::array<double, 7> dq{};
-      for (int i = 0; i < 7; ++i) dq[i] = d_->qvel[ids_->arm_dof[i]];
+      for (std::size_t i = 0; i < ids_->arm; ++i) dq[i] = d_->qvel[ids_->arm_dof[i]];
       const SafetyVerdict v = check_joint_speeds(dq, limits_);
       if (!v.ok) {
         hold = true;
-        for (int i = 0; i < 7; ++i) q_hold[i] = d_->qpos[ids_->arm_qpos[i]];
+        for (std::size_t i = 0; i < ids_->arm; ++i) q_hold[i] = d_->qpos[ids_->arm_qpos[i]];
         events.push_back({StepEvent::SafetyHold, v.reason + "; holding position"});
       }
     }
@@ -283,7 +286,7 @@ Observation Workcell::observe() const {
   std::copy(p, p + 3, o.ee_p.begin());
   o.ee_q = tcp_quat(d_);
   for (int a : ids_->finger_qpos) o.gripper_opening += d_->qpos[a];
-  for (int i = 0; i < 7; ++i) {
+  for (std::size_t i = 0; i < ids_->arm; ++i) {  // a 6-joint arm leaves the seventh 0
     o.q[i] = d_->qpos[ids_->arm_qpos[i]];
     o.dq[i] = d_->qvel[ids_->arm_dof[i]];
   }

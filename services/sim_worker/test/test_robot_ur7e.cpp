@@ -13,6 +13,8 @@
 #include "dh/common/paths.hpp"
 #include "dh/sim/model.hpp"
 #include "dh/sim/robot_model.hpp"
+#include "dh/sim/scene.hpp"
+#include "dh/sim/workcell.hpp"
 
 namespace dh {
 namespace {
@@ -101,6 +103,67 @@ TEST_F(Ur7e, TheFlangeIsWhereUrsDhChainPutsItAtAnyJointValues) {
   mj_kinematics(model, d.get());
   EXPECT_NEAR(d->xpos[3 * hand], -0.8172, 1e-9);
   EXPECT_NEAR(d->xpos[3 * hand + 2], 0.1625 - 0.0997, 1e-9);
+}
+
+// `dh campaign --robot ur7e`: the UR7e on a benchmark scene's mount, behind the same controller and seam.
+struct Ur7eWorkcell : ::testing::Test {
+  static sim::Workcell cell(const std::string& robot) {
+    const auto scene = paths::config_dir() / "scenes" / "kitchen_goal.yaml";
+    return sim::Workcell(robot.empty() ? sim::load_scene(scene) : sim::load_scene(scene, sim::robot_profile(robot)));
+  }
+  static double angle(const Observation& a, const Observation& b) {
+    const Eigen::Quaterniond qa(a.ee_q[0], a.ee_q[1], a.ee_q[2], a.ee_q[3]), qb(b.ee_q[0], b.ee_q[1], b.ee_q[2], b.ee_q[3]);
+    return qa.angularDistance(qb);
+  }
+  /// Applies `a` for `steps` steps; the events of every step.
+  static std::vector<sim::StepEvent> drive(sim::Workcell& c, const std::array<double, 7>& a, int steps) {
+    std::vector<sim::StepEvent> all;
+    for (int i = 0; i < steps; ++i)
+      for (auto& e : c.step(a)) all.push_back(std::move(e));
+    return all;
+  }
+};
+
+TEST_F(Ur7eWorkcell, StartsWithTheToolWhereThePandasIsAndOpen) {
+  auto panda = cell(""), ur = cell("ur7e");
+  EXPECT_EQ(ur.scene().robot.arm.size(), 6u);
+  panda.reset(21, {});
+  ur.reset(21, {});
+  const Observation p = panda.observe(), u = ur.observe();
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(u.ee_p[k], p.ee_p[k], 0.005) << "axis " << k;
+  EXPECT_LT(angle(u, p), 0.02);
+  EXPECT_NEAR(u.gripper_opening, robot::kJawMaxGapM, 0.002);
+  EXPECT_EQ(u.q[6], 0.0) << "a 6-joint arm leaves the seventh joint of the observation 0";
+  EXPECT_NE(u.q[0], 0.0);
+  // The same free objects, placed by the same seed: only the arm differs.
+  ASSERT_EQ(u.entities.size(), p.entities.size());
+  for (std::size_t i = 0; i < p.entities.size(); ++i)
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(u.entities[i].p[k], p.entities[i].p[k], 1e-6) << p.entities[i].name;
+}
+
+TEST_F(Ur7eWorkcell, AnActionMovesTheToolAsFarAsOnThePandaWithinTheEnvelopeAndTheJawCloses) {
+  auto panda = cell(""), ur = cell("ur7e");
+  panda.reset(21, {});
+  ur.reset(21, {});
+  const Observation p0 = panda.observe(), u0 = ur.observe();
+  const std::array<double, 7> forward_down{0.6, 0.3, -0.4, 0, 0, 0, -1};
+  const auto panda_events = drive(panda, forward_down, 12);
+  const auto ur_events = drive(ur, forward_down, 12);
+  const Observation p1 = panda.observe(), u1 = ur.observe();
+  for (int k = 0; k < 3; ++k) {
+    const double moved_p = p1.ee_p[k] - p0.ee_p[k], moved_u = u1.ee_p[k] - u0.ee_p[k];
+    EXPECT_NEAR(moved_u, moved_p, 0.15 * std::abs(moved_p) + 0.002) << "axis " << k;
+  }
+  EXPECT_LT(angle(u1, u0), 0.03) << "a translation keeps the tool's orientation";
+  for (const auto& e : ur_events) EXPECT_NE(e.kind, sim::StepEvent::SafetyHold) << e.reason;
+  // A turn about the vertical as far as the Panda's, then the jaw shut on nothing.
+  drive(panda, {0, 0, 0, 0, 0, 0.5, -1}, 6);
+  drive(ur, {0, 0, 0, 0, 0, 0.5, -1}, 6);
+  const double turned_p = angle(panda.observe(), p1), turned_u = angle(ur.observe(), u1);
+  EXPECT_GT(turned_p, 0.25);
+  EXPECT_NEAR(turned_u, turned_p, 0.15 * turned_p);
+  drive(ur, {0, 0, 0, 0, 0, 0, 1}, 12);
+  EXPECT_LT(ur.observe().gripper_opening, robot::kJawShutM);
 }
 
 TEST(RobotModel, RefusesAnArmOfAnotherJointCountNamingTheFile) {

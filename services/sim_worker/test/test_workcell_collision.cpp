@@ -22,9 +22,9 @@ std::filesystem::path beam_scene(const test::TempDir& t, bool with_beam, const s
   t.write("assets/beam.yaml",
           "asset: beam\nkind: beam\nfixture: true\nrgba: [0.5, 0.5, 0.5, 1]\n"
           "geoms:\n  - {type: box, size: [0.115, 0.3, 0.15], pos: [0, 0, 0.15]}\n");
-  std::string scene = "scene: beam\ntable:\n  size: [1.0, 1.2, 0.05]\nrobot:\n  urdf: " +
-                      (paths::config_dir() / "robots/panda.urdf").string() +
-                      "\n  controller: " + controller + "\n  base: [-0.56, 0.0, 0.0]\n  ready_q: [0.0, -0.161, 0.0, -2.445, 0.0, 2.227, 0.7853981634]\n"
+  std::string scene = "scene: beam\ntable:\n  size: [1.0, 1.2, 0.05]\nrobot:\n  profile: " +
+                      (paths::config_dir() / "robots/panda.yaml").string() +
+                      "\n  controller: " + controller + "\n  base: [-0.56, 0.0, 0.0]\n"
                       "workspace:\n  min: [-0.45, -0.5, -0.005]\n  max: [0.45, 0.5, 0.6]\n";
   scene += with_beam ? "entities:\n  - {name: beam, asset: beam, xy: [-0.135, 0.0]}\n" : "entities: []\n";
   return t.write("scenes/" + controller + (with_beam ? "_beam.yaml" : "_open.yaml"), scene);

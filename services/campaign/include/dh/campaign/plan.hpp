@@ -35,6 +35,7 @@ struct Plan {
   std::string library_version{};  ///< the capability library every episode runs (cap::library_version)
   std::string planner_errors{};   ///< the planner-error profile every episode runs under; empty: none
   std::string verifier = "oracle";  ///< the verdict every episode ends on: oracle | perception
+  std::string robot{};  ///< the arm on every scene's mount (a robot profile); empty: the scenes' own
   bool operator==(const Plan&) const = default;
 };
 

@@ -24,6 +24,7 @@ struct EpisodeRequest {
   std::string episode_id, instruction;
   std::string arm;  ///< empty: "full"
   std::string suite, cell;
+  std::string robot;  ///< the arm on the scene's mount (a robot profile); empty: the scene's own
   std::uint32_t task = 0;
   std::uint64_t seed = 0;
   std::uint32_t budget_steps = 0;

@@ -106,7 +106,8 @@ struct Effects {
 /// An episode's first evidence record, what was asked for, written by whoever takes the request (the
 /// governor's shell, the in-process stack) before the machine exists, and read by `dh replay`.
 void record_request(EvidenceWriter& evidence, const std::string& suite, std::uint32_t task, std::uint64_t seed,
-                    const std::string& cell, const std::string& arm, const PlannerErrorRates& planner_errors = {});
+                    const std::string& cell, const std::string& arm, const std::string& robot = "",
+                    const PlannerErrorRates& planner_errors = {});
 
 /// What a decision was made on, recorded once it is made (so its latency holds no recording): the decision
 /// step's observation; the end of the running command, added to the history and, when `ended_unrecorded`,

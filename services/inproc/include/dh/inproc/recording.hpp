@@ -78,6 +78,7 @@ struct Recording {
   std::filesystem::path evidence;
   std::optional<ResumedFrom> resumed;  ///< the rest of another episode, which holds the steps before it
   std::string suite, arm, episode_id, build, instruction;
+  std::string robot;  ///< the arm on the scene's mount, as requested; empty: the scene's own
   std::set<std::string> predicates;  ///< the goal's text as the seam stated it
   unsigned task = 0;
   std::uint64_t seed = 0;

@@ -73,6 +73,9 @@ class Stack {
   EpisodeOutcome resume(const Resume& from, const std::filesystem::path& evidence, const StepTap& tap = {});
   /// The planner-error rates every later episode's planner runs with (none by default).
   void set_planner_errors(const PlannerErrorRates& rates) { planner_errors_ = rates; }
+  /// The arm every later episode of `run` puts on the scene's mount (a robot profile's name); empty, the
+  /// default: the scene's own. A resumed episode runs on the arm it recorded.
+  void set_robot(std::string robot) { robot_ = std::move(robot); }
   /// Serves one more capability, described by `library_dir`/<name>.yaml, e.g. vla_act with a loaded policy.
   void add_capability(cap::CapabilityDef def, const std::filesystem::path& library_dir);
 
@@ -101,6 +104,7 @@ class Stack {
   cap::LibraryTheta library_;
   std::uint64_t runs_ = 0;  ///< episodes run, for unique episode ids
   PlannerErrorRates planner_errors_;
+  std::string robot_;
   sim::WorkcellCache cells_;
 };
 

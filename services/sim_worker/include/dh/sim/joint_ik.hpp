@@ -15,10 +15,11 @@ struct mjData_;
 namespace dh::sim {
 
 /// Joint PD with bias (gravity, Coriolis) compensation towards `q_ref` at speed `dq_ref`, clipped to
-/// `effort`: what JointIk tracks with, and what holds the arm still during a safety hold.
+/// `effort`: what JointIk tracks with, and what holds the arm still during a safety hold. The first
+/// `joints` entries of each array are the arm's (6 or 7).
 void joint_pd(const mjData_* d, const std::array<int, 7>& dofs, const std::array<int, 7>& qpos,
               const std::array<double, 7>& q_ref, const std::array<double, 7>& dq_ref,
-              const std::array<double, 7>& effort, std::array<double, 7>& tau);
+              const std::array<double, 7>& effort, std::array<double, 7>& tau, std::size_t joints = 7);
 
 class JointIk {
  public:

@@ -26,9 +26,11 @@ struct OscGains {
 
 class OscPose {
  public:
-  /// `dofs` and `qpos` are the 7 arm joints' addresses, `site` the tool site, `q_null` the pose the null
-  /// space is pulled towards and `effort` each motor's torque limit.
-  OscPose(const mjModel_* m, std::array<int, 7> dofs, std::array<int, 7> qpos, int site,
+  static constexpr std::size_t kMaxJoints = 7;
+  /// `dofs` and `qpos` are the arm joints' addresses (6 or 7 of them, base to tip; the rest of each array
+  /// unused), `site` the tool site, `q_null` the pose the null space is pulled towards and `effort` each
+  /// motor's torque limit. Throws std::invalid_argument for another joint count.
+  OscPose(const mjModel_* m, std::size_t joints, std::array<int, 7> dofs, std::array<int, 7> qpos, int site,
           std::array<double, 7> q_null, std::array<double, 7> effort, OscGains gains = {});
 
   /// Once per control step: the position goal is the measured tool position plus `dp` (m, world frame);
@@ -42,14 +44,20 @@ class OscPose {
   const Eigen::Vector3d& position_goal() const { return p_goal_; }
 
   /// At every substep, after mj_step1 (which leaves the mass matrix, Jacobians and bias forces current):
-  /// the arm torques, clipped to each motor's limit. Returns whether the speed limiter braked a joint.
+  /// the arm torques (the first `joints` of `tau`), clipped to each motor's limit. Returns whether the
+  /// speed limiter braked a joint.
   bool torques(const mjData_* d, std::array<double, 7>& tau);
 
  private:
+  /// The law for an arm of N joints: fixed-size matrices, so the 7-joint arithmetic is what it always was.
+  template <int N>
+  bool law(const mjData_* d, std::array<double, 7>& tau);
+
   const mjModel_* m_;
+  std::size_t n_;
   std::array<int, 7> dof_, qpos_;
   int site_;
-  Eigen::Matrix<double, 7, 1> q_null_, effort_;
+  std::array<double, 7> q_null_, effort_;
   OscGains g_;
   Eigen::Vector3d p_goal_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d r_goal_ = Eigen::Matrix3d::Identity();

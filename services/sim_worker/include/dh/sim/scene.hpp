@@ -61,8 +61,9 @@ struct SceneSpec {
   double table_friction = 1.0;
   std::array<double, 4> table_rgba{0.6, 0.45, 0.3, 1};
   RobotSpec robot;
+  std::string robot_profile;  ///< the profile's name (configs/robots/<name>.yaml): "panda", "ur7e"
   std::array<double, 3> robot_base{};
-  std::array<double, 7> ready_q{};
+  std::vector<double> ready_q;  ///< one per arm joint
   std::array<double, 3> workspace_min{}, workspace_max{};
   double finger_friction = 1.5;
   /// The arm controller behind the seam: "osc_pose" (robosuite's, osc_pose.hpp; docs/controller.md), what
@@ -85,7 +86,13 @@ struct Placement {
 };
 
 /// Loads a scene and its assets (<scene dir>/../assets/<asset>.yaml); throws ConfigError naming file and key.
-SceneSpec load_scene(const std::filesystem::path& file);
+/// The arm is the robot profile the scene names (`robot: {profile: ../robots/panda.yaml, base: [...]}`: its
+/// URDF, ready pose and pad friction), or `robot`, a profile file, in its place on the scene's mount.
+SceneSpec load_scene(const std::filesystem::path& file, const std::filesystem::path& robot = {});
+
+/// The profile file of the robot named `name` (configs/robots/<name>.yaml); ConfigError listing the robots
+/// there when it has none.
+std::filesystem::path robot_profile(const std::string& name);
 
 /// The scene with `swap` applied (entities trade nominal xy; each keeps its orientation and jitter);
 /// throws std::invalid_argument naming an entity the scene lacks.
@@ -93,11 +100,12 @@ SceneSpec apply_swap(SceneSpec scene, const SwapSpec& swap);
 
 /// The scene an episode of `task` with `seed` runs in: its scene file with the task's swap, position and
 /// object perturbations applied.
-SceneSpec load_task_scene(const TaskDef& task, std::uint64_t seed);
+/// `robot` names a robot profile (robot_profile) that stands in for the scene's own arm; "": the scene's.
+SceneSpec load_task_scene(const TaskDef& task, std::uint64_t seed, const std::string& robot = "");
 /// The same before the seed's object perturbation: what a perceiver knows of the scene beforehand.
-SceneSpec load_nominal_scene(const TaskDef& task);
+SceneSpec load_nominal_scene(const TaskDef& task, const std::string& robot = "");
 /// Episodes with equal keys share one compiled model (an object cell's key includes the seed).
-std::string task_scene_key(const TaskDef& task, std::uint64_t seed);
+std::string task_scene_key(const TaskDef& task, std::uint64_t seed, const std::string& robot = "");
 
 /// Horizontal distance from the robot's base within which a displaced object must stand (m): no nearer
 /// than the scenes' own nearest place allows (kitchen_goal's cream cheese, 0.26 m less its 2 cm jitter;

@@ -23,9 +23,10 @@ class WorkcellCache {
     Workcell& cell;
     bool compiled;  ///< a new model: anything holding the previous one's pointer (a camera rig) is stale
   };
-  /// The workcell for an episode of `task` with `seed` (not yet reset). On a failed compile nothing kept
+  /// The workcell for an episode of `task` with `seed` (not yet reset), with `robot` (a robot profile's
+  /// name) on the scene's mount, or the scene's own arm when it is empty. On a failed compile nothing kept
   /// is dropped.
-  Got get(const TaskDef& task, std::uint64_t seed);
+  Got get(const TaskDef& task, std::uint64_t seed, const std::string& robot = "");
 
  private:
   std::function<void(SceneSpec&)> dress_;
