@@ -24,6 +24,7 @@
 #include "dh/evo/registry.hpp"
 #include "dh/evo/transfer.hpp"
 #include "dh/report/climb.hpp"
+#include "dh/sim/scene.hpp"
 
 namespace dh::cli {
 
@@ -46,6 +47,7 @@ json plan_of(const EvolveArgs& a, const std::string& start_version) {
           {"successes", a.successes}};
   // With --rest the plan says so; without, it stays as climbs before --rest wrote it, so they resume.
   if (a.rest) plan["rest"] = true;
+  if (!a.robot.empty()) plan["robot"] = a.robot;  // likewise
   return plan;
 }
 
@@ -149,6 +151,7 @@ class Climb {
     c.db = db;
     c.launch_file = a_.launch_file;
     c.ready_ms = a_.ready_ms;
+    c.robot = a_.robot;
     return c;
   }
 
@@ -441,6 +444,7 @@ class Climb {
 int cmd_evolve(const EvolveArgs& a) {
   if (a.library.empty()) throw std::invalid_argument("--library: missing (the library the climb starts from)");
   if (a.rounds == 0) throw std::invalid_argument("--rounds: give at least 1");
+  if (!a.robot.empty()) sim::robot_profile(a.robot);  // named before a climb's state holds it
   const fs::path out = a.out.empty() ? paths::runs_dir() / "evolve" : fs::path(a.out);
   fs::create_directories(out);
   return Climb(a, out).run();

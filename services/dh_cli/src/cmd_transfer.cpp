@@ -13,6 +13,7 @@
 #include "dh/cap/library_theta.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/evo/transfer.hpp"
+#include "dh/sim/scene.hpp"
 
 namespace dh::cli {
 namespace {
@@ -35,15 +36,16 @@ struct Selection {
   }
 };
 
-/// The first database of `dbs` whose campaign ran library `version` with rows of the selection, and those
-/// rows; nullopt when none.
+/// The first database of `dbs` whose campaign ran library `version` on `robot` with rows of the selection,
+/// and those rows; nullopt when none.
 std::optional<std::pair<fs::path, std::vector<EpisodeRecord>>> dev_rows_of(const std::vector<std::string>& dbs,
                                                                            const std::string& version,
+                                                                           const std::string& robot,
                                                                            const Selection& sel) {
   for (const auto& f : dbs) {
     if (!fs::exists(f)) throw std::invalid_argument("--dev-dbs: no database " + f);
     const auto plan = campaign::CampaignDb::open(f).plan();
-    if (!plan || plan->library_version != version) continue;
+    if (!plan || plan->library_version != version || plan->robot != robot) continue;
     if (auto rows = sel.rows_of(f); !rows.empty()) return std::make_pair(fs::path(f), std::move(rows));
   }
   return std::nullopt;
@@ -55,6 +57,7 @@ int cmd_transfer(const TransferArgs& a) {
   const auto snapshots = campaign::parse_list(a.snapshots, "--snapshots");
   if (snapshots.size() < 2)
     throw std::invalid_argument("--snapshots: give at least two library folders, in the climb's order");
+  if (!a.robot.empty()) sim::robot_profile(a.robot);
   const Selection sel{
       a.arm, campaign::parse_list(a.cells, "--cells"),
       a.tasks.empty() ? std::vector<unsigned>{} : campaign::parse_numbers(a.tasks, "--tasks")};
@@ -74,13 +77,14 @@ int cmd_transfer(const TransferArgs& a) {
     c.library = dir;
     c.launch_file = a.launch_file;
     c.ready_ms = a.ready_ms;
+    c.robot = a.robot;
     auto run = [&](const fs::path& db, const std::string& what) {
       c.db = db.string();
       std::cerr << "dh transfer: " << dir << " (" << version << "): " << what << "\n";
       const auto summary = run_campaign(c);
       return summary && !(*summary)["campaign"]["interrupted"].get<bool>();
     };
-    if (auto found = dev_rows_of(dev_dbs, version, sel)) {
+    if (auto found = dev_rows_of(dev_dbs, version, a.robot, sel)) {
       std::cerr << "dh transfer: " << dir << " (" << version << "): development success from "
                 << found->first.string() << "\n";
       s.dev = std::move(found->second);

@@ -97,6 +97,7 @@ struct EvolveArgs {
   std::size_t successes = 20;
   bool bare = true, json = false;
   bool rest = false;  ///< the revision search judges its probe sets by the rest of each episode
+  std::string robot;  ///< the arm on every scene's mount in every campaign (a robot profile); empty: the scenes' own
 };
 /// The self-evolution loop, resumable: exit 1 when a campaign was interrupted or found no deployment.
 int cmd_evolve(const EvolveArgs& a);
@@ -105,6 +106,7 @@ struct TransferArgs {
   std::string snapshots, dev_dbs, out, launch_file, arm = "full";
   std::string cells = "goal-task,goal-swap,long-task,long-swap";
   std::string tasks, dev_seeds = "21-40";
+  std::string robot;  ///< the arm on every scene's mount (a robot profile); empty: the scenes' own
   unsigned fresh_seeds = 20;
   std::uint64_t salt = 0;
   unsigned ready_ms = 20000;

@@ -322,6 +322,9 @@ int main(int argc, char** argv) {
   evolve->add_option("--out", evolve_args.out, "the climb's folder: state, campaigns, registry (default runs/evolve)");
   evolve->add_option("--launch", evolve_args.launch_file, "launch file for a local deployment when none is running");
   evolve->add_option("--ready-timeout-ms", evolve_args.ready_ms, "wait for a deployment (default 20000)");
+  evolve->add_option("--robot", evolve_args.robot,
+                     "the arm on every scene's mount in every campaign, a profile of configs/robots (default: the "
+                     "scenes' own); part of the climb's plan");
   evolve->add_flag("--json", evolve_args.json, "one JSON object: start_success, final_success, rounds");
   TransferArgs transfer_args;
   auto* transfer = app.add_subcommand(
@@ -338,6 +341,8 @@ int main(int argc, char** argv) {
   transfer->add_option("--cells", transfer_args.cells, "cells (default goal-task,goal-swap,long-task,long-swap)");
   transfer->add_option("--tasks", transfer_args.tasks, "tasks (default all)");
   transfer->add_option("--arm", transfer_args.arm, "arm (default full)");
+  transfer->add_option("--robot", transfer_args.robot,
+                       "the arm on every scene's mount, a profile of configs/robots (default: the scenes' own)");
   transfer->add_option("--out", transfer_args.out, "folder of its databases and transfer.md (default runs/transfer)");
   transfer->add_option("--launch", transfer_args.launch_file, "launch file for a local deployment when none is running");
   transfer->add_option("--ready-timeout-ms", transfer_args.ready_ms, "wait for a deployment (default 20000)");

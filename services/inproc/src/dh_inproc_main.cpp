@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <map>
 
+#include "dh/campaign/plan.hpp"
 #include "dh/cap/vla_act.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/inproc/stack.hpp"
@@ -25,21 +26,6 @@ int main(int argc, char** argv) {
   app.add_option("--robot", robot, "the arm on the scene's mount, a profile of configs/robots (default: the scene's own)");
   app.add_flag("--quiet", quiet, "only the summary");
   CLI11_PARSE(app, argc, argv);
-  auto range = [](const std::string& s) {
-    std::vector<unsigned> v;
-    std::size_t pos = 0;
-    while (pos < s.size()) {
-      std::size_t comma = s.find(',', pos);
-      if (comma == std::string::npos) comma = s.size();
-      const std::string part = s.substr(pos, comma - pos);
-      const auto dash = part.find('-');
-      const unsigned a = std::stoul(part.substr(0, dash));
-      const unsigned b = dash == std::string::npos ? a : std::stoul(part.substr(dash + 1));
-      for (unsigned i = a; i <= b; ++i) v.push_back(i);
-      pos = comma + 1;
-    }
-    return v;
-  };
   try {
     const auto suites = dh::load_suites(dh::paths::config_dir());
     const auto library_dir = library.empty() ? dh::paths::config_dir() / "library" : std::filesystem::path(library);
@@ -51,14 +37,11 @@ int main(int argc, char** argv) {
     std::map<std::string, std::pair<int, int>> per_task, per_cell;
     int ok = 0, n = 0;
     const auto t0 = std::chrono::steady_clock::now();
-    std::size_t start = 0;
-    while (start <= cells.size()) {
-      std::size_t comma = cells.find(',', start);
-      if (comma == std::string::npos) comma = cells.size();
-      const std::string cell = cells.substr(start, comma - start);
-      start = comma + 1;
-      for (unsigned t : range(tasks))
-        for (unsigned seed : range(seeds)) {
+    const auto task_ids = dh::campaign::parse_numbers(tasks, "--tasks");
+    const auto seed_ids = dh::campaign::parse_numbers(seeds, "--seeds");
+    for (const std::string& cell : dh::campaign::parse_list(cells, "--cells")) {
+      for (unsigned t : task_ids)
+        for (unsigned seed : seed_ids) {
           const dh::TaskDef& task = dh::find_task(suites, cell, t);
           const auto ev = std::filesystem::path(out) / cell / (std::to_string(t) + "_" + std::to_string(seed) + ".jsonl");
           const auto r = stack.run(task, seed, arm, ev);
