@@ -234,6 +234,7 @@ Observation RtdeCell::observe() const {
   std::copy(state_.qd.begin(), state_.qd.end(), o.dq.begin());
   // A gripper on a digital output reports its command, not its gap or contacts.
   o.gripper_opening = state_.gripper_closed ? 0.0 : config_.gripper_stroke_m;
+  o.gripper = config_.gripper;
   o.entities = config_.entities;
   return o;
 }

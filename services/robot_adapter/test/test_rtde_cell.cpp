@@ -8,6 +8,7 @@
 #include <cmath>
 #include <thread>
 
+#include "dh/common/config.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/rtde/rtde_cell.hpp"
 #include "dh/rtde/simulated_ur.hpp"
@@ -35,11 +36,20 @@ struct Cell : ::testing::Test {
   }
 };
 
+// The jaw's shape the cell reports is the one the UR7e's robot profile declares (and its model has).
+TEST(CellGripper, IsTheUr7eProfiles) {
+  const ConfigNode g = ConfigNode::load_file(paths::config_dir() / "robots" / "ur7e.yaml").child("gripper");
+  const robot::Gripper profile{g.get<double>("pad_below_tcp"), g.get<double>("pad_half_width"),
+                               g.get<double>("pad_thickness"), g.get<double>("hand_above_tcp")};
+  EXPECT_EQ(RtdeCellConfig{}.gripper, profile);
+}
+
 TEST_F(Cell, StartsTheProgramAndMovesTheToolAsFarPerStepAsTheSimulator) {
   RtdeCell cell(config());
   cell.connect();
   EXPECT_TRUE(controller.with_arm([](SimulatedUr& a) { return a.program_running(); }));
   const Observation start = cell.observe();
+  EXPECT_EQ(start.gripper, RtdeCellConfig{}.gripper);
   constexpr int kSteps = 10;
   for (int i = 0; i < kSteps; ++i) {
     const auto events = cell.step({0, 0.5, 0, 0, 0, 0, -1});

@@ -182,6 +182,9 @@ void load_robot_profile(SceneSpec& s, const std::filesystem::path& file) {
     p.fail("ready_q", std::to_string(s.ready_q.size()) + " values for the " + std::to_string(s.robot.arm.size()) +
                           " arm joints of " + s.robot.urdf.string());
   s.finger_friction = p.get_or<double>("finger_friction", 1.5);
+  const ConfigNode g = p.child("gripper");
+  s.gripper = {g.get<double>("pad_below_tcp"), g.get<double>("pad_half_width"), g.get<double>("pad_thickness"),
+               g.get<double>("hand_above_tcp")};
 }
 }  // namespace
 

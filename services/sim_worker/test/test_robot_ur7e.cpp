@@ -166,6 +166,45 @@ TEST_F(Ur7eWorkcell, AnActionMovesTheToolAsFarAsOnThePandaWithinTheEnvelopeAndTh
   EXPECT_LT(ur.observe().gripper_opening, robot::kJawShutM);
 }
 
+// What each profile declares of its jaw (the skills plan contact with it) is what its model's collision
+// boxes give, measured in the tool's frame at the ready pose.
+TEST_F(Ur7eWorkcell, EachProfilesGripperIsWhatItsModelsBoxesGive) {
+  for (const std::string robot : {"", "ur7e"}) {
+    auto c = cell(robot);
+    c.reset(21, {});
+    const mjModel* m = c.model();
+    const mjData* d = c.data();
+    const int tcp = mj_name2id(m, mjOBJ_SITE, "tcp");
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> tool(d->site_xmat + 9 * tcp);
+    const Eigen::Vector3d at(d->site_xpos + 3 * tcp);
+    robot::Gripper seen{0, 0, 0, 0};
+    for (int g = 0; g < m->ngeom; ++g) {
+      if (m->geom_contype[g] == 0 && m->geom_conaffinity[g] == 0) continue;
+      const std::string body = mj_id2name(m, mjOBJ_BODY, m->geom_bodyid[g]);
+      if (body != "hand" && body != "finger_left_link" && body != "finger_right_link") continue;
+      ASSERT_EQ(m->geom_type[g], mjGEOM_BOX) << body;
+      const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> r(d->geom_xmat + 9 * g);
+      const Eigen::Vector3d half(m->geom_size + 3 * g), centre(d->geom_xpos + 3 * g);
+      const auto reach = [&](const Eigen::Vector3d& axis) { return (r.transpose() * axis).cwiseAbs().dot(half); };
+      const double along = (centre - at).dot(tool.col(2));  // the tool's axis points from the hand to the pads
+      if (body == "hand") {
+        seen.hand_above_tcp = std::max(seen.hand_above_tcp, reach(tool.col(2)) - along);
+      } else {
+        seen.pad_below_tcp = std::max(seen.pad_below_tcp, along + reach(tool.col(2)));
+        seen.pad_half_width = std::max(seen.pad_half_width, reach(tool.col(0)));
+        seen.pad_thickness = std::max(seen.pad_thickness, 2 * reach(tool.col(1)));
+      }
+    }
+    const robot::Gripper& declared = c.scene().gripper;
+    const std::string who = robot.empty() ? "panda" : robot;
+    EXPECT_NEAR(seen.pad_below_tcp, declared.pad_below_tcp, 1e-4) << who;
+    EXPECT_NEAR(seen.pad_half_width, declared.pad_half_width, 1e-4) << who;
+    EXPECT_NEAR(seen.pad_thickness, declared.pad_thickness, 1e-4) << who;
+    EXPECT_NEAR(seen.hand_above_tcp, declared.hand_above_tcp, 1e-3) << who;
+    EXPECT_EQ(c.observe().gripper, declared) << who << ": every observation carries it";
+  }
+}
+
 TEST(RobotModel, RefusesAnArmOfAnotherJointCountNamingTheFile) {
   const auto dir = std::filesystem::temp_directory_path() / "dh_robot_model_test";
   std::filesystem::create_directories(dir);

@@ -35,6 +35,7 @@ struct Observation {
   std::array<double, 4> ee_q{1, 0, 0, 0};
   double gripper_opening = 0;
   bool contact_left = false, contact_right = false;
+  robot::Gripper gripper;  ///< the jaw's shape, as the arm's robot profile declares it
   std::array<double, 7> q{}, dq{};
   std::vector<EntityState> entities;
   bool goal_holds = false;  ///< the benchmark predicate at this step

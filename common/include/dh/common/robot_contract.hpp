@@ -41,4 +41,15 @@ inline double grip_for_opening(double gap) { return std::clamp(1.0 - gap / (kJaw
 /// Below this observed opening the jaw is shut on itself: whatever it closed on, it holds nothing.
 inline constexpr double kJawShutM = 0.002;
 
+/// The jaw's shape about the tool centre point, as a skill plans contact with it: what differs between
+/// grippers behind the same action. Each robot profile declares its own (configs/robots/*.yaml, checked
+/// against its model), and the seam puts it in every observation. The defaults are the Panda's hand.
+struct Gripper {
+  double pad_below_tcp = 0.01;    ///< m the finger pads reach below the tool centre point, along the tool axis
+  double pad_half_width = 0.01;   ///< m half a pad's width, across the closing direction
+  double pad_thickness = 0.014;   ///< m a pad's thickness, along the closing direction
+  double hand_above_tcp = 0.101;  ///< m the hand's body reaches above the tool centre point
+  bool operator==(const Gripper&) const = default;
+};
+
 }  // namespace dh::robot

@@ -9,8 +9,6 @@
 namespace dh::cap {
 
 namespace {
-constexpr double kPadBelowTcp = 0.01, kPadHalf = 0.01;
-
 std::string fmt(const char* f, double a, double b) {
   char buf[160];
   std::snprintf(buf, sizeof buf, f, a, b);
@@ -182,7 +180,7 @@ void SlideDrawerSkill::start(const Bindings& args, const Observation& obs, const
   const Eigen::Vector3d out(f.x(), f.y(), 0), up(0, 0, 1);
   const double offset = open_ ? -p_.hook_offset : p_.hook_offset;
   const Eigen::Vector3d tool = geo::vec(d.p) + out * offset + up * p_.grasp_drop;
-  const double hover = open_ ? d.half_extents[2] + p_.bar_clearance + 0.01 - p_.grasp_drop : 0.0;
+  const double hover = open_ ? d.half_extents[2] + p_.bar_clearance + obs.gripper.pad_below_tcp - p_.grasp_drop : 0.0;
   via_.reset();
   if (open_) via_ = tool + up * hover;
   // The fist leans about the bar, its wrist back over the pull. Upright, the wrist (link 7's capsule, from 9
@@ -264,10 +262,10 @@ void TurnKnobSkill::start(const Bindings& args, const Observation& obs, const Sk
   sweep_ = (on_ ? 1.0 : -1.0) * sweep_.normalized();
   const double aim = on_ ? p_.on_angle : p_.off_angle;
   const double lever_arm = p_.contact_height + 0.006;  // the pads bear on the lever about here above the axis
-  const double lead = p_.lever_half_width + p_.standoff + kPadHalf;
+  const double lead = p_.lever_half_width + p_.standoff + obs.gripper.pad_half_width;
   stroke_ = lead + lever_arm * std::tan(std::clamp(std::abs(aim - k.joint), 0.0, 1.2)) + 0.004;
   const Eigen::Vector3d start =
-      geo::vec(k.p) - sweep_ * lead + Eigen::Vector3d(0, 0, p_.contact_height + kPadBelowTcp);
+      geo::vec(k.p) - sweep_ * lead + Eigen::Vector3d(0, 0, p_.contact_height + obs.gripper.pad_below_tcp);
   // A closed fist with the jaw's axis along the knob's axis: the pads' 2 cm face bears on the lever.
   begin(obs, start, jaw_along(obs, Eigen::Vector2d(axis.x(), axis.y())), 0.0, {0, 0, p_.approach_height},
         {p_.approach_steps, p_.descent_steps, 0, 0, p_.retreat_steps}, cost_steps());

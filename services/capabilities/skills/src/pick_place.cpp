@@ -9,8 +9,6 @@
 namespace dh::cap {
 
 namespace {
-constexpr double kPadBelowTcp = 0.01;   // m the finger pads reach below the tool centre point
-constexpr double kHandAboveTcp = 0.101; // m the hand's body reaches above the tool centre point
 
 
 bool inside_xy(const EntityState& e, const Eigen::Vector2d& xy, double margin) {
@@ -43,8 +41,9 @@ std::optional<Cavity> find_cavity(const Observation& obs, const std::string& tar
 
 bool has_rim(const EntityState& e) { return e.kind == "bowl" || e.kind == "plate" || e.kind == "mug"; }
 
-double PickPlaceSkill::grasp_above_bottom(const EntityState& o) const {
-  if (has_rim(o)) return 2 * o.half_extents[2] - std::min(p_.rim_grasp_depth, 2 * o.half_extents[2] - kPadBelowTcp - 0.011);
+double PickPlaceSkill::grasp_above_bottom(const EntityState& o, const robot::Gripper& g) const {
+  if (has_rim(o))
+    return 2 * o.half_extents[2] - std::min(p_.rim_grasp_depth, 2 * o.half_extents[2] - g.pad_below_tcp - 0.011);
   return std::max(o.half_extents[2], 2 * o.half_extents[2] - 0.03);
 }
 
@@ -97,14 +96,15 @@ std::optional<std::string> PickPlaceSkill::check(const Bindings& args, const Obs
   if (object == target) return "object and target are the same entity '" + object + "'";
   if (part_or_region(*o))
     return "'" + object + "' is a " + o->kind + ", not an object a jaw can carry";
-  if (!has_rim(*o) && 2 * std::min(o->half_extents[0], o->half_extents[1]) > kMaxJaw - 0.002)
+  if (!has_rim(*o) && 2 * std::min(o->half_extents[0], o->half_extents[1]) > robot::kJawMaxGapM - 0.002)
     return "object '" + object + "' is wider than the jaw opens";
   if (const auto cav = find_cavity(obs, target, object)) {
     // Into a cavity the hand goes in level under its ceiling: it must fit above the object's grasp.
-    const double tcp = cav->floor + p_.cavity_clearance + grasp_above_bottom(*o);
-    if (tcp + kHandAboveTcp > cav->ceiling - p_.cavity_ceiling)
+    const double tcp = cav->floor + p_.cavity_clearance + grasp_above_bottom(*o, obs.gripper);
+    if (tcp + obs.gripper.hand_above_tcp > cav->ceiling - p_.cavity_ceiling)
       return "the hand does not fit into '" + cav->fixture + "' holding '" + object + "': it would reach " +
-             std::to_string(tcp + kHandAboveTcp) + " m under a ceiling at " + std::to_string(cav->ceiling - p_.cavity_ceiling) + " m";
+             std::to_string(tcp + obs.gripper.hand_above_tcp) + " m under a ceiling at " +
+             std::to_string(cav->ceiling - p_.cavity_ceiling) + " m";
     // Going in level and backing out again: a longer lower, the insert and the withdrawal.
     if (budget_steps < cost_steps() + steps(5 * p_.lower_steps))
       return "budget of " + std::to_string(budget_steps) + " steps cannot pay for placing into '" + cav->fixture +
@@ -138,7 +138,7 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
       if (std::abs(d) < std::numbers::pi / 3) phi = handle + (d >= 0 ? 1 : -1) * std::numbers::pi / 3;
     }
     const double r = rim_radius(o);
-    grasp_ = {c.x() + r * std::cos(phi), c.y() + r * std::sin(phi), o.p[2] + grasp_above_bottom(o)};
+    grasp_ = {c.x() + r * std::cos(phi), c.y() + r * std::sin(phi), o.p[2] + grasp_above_bottom(o, obs.gripper)};
     yaw = phi + std::numbers::pi / 2;
   } else {
     // Close across the narrow side of a box, at half its height (a cylinder: any side).
@@ -147,7 +147,7 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
     yaw = narrow_x ? obj_yaw + std::numbers::pi / 2 : obj_yaw;
     // A round body (a bottle) is held across any diameter: keep the wrist where it is.
     if (std::abs(o.half_extents[0] - o.half_extents[1]) < 1e-3) yaw = ee_yaw;
-    grasp_ = {c.x(), c.y(), o.p[2] + grasp_above_bottom(o)};
+    grasp_ = {c.x(), c.y(), o.p[2] + grasp_above_bottom(o, obs.gripper)};
   }
   // The jaw is symmetric: of yaw and yaw+π take the one closer to the tool's current yaw.
   if (std::abs(geo::wrap(yaw - ee_yaw)) > std::numbers::pi / 2) yaw += std::numbers::pi;

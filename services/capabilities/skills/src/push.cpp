@@ -9,7 +9,6 @@
 namespace dh::cap {
 
 namespace {
-constexpr double kPadBelowTcp = 0.01, kPadThickness = 0.014;
 bool round(const EntityState& e) { return e.kind == "bowl" || e.kind == "plate" || e.kind == "mug"; }
 
 // Width across the push: a round body's diameter (a mug's handle aside), else the box's larger side.
@@ -53,7 +52,7 @@ std::optional<std::string> PushSkill::check(const Bindings& args, const Observat
   if (part_or_region(*o)) return "'" + object + "' is a " + o->kind + ", not an object a push can move";
   if (t->kind != "region") return "target '" + target + "' is not a table region an object can be pushed into";
   const double need = p_.contact_fraction * width_of(*o);
-  const double span = p_.push_opening + 2 * kPadThickness;
+  const double span = p_.push_opening + 2 * obs.gripper.pad_thickness;
   if (need > span) {
     char why[256];
     std::snprintf(why, sizeof why,
@@ -78,8 +77,9 @@ void PushSkill::start(const Bindings& args, const Observation& obs, const SkillC
   const Eigen::Vector2d to(t.p[0], t.p[1]);
   travel_ = (to - object0_).norm();
   dir_ = travel_ > 1e-6 ? Eigen::Vector2d((to - object0_) / travel_) : Eigen::Vector2d(1, 0);
-  const Eigen::Vector2d behind = object0_ - dir_ * (support(o, dir_) + p_.standoff + kPadThickness / 2);
-  start_ = {behind.x(), behind.y(), o.p[2] + p_.push_height + kPadBelowTcp};
+  pad_thickness_ = obs.gripper.pad_thickness;
+  const Eigen::Vector2d behind = object0_ - dir_ * (support(o, dir_) + p_.standoff + pad_thickness_ / 2);
+  start_ = {behind.x(), behind.y(), o.p[2] + p_.push_height + obs.gripper.pad_below_tcp};
   // The jaw's axis (tool y) across the push, so both open fingers bear on the object.
   double yaw = std::atan2(dir_.y(), dir_.x());
   if (std::abs(geo::wrap(yaw - geo::tool_yaw(geo::quat(obs.ee_q)))) > std::numbers::pi / 2) yaw += std::numbers::pi;
@@ -146,7 +146,7 @@ SkillStep PushSkill::next(const Observation& obs) {
       const Eigen::Vector2d side(-dir_.y(), dir_.x());
       auto pads_at = [&](double reference) {
         const Eigen::Vector2d centre = object0_ + dir_ * reference + side * (now - object0_).dot(side);
-        const Eigen::Vector2d to = centre - dir_ * (support(*o, dir_) + kPadThickness / 2 - p_.lead);
+        const Eigen::Vector2d to = centre - dir_ * (support(*o, dir_) + pad_thickness_ / 2 - p_.lead);
         return Eigen::Vector3d(to.x(), to.y(), start_.z());
       };
       const Eigen::Vector3d to = pads_at(reference_);

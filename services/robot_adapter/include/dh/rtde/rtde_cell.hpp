@@ -45,6 +45,10 @@ struct RtdeCellConfig {
   sim::SafetyLimits limits;  ///< the envelope and the workspace box, world frame
   ServoProgram program;
   double gripper_stroke_m = 0.085;  ///< the gap a fully open jaw reports
+  /// The jaw's shape about the TCP, as skills plan contact with it: the 2F-85's (configs/robots/ur7e.yaml
+  /// declares the same; a test holds them equal): pads 37.5 mm tall centred on the TCP, 22 mm wide, 8 mm
+  /// thick; the coupling and body 0.1415 m up to the flange.
+  robot::Gripper gripper{0.01875, 0.011, 0.008, 0.1415};
   /// The TCP the controller must be set to (x, y, z, rotation vector, flange frame): the jaw's pads' centre.
   std::array<double, 6> tcp_offset{0, 0, 0.1415, 0, 0, 0};
   std::vector<EntityState>

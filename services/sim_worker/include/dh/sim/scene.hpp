@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "dh/common/robot_contract.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/sim/asset.hpp"
 #include "dh/sim/robot_model.hpp"
@@ -64,6 +65,7 @@ struct SceneSpec {
   std::string robot_profile;  ///< the profile's name (configs/robots/<name>.yaml): "panda", "ur7e"
   std::array<double, 3> robot_base{};
   std::vector<double> ready_q;  ///< one per arm joint
+  robot::Gripper gripper;       ///< the jaw's shape about the tool centre point, from the robot profile
   std::array<double, 3> workspace_min{}, workspace_max{};
   double finger_friction = 1.5;
   /// The arm controller behind the seam: "osc_pose" (robosuite's, osc_pose.hpp; docs/controller.md), what

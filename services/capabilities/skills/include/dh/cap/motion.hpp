@@ -17,7 +17,6 @@
 namespace dh::cap {
 
 inline constexpr double kGripOpen = -1.0, kGripClose = 1.0;
-inline constexpr double kMaxJaw = 0.08;  ///< m, full opening of the parallel jaw
 
 /// Share of a full action a reference's feed-forward may take at its fastest: the rest corrects the error, so
 /// a motion stays trackable when the tool lags or is pushed off. At 0.7 the tool peaks near 0.19 m/s.

@@ -56,7 +56,7 @@ class PickPlaceSkill : public Skill {
   static const char* stage_name(Stage s);
   Eigen::Vector2d place_xy(const Observation& obs) const;
   Eigen::Vector2d entry_xy() const;  ///< in front of a cavity's opening, where the object slides in from
-  double grasp_above_bottom(const EntityState& o) const;
+  double grasp_above_bottom(const EntityState& o, const robot::Gripper& g) const;
   double corridor_z(const Observation& obs, const Eigen::Vector2d& to) const;
 
   PickPlaceParams p_;
