@@ -26,7 +26,6 @@ struct OscGains {
 
 class OscPose {
  public:
-  static constexpr std::size_t kMaxJoints = 7;
   /// `dofs` and `qpos` are the arm joints' addresses (6 or 7 of them, base to tip; the rest of each array
   /// unused), `site` the tool site, `q_null` the pose the null space is pulled towards and `effort` each
   /// motor's torque limit. Throws std::invalid_argument for another joint count.

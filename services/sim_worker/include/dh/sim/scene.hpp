@@ -89,7 +89,8 @@ struct Placement {
 
 /// Loads a scene and its assets (<scene dir>/../assets/<asset>.yaml); throws ConfigError naming file and key.
 /// The arm is the robot profile the scene names (`robot: {profile: ../robots/panda.yaml, base: [...]}`: its
-/// URDF, ready pose and pad friction), or `robot`, a profile file, in its place on the scene's mount.
+/// URDF, ready pose, pad friction and jaw shape), or `robot`, a profile file, in its place on the scene's
+/// mount.
 SceneSpec load_scene(const std::filesystem::path& file, const std::filesystem::path& robot = {});
 
 /// The profile file of the robot named `name` (configs/robots/<name>.yaml); ConfigError listing the robots
