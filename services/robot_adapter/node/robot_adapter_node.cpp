@@ -78,6 +78,12 @@ class AdapterBinding {
     app.add_option("--entities", entities_,
                    "the cell's fixtures, parts and regions (YAML, cell_entities.hpp)")
         ->check(CLI::ExistingFile);
+    app.add_option("--gripper", gripper_,
+                   "the jaw's shape the skills plan contact with (robot::Gripper, m): pads below the TCP, a pad's "
+                   "half width, its thickness, the hand above the TCP (default the 2F-85's: 0.01875,0.011,0.008,0.1415)")
+        ->delimiter(',')
+        ->expected(4)
+        ->check(CLI::PositiveNumber);
   }
 
   void parsed() {
@@ -89,6 +95,7 @@ class AdapterBinding {
     }
     cell_.base_xyz = {base_[0], base_[1], base_[2]};
     cell_.base_yaw = base_[3];
+    if (!gripper_.empty()) cell_.gripper = {gripper_[0], gripper_[1], gripper_[2], gripper_[3]};
   }
 
   void configure(Context& ctx) {
@@ -204,6 +211,7 @@ class AdapterBinding {
   std::string name_ = "robot_adapter", entities_;
   rtde::RtdeCellConfig cell_;
   std::vector<double> base_{0, 0, 0, 0}, ws_min_{-1, -1, -1}, ws_max_{1, 1, 1};
+  std::vector<double> gripper_;  ///< --gripper; empty: RtdeCellConfig's (the 2F-85's)
   unsigned grace_ms_ = 1000, abandon_after_s_ = 60;
   std::optional<sim::SeamCore> core_;
   std::optional<rtde::RtdeCell> arm_;
