@@ -106,13 +106,15 @@ void overview(const json& s, Document& doc) {
                    "Wilson 95 % (%)", "By cause", "False failure (%)", "Wilson 95 % (%)", "By cause"},
                   {}};
   for (const json& a : v["by_arm"]) {
-    std::string verifiers;
-    for (const json& name : a["verifiers"]) verifiers += (verifiers.empty() ? "" : " and ") + name.get<std::string>();
-    sources_of_verdict += (sources_of_verdict.empty() ? "" : "; ") + a["arm"].get<std::string>() + ": " +
-                          (verifiers.empty() ? "unknown (no evidence read)" : verifiers);
-    std::string names;
-    for (const json& name : a["robots"]) names += (names.empty() ? "" : " and ") + name.get<std::string>();
-    robots += (robots.empty() ? "" : "; ") + a["arm"].get<std::string>() + ": " + (names.empty() ? "unknown (no evidence read)" : names);
+    // "arm: x and y" from the arm's list `key`, added to `into` after a "; ".
+    const auto add = [&a](std::string& into, const char* key) {
+      std::string names;
+      for (const json& name : a[key]) names += (names.empty() ? "" : " and ") + name.get<std::string>();
+      into += (into.empty() ? "" : "; ") + a["arm"].get<std::string>() + ": " +
+              (names.empty() ? "unknown (no evidence read)" : names);
+    };
+    add(sources_of_verdict, "verifiers");
+    add(robots, "robots");
     const auto pct = [](const json& r) { return r["rate"].is_null() ? kNone : fixed(100.0 * r["rate"].get<double>(), 1); };
     const auto ci = [](const json& r) {
       return r["rate"].is_null() ? kNone

@@ -77,8 +77,7 @@ void PushSkill::start(const Bindings& args, const Observation& obs, const SkillC
   const Eigen::Vector2d to(t.p[0], t.p[1]);
   travel_ = (to - object0_).norm();
   dir_ = travel_ > 1e-6 ? Eigen::Vector2d((to - object0_) / travel_) : Eigen::Vector2d(1, 0);
-  pad_thickness_ = obs.gripper.pad_thickness;
-  const Eigen::Vector2d behind = object0_ - dir_ * (support(o, dir_) + p_.standoff + pad_thickness_ / 2);
+  const Eigen::Vector2d behind = object0_ - dir_ * (support(o, dir_) + p_.standoff + obs.gripper.pad_thickness / 2);
   start_ = {behind.x(), behind.y(), o.p[2] + p_.push_height + obs.gripper.pad_below_tcp};
   // The jaw's axis (tool y) across the push, so both open fingers bear on the object.
   double yaw = std::atan2(dir_.y(), dir_.x());
@@ -146,7 +145,7 @@ SkillStep PushSkill::next(const Observation& obs) {
       const Eigen::Vector2d side(-dir_.y(), dir_.x());
       auto pads_at = [&](double reference) {
         const Eigen::Vector2d centre = object0_ + dir_ * reference + side * (now - object0_).dot(side);
-        const Eigen::Vector2d to = centre - dir_ * (support(*o, dir_) + pad_thickness_ / 2 - p_.lead);
+        const Eigen::Vector2d to = centre - dir_ * (support(*o, dir_) + obs.gripper.pad_thickness / 2 - p_.lead);
         return Eigen::Vector3d(to.x(), to.y(), start_.z());
       };
       const Eigen::Vector3d to = pads_at(reference_);

@@ -43,7 +43,6 @@ class PushSkill : public Skill {
   Eigen::Quaterniond q_;
   Eigen::Vector2d object0_{0, 0};
   double travel_ = 0, reference_ = 0;
-  double pad_thickness_ = 0;  ///< the jaw's (Observation::gripper), as the push started
   int total_steps_ = 0, push_steps_ = 0;
 };
 
