@@ -199,7 +199,7 @@ SceneEstimate from_msg(const msg::SceneEstimate& m) {
     const auto& c = p.centroid();
     const auto& size = p.size();
     e.seen.push_back({p.entity(), {c[0], c[1], c[2] - size[2] / 2}, {size[0] / 2, size[1] / 2, size[2] / 2},
-                      p.confidence(), p.yaw()});
+                      p.confidence(), p.yaw(), p.kind(), p.category(), p.colour()});
   }
   return e;
 }

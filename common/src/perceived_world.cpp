@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <set>
 
 #include "dh/common/config.hpp"
 
@@ -127,22 +128,38 @@ std::optional<Unperceived> PerceivedWorld::view(Observation& obs, const std::vec
       }
     return Unperceived{"perception has not seen '" + name + "' in this episode (" + detail + ")", false};
   }
-  std::vector<EntityState> kept;
-  for (auto& e : obs.entities) {
-    if (!looked_for(e.name)) {
-      kept.push_back(e);
-      continue;
-    }
-    const auto it = seen_.find(e.name);
-    if (it == seen_.end()) continue;
-    const PerceivedEntity& seen = it->second.entity;
+  const auto place = [&](EntityState& e, const PerceivedEntity& seen) {
     e.half_extents = seen.half_extents;
     e.q = {std::cos(seen.yaw / 2), 0, 0, std::sin(seen.yaw / 2)};
     if (held_ == e.name)
       for (int i = 0; i < 3; ++i) e.p[i] = obs.ee_p[i] + held_offset_[i];
     else
       e.p = seen.p;
+  };
+  std::vector<EntityState> kept;
+  std::set<std::string> observed;
+  for (auto& e : obs.entities) {
+    observed.insert(e.name);
+    if (!looked_for(e.name)) {
+      kept.push_back(e);
+      continue;
+    }
+    const auto it = seen_.find(e.name);
+    if (it == seen_.end()) continue;
+    place(e, it->second.entity);
     kept.push_back(e);
+  }
+  // A real cell's observation carries only its calibrated fixtures: what perception saw comes in as the
+  // perception service's description names it.
+  for (const auto& [name, s] : seen_) {
+    if (observed.count(name) || !looked_for(name)) continue;
+    EntityState e;
+    e.name = name;
+    e.kind = s.entity.kind;
+    e.category = s.entity.category;
+    e.colour = s.entity.colour;
+    place(e, s.entity);
+    kept.push_back(std::move(e));
   }
   obs.entities = std::move(kept);
   return std::nullopt;

@@ -15,6 +15,8 @@
 #include <string>
 #include <vector>
 
+#include "unused_port.hpp"
+
 namespace dh::testsupport {
 
 class PythonServer {
@@ -71,18 +73,5 @@ class PythonServer {
   pid_t pid_ = -1;
   int port_ = 0;
 };
-
-/// A loopback port nothing listens on (bound, read, closed).
-inline int unused_port() {
-  const int s = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  socklen_t len = sizeof a;
-  bind(s, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  getsockname(s, reinterpret_cast<sockaddr*>(&a), &len);
-  close(s);
-  return ntohs(a.sin_port);
-}
 
 }  // namespace dh::testsupport

@@ -111,11 +111,33 @@ Effects EpisodeMachine::on_scene_estimate(const SceneEstimate& estimate, Clock::
     }
   }
   if (phase_ != Phase::AwaitingPerception) return {};
+  if (!awaiting_perception_) return request_plan("a scene estimate came", now);
   const Advice advice = *awaiting_perception_;
   return ground_and_dispatch(advice, now);
 }
 
+bool EpisodeMachine::wait_for_perception(const std::optional<Advice>& advice, Clock::time_point now) {
+  if (!world_) return false;
+  Observation seen = last_obs_;
+  const auto unseen = world_->view(seen, {});
+  if (!unseen || !unseen->estimate_missing_or_stale) return false;
+  if (phase_ != Phase::AwaitingPerception) {
+    perception_wait_until_ = now + config_.perception->wait;
+    evidence_.append("governor", "awaiting_perception",
+                     {{"step", last_obs_.step}, {"reason", unseen->reason}, {"for", advice ? "grounding" : "planning"}});
+  }
+  if (now >= perception_wait_until_) return false;
+  phase_ = Phase::AwaitingPerception;
+  awaiting_perception_ = advice;
+  deadline_ = perception_wait_until_;
+  deadline_what_ = "a fresh scene estimate";
+  return true;
+}
+
 Effects EpisodeMachine::request_plan(const std::string& why, Clock::time_point now) {
+  // Under perception grounding the planner plans on what perception saw: on a real cell the observation
+  // has no free objects at all. The frame of this step may still be on its way: wait a little for it.
+  if (wait_for_perception(std::nullopt, now)) return {};
   phase_ = Phase::Planning;
   PlanRequestOut r;
   r.index = plans_++;
@@ -183,19 +205,7 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
     for (const auto& [role, value] : advice.args) needed.push_back(value);
     unseen = world_->view(seen, needed);
     // The frame of this step may still be on its way: wait a little for it (the robot is not moving).
-    if (unseen && unseen->estimate_missing_or_stale) {
-      if (phase_ != Phase::AwaitingPerception) {
-        perception_wait_until_ = now + config_.perception->wait;
-        evidence_.append("governor", "awaiting_perception", {{"step", last_obs_.step}, {"reason", unseen->reason}});
-      }
-      if (now < perception_wait_until_) {
-        phase_ = Phase::AwaitingPerception;
-        awaiting_perception_ = advice;
-        deadline_ = perception_wait_until_;
-        deadline_what_ = "a fresh scene estimate";
-        return {};
-      }
-    }
+    if (unseen && unseen->estimate_missing_or_stale && wait_for_perception(advice, now)) return {};
   }
   GroundingResult g = unseen ? GroundingResult{std::nullopt, Refusal::Perception, unseen->reason}
                              : ground({advice, registry_, seen, remaining, config_.masked, command_id,
@@ -612,6 +622,7 @@ Effects EpisodeMachine::on_tick(Clock::time_point now) {
   if (phase_ == Phase::Ended || now < deadline_) return {};
   if (phase_ == Phase::AwaitingCapability) return ground_and_dispatch(*last_advice_, now);  // refused once the wait is over
   if (phase_ == Phase::AwaitingPerception) {
+    if (!awaiting_perception_) return request_plan("the wait for a scene estimate is over", now);
     const Advice advice = *awaiting_perception_;
     return ground_and_dispatch(advice, now);  // refused: the wait is over
   }

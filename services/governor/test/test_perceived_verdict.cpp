@@ -180,8 +180,8 @@ struct PerceptionVerifier : test::MachineTest {
   /// The bowl seen where it starts; pick_place dispatched and completed at step 5 (no frame since); the
   /// planner says every step is complete. Returns what that advice did.
   Effects complete_the_plan() {
-    Effects fx = m->on_observation(test::scene_observation(0), t0);
-    m->on_scene_estimate(frame(0, {0, -0.15, 0}), t0);
+    m->on_observation(test::scene_observation(0), t0);
+    Effects fx = m->on_scene_estimate(frame(0, {0, -0.15, 0}), t0);  // the first plan waits for it
     fx = m->on_advice(good(fx.plan_request->request_id), t0);
     EXPECT_TRUE(fx.command);
     CommandStatus done;
@@ -203,8 +203,9 @@ struct PerceptionVerifier : test::MachineTest {
 };
 
 TEST_F(PerceptionVerifier, TheSimulatorsVerdictIsRecordedButThePerceivedOneEndsTheEpisode) {
-  Effects fx = m->on_observation(test::scene_observation(0), t0);
-  m->on_scene_estimate(frame(0, {0, -0.15, 0}), t0);
+  m->on_observation(test::scene_observation(0), t0);
+  Effects fx = m->on_scene_estimate(frame(0, {0, -0.15, 0}), t0);
+  ASSERT_TRUE(fx.plan_request);
   fx = m->on_advice(good(fx.plan_request->request_id), t0);
   ASSERT_TRUE(fx.command);
   // The simulator says the goal holds; perception does not see it: no end.
@@ -252,8 +253,9 @@ struct OracleWithPerception : PerceptionVerifier {
 };
 
 TEST_F(OracleWithPerception, ThePerceivedVerdictIsKeptBesideTheOraclesWithoutDecidingAnything) {
-  Effects fx = m->on_observation(test::scene_observation(0), t0);
-  m->on_scene_estimate(frame(0, {0, -0.15, 0}), t0);
+  m->on_observation(test::scene_observation(0), t0);
+  Effects fx = m->on_scene_estimate(frame(0, {0, -0.15, 0}), t0);
+  ASSERT_TRUE(fx.plan_request);
   fx = m->on_advice(good(fx.plan_request->request_id), t0);
   ASSERT_TRUE(fx.command);
   m->on_scene_estimate(frame(10, {0, 0.15, 0.012}), t0 + 500ms);

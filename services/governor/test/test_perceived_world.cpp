@@ -62,6 +62,38 @@ TEST(PerceivedWorld, SeenEntitiesTakeTheirEstimatedPlaceAndTheRestStay) {
   EXPECT_DOUBLE_EQ(q[1], 0);
 }
 
+TEST(PerceivedWorld, WhatTheObservationLacksComesInAsThePerceptionServiceNamesIt) {
+  PerceivedWorld w{PerceptionLimits{}};
+  Observation cell = test::scene_observation(3);
+  cell.entities = {test::entity("stove", {0.3, 0.2, 0}, {0.1, 0.1, 0.05})};  // a cell's calibrated fixture
+  SceneEstimate e = estimate(3);
+  e.seen[0].kind = "bowl";
+  e.seen[0].category = "bowl";
+  e.seen[0].colour = "white";
+  e.seen[0].yaw = 0.4;
+  e.looked_for.push_back("mug");  // looked for, never seen: it does not come in
+  w.on_estimate(e);
+  EXPECT_FALSE(w.view(cell, {"bowl"}));
+  ASSERT_EQ(cell.entities.size(), 3u);
+  expect_at(cell, "bowl", {0.01, -0.14, 0.002});
+  const EntityState& bowl = *cell.entity("bowl");
+  EXPECT_EQ(bowl.kind, "bowl");
+  EXPECT_EQ(bowl.category, "bowl");
+  EXPECT_EQ(bowl.colour, "white");
+  EXPECT_DOUBLE_EQ(bowl.half_extents[0], 0.066);
+  EXPECT_NEAR(bowl.q[3], std::sin(0.2), 1e-12);
+  expect_at(cell, "stove", {0.3, 0.2, 0});
+  EXPECT_EQ(cell.entity("mug"), nullptr);
+  // Held, it moves with the tool as an observed object does.
+  Observation held = holding_at(4, {0.01, -0.14, 0.03});
+  held.entities = {};
+  EXPECT_FALSE(w.view(held, {"bowl"}));
+  held = holding_at(5, {0.11, -0.04, 0.13});
+  held.entities = {};
+  EXPECT_FALSE(w.view(held, {"bowl"}));
+  EXPECT_NEAR(held.entity("bowl")->p[0], 0.11, 1e-9);
+}
+
 TEST(PerceivedWorld, MissingStaleAndNeverSeenEstimatesAreNamed) {
   PerceivedWorld w{PerceptionLimits{}};
   Observation obs = test::scene_observation(40);

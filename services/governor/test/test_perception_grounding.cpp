@@ -1,5 +1,6 @@
-// Grounding from perception: entities the perception service looked for are placed where it saw them;
-// no, stale or unsure estimates make grounding wait for a fresh frame, then refuse with the reason.
+// Planning and grounding from perception: entities the perception service looked for are placed where it
+// saw them, and come in when the observation lacks them (a real cell's); no or stale estimates make
+// planning and grounding wait for a fresh frame, and grounding then refuses with the reason.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -24,22 +25,68 @@ struct PerceptionMachine : test::MachineTest {
   void configure(GovernorConfig& c) override { c.perception = PerceptionLimits{}; }
 };
 
+TEST_F(PerceptionMachine, ThePlannerWaitsForTheFirstFrameThenPlansOnWhatPerceptionSaw) {
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  EXPECT_FALSE(fx.plan_request) << "no estimate yet: the planner is not asked on the observation's objects";
+  EXPECT_FALSE(m->on_tick(t0 + 1s).plan_request) << "still within the wait";
+  fx = m->on_scene_estimate(estimate(0), t0 + 1s);
+  ASSERT_TRUE(fx.plan_request) << "the frame came: the planner is asked";
+  const auto bowl = std::find_if(fx.plan_request->scene.begin(), fx.plan_request->scene.end(),
+                                 [](const EntityState& e) { return e.name == "bowl"; });
+  ASSERT_NE(bowl, fx.plan_request->scene.end());
+  EXPECT_DOUBLE_EQ(bowl->p[0], 0.01) << "where perception saw it, not where the observation has it";
+  bool waited = false;
+  for (const auto& r : read_evidence(file))
+    waited |= r["kind"] == "awaiting_perception" && r["for"] == "planning";
+  EXPECT_TRUE(waited);
+  ASSERT_TRUE(m->on_advice(good(fx.plan_request->request_id), t0 + 1s).command) << "the frame is fresh: grounded";
+}
+
 TEST_F(PerceptionMachine, AStepWaitsForTheFrameOfItsStepThenGroundsWithWhatPerceptionSaw) {
   Effects fx = m->on_observation(test::scene_observation(0), t0);
-  ASSERT_TRUE(fx.plan_request);
-  fx = m->on_advice(good(fx.plan_request->request_id), t0);
-  EXPECT_FALSE(fx.command) << "no estimate yet: it waits";
+  fx = m->on_tick(t0 + 3001ms);
+  ASSERT_TRUE(fx.plan_request) << "no frame within the wait: the planner is asked with what there is";
+  fx = m->on_advice(good(fx.plan_request->request_id), t0 + 3001ms);
+  EXPECT_FALSE(fx.command) << "no estimate yet: grounding waits";
   EXPECT_FALSE(fx.plan_request);
-  EXPECT_FALSE(m->on_tick(t0 + 1s).command) << "still within the wait";
-  EXPECT_FALSE(m->on_scene_estimate({"another-episode", 0, {"bowl"}, {}}, t0 + 1s).command);
-  fx = m->on_scene_estimate(estimate(0), t0 + 1s);
+  EXPECT_FALSE(m->on_tick(t0 + 4s).command) << "still within the wait";
+  EXPECT_FALSE(m->on_scene_estimate({"another-episode", 0, {"bowl"}, {}}, t0 + 4s).command);
+  fx = m->on_scene_estimate(estimate(0), t0 + 4s);
   ASSERT_TRUE(fx.command) << "the frame came: grounded";
   EXPECT_EQ(fx.command->args.at(0).second, "bowl");
 }
 
+// A real cell's observation carries its calibrated fixtures only: the objects perception saw come in as
+// its description names them, for the planner and for grounding alike.
+TEST_F(PerceptionMachine, OnACellWithoutFreeObjectsInItsObservationPerceivedObjectsComeIn) {
+  Observation cell = test::scene_observation(0);
+  cell.entities = {test::entity("stove", {0.3, 0.2, 0}, {0.1, 0.1, 0.05})};
+  m->on_observation(cell, t0);
+  SceneEstimate e = estimate(0);
+  for (auto& seen : e.seen) {
+    seen.kind = seen.name;
+    seen.category = seen.name == "bowl" ? "bowl" : "dinner plate";
+    seen.colour = "white";
+  }
+  const Effects fx = m->on_scene_estimate(e, t0);
+  ASSERT_TRUE(fx.plan_request);
+  const auto& scene = fx.plan_request->scene;
+  ASSERT_EQ(scene.size(), 3u);
+  const auto plate = std::find_if(scene.begin(), scene.end(), [](const EntityState& x) { return x.name == "plate"; });
+  ASSERT_NE(plate, scene.end());
+  EXPECT_EQ(plate->kind, "plate");
+  EXPECT_EQ(plate->category, "dinner plate");
+  EXPECT_EQ(plate->colour, "white");
+  EXPECT_DOUBLE_EQ(plate->half_extents[0], 0.09);
+  const Effects grounded = m->on_advice(good(fx.plan_request->request_id), t0);
+  ASSERT_TRUE(grounded.command) << "grounded on the perceived objects";
+  EXPECT_EQ(grounded.command->args.at(1).second, "plate");
+}
+
 TEST_F(PerceptionMachine, AnEntityPerceptionCannotSeeIsRefusedAndNoOtherCapabilityIsTried) {
-  Effects fx = m->on_observation(test::scene_observation(0), t0);
-  m->on_scene_estimate(estimate(0, 0.05), t0);
+  m->on_observation(test::scene_observation(0), t0);
+  Effects fx = m->on_scene_estimate(estimate(0, 0.05), t0);
+  ASSERT_TRUE(fx.plan_request);
   fx = m->on_advice(good(fx.plan_request->request_id), t0);
   EXPECT_FALSE(fx.command);
   ASSERT_TRUE(fx.plan_request) << "refused: the planner is asked again";
@@ -56,10 +103,12 @@ TEST_F(PerceptionMachine, AnEntityPerceptionCannotSeeIsRefusedAndNoOtherCapabili
 }
 
 TEST_F(PerceptionMachine, NoFrameWithinTheWaitIsARefusalWithItsReason) {
-  Effects fx = m->on_observation(test::scene_observation(0), t0);
-  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  m->on_observation(test::scene_observation(0), t0);
+  Effects fx = m->on_tick(t0 + 3001ms);
+  ASSERT_TRUE(fx.plan_request);
+  fx = m->on_advice(good(fx.plan_request->request_id), t0 + 3001ms);
   EXPECT_FALSE(fx.command);
-  fx = m->on_tick(t0 + 3001ms);
+  fx = m->on_tick(t0 + 6002ms);
   EXPECT_FALSE(fx.command);
   ASSERT_TRUE(fx.plan_request) << "refused after the wait; the planner is asked again";
   bool recorded = false;

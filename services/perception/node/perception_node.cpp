@@ -150,6 +150,11 @@ class PerceptionBinding {
       p.yaw(std::atan2(x.axes(1, 0), x.axes(0, 0)));
       p.confidence(x.confidence);
       p.points(static_cast<std::uint32_t>(x.points));
+      if (const auto id = e.identities.find(x.entity); id != e.identities.end()) {
+        p.kind(id->second.kind);
+        p.category(id->second.category);
+        p.colour(id->second.colour);
+      }
       out.seen().push_back(p);
     }
     out.looked_for(e.looked_for);

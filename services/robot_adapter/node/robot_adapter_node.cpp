@@ -16,7 +16,9 @@
 // Parameters: --channel, --host, --rtde-port, --script-port, --base x,y,z,yaw (the arm's base in the
 // world, m and rad), --workspace-min/--workspace-max (the box, world frame), --joint-speed (the envelope,
 // rad/s), --output-hz, --lease-grace-ms, --abandon-after-s, --name, --entities FILE (the cell's fixtures,
-// parts and regions, put in every observation; cell_entities.hpp).
+// parts and regions, put in every observation; cell_entities.hpp), --gripper (the jaw's shape),
+// --gripper-interface digital-output|robotiq-urcap and --gripper-port (the jaw's gap and contacts from a
+// Robotiq gripper's URCap; robotiq_socket.hpp).
 #include <chrono>
 #include <optional>
 
@@ -84,6 +86,11 @@ class AdapterBinding {
         ->delimiter(',')
         ->expected(4)
         ->check(CLI::PositiveNumber);
+    app.add_option("--gripper-interface", gripper_interface_,
+                   "how the jaw is driven and read: digital-output (tool output 0; it reports its command only) or "
+                   "robotiq-urcap (a Robotiq gripper through its URCap's socket; it reports its gap and contacts)")
+        ->check(CLI::IsMember({"digital-output", "robotiq-urcap"}));
+    app.add_option("--gripper-port", cell_.gripper_port, "the Robotiq URCap's server (63352 on a UR controller)");
   }
 
   void parsed() {
@@ -96,6 +103,8 @@ class AdapterBinding {
     cell_.base_xyz = {base_[0], base_[1], base_[2]};
     cell_.base_yaw = base_[3];
     if (!gripper_.empty()) cell_.gripper = {gripper_[0], gripper_[1], gripper_[2], gripper_[3]};
+    if (gripper_interface_ == "robotiq-urcap")
+      cell_.gripper_interface = rtde::RtdeCellConfig::GripperInterface::RobotiqUrcap;
   }
 
   void configure(Context& ctx) {
@@ -208,7 +217,7 @@ class AdapterBinding {
   }
 
   std::uint32_t channel_ = 0;
-  std::string name_ = "robot_adapter", entities_;
+  std::string name_ = "robot_adapter", entities_, gripper_interface_ = "digital-output";
   rtde::RtdeCellConfig cell_;
   std::vector<double> base_{0, 0, 0, 0}, ws_min_{-1, -1, -1}, ws_max_{1, 1, 1};
   std::vector<double> gripper_;  ///< --gripper; empty: RtdeCellConfig's (the 2F-85's)

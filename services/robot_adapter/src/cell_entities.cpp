@@ -1,5 +1,7 @@
 #include "dh/rtde/cell_entities.hpp"
 
+#include <yaml-cpp/yaml.h>
+
 #include <set>
 
 #include "dh/common/config.hpp"
@@ -37,6 +39,31 @@ std::vector<EntityState> load_cell_entities(const std::filesystem::path& file) {
     if (out[i].kind != "region" && !out[i].owner.empty() && !names.count(out[i].owner))
       items[i].fail("owner", "'" + out[i].owner + "' is not an entity of this file");
   return out;
+}
+
+std::string cell_entities_yaml(const std::vector<EntityState>& entities) {
+  YAML::Emitter y;
+  y.SetDoublePrecision(10);
+  y << YAML::BeginMap << YAML::Key << "entities" << YAML::Value << YAML::BeginSeq;
+  const auto seq = [&](const auto& values) {
+    y << YAML::Flow << YAML::BeginSeq;
+    for (double v : values) y << v;
+    y << YAML::EndSeq;
+  };
+  for (const EntityState& e : entities) {
+    y << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << e.name << YAML::Key << "kind"
+      << YAML::Value << e.kind << YAML::Key << "p" << YAML::Value;
+    seq(e.p);
+    y << YAML::Key << "q" << YAML::Value;
+    seq(e.q);
+    y << YAML::Key << "half_extents" << YAML::Value;
+    seq(e.half_extents);
+    y << YAML::Key << "joint" << YAML::Value << e.joint << YAML::Key << "category" << YAML::Value << e.category
+      << YAML::Key << "colour" << YAML::Value << e.colour << YAML::Key << "owner" << YAML::Value << e.owner
+      << YAML::Key << "relation" << YAML::Value << e.relation << YAML::EndMap;
+  }
+  y << YAML::EndSeq << YAML::EndMap;
+  return std::string(y.c_str()) + "\n";
 }
 
 }  // namespace dh::rtde

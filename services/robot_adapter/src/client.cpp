@@ -8,6 +8,8 @@
 #include <boost/asio/read.hpp>
 #include <boost/asio/write.hpp>
 #include <functional>
+
+#include "deadline_socket.hpp"
 #include <optional>
 
 namespace dh::rtde {
@@ -15,22 +17,7 @@ namespace dh::rtde {
 namespace asio = boost::asio;
 using tcp = asio::ip::tcp;
 
-struct Client::Io {
-  asio::io_context context;
-  tcp::socket socket{context};
-  /// Runs the operation started before it until it completes or `timeout` passes; on timeout the socket
-  /// is closed (the operation then completes with an error) and false is returned.
-  bool run(std::chrono::milliseconds timeout) {
-    context.restart();
-    context.run_for(timeout);
-    if (context.stopped()) return true;
-    boost::system::error_code ignored;
-    socket.close(ignored);
-    context.restart();
-    context.run();
-    return false;
-  }
-};
+struct Client::Io : DeadlineSocket {};
 
 Client::Client() : io_(std::make_unique<Io>()) {}
 Client::~Client() = default;
@@ -38,11 +25,7 @@ Client::~Client() = default;
 bool Client::connected() const { return io_->socket.is_open(); }
 
 void Client::close() {
-  boost::system::error_code ignored;
-  io_->socket.close(ignored);
-  // Cancelled operations' handlers run now, while what they write to still exists.
-  io_->context.restart();
-  io_->context.run();
+  io_->close();
   reader_ = PackageReader{};
 }
 
@@ -53,17 +36,10 @@ void Client::fail(const std::string& why) {
 
 void Client::connect(const std::string& host, std::uint16_t port, std::chrono::milliseconds timeout) {
   close();
+  bool refused = false;
+  if (const auto why = io_->connect(host, port, timeout, refused))
+    fail("connect: " + *why + (refused ? " (is the controller on and RTDE enabled?)" : ""));
   const std::string where = host + ":" + std::to_string(port);
-  boost::system::error_code ec;
-  tcp::resolver resolver(io_->context);
-  const auto endpoints = resolver.resolve(host, std::to_string(port), ec);
-  if (ec) fail("connect: cannot resolve " + where + ": " + ec.message());
-  asio::async_connect(io_->socket, endpoints,
-                      [&](const boost::system::error_code& e, const tcp::endpoint&) { ec = e; });
-  if (!io_->run(timeout))
-    fail("connect: no answer from " + where + " within " + std::to_string(timeout.count()) + " ms");
-  if (ec) fail("connect: " + where + ": " + ec.message() + " (is the controller on and RTDE enabled?)");
-  io_->socket.set_option(tcp::no_delay(true), ec);
   if (!accepted_reply_of(request_protocol_version(), "negotiate", timeout))
     fail("negotiate: " + where + " does not speak RTDE protocol version " + std::to_string(kProtocolVersion));
 }

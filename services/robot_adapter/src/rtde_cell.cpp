@@ -129,6 +129,22 @@ void RtdeCell::connect() {
     }
   }
   nonce_ = nonce;
+  if (config_.gripper_interface != RtdeCellConfig::GripperInterface::RobotiqUrcap) return;
+  try {
+    gripper_.connect(config_.host, config_.gripper_port, config_.timeout);
+    gripper_.activate(config_.gripper_force, config_.program_start);
+    grip_ = gripper_.get("PRE", config_.timeout) > 127;  // the jaw keeps what it holds
+    read_gripper();
+  } catch (const GripperError& e) {
+    stop();
+    client_.close();
+    throw CellStopped(std::string(e.what()) + "; the arm is stopped");
+  }
+}
+
+void RtdeCell::read_gripper() {
+  state_.gripper_position = gripper_.get("POS", config_.timeout);
+  state_.gripper_object = gripper_.get("OBJ", config_.timeout);
 }
 
 void RtdeCell::stop() noexcept {
@@ -141,6 +157,7 @@ void RtdeCell::stop() noexcept {
 }
 
 void RtdeCell::receive(bool latest) {
+  const int position = state_.gripper_position, object = state_.gripper_object;
   const auto v = latest ? client_.receive_latest(*outputs_, config_.timeout)
                         : client_.receive(*outputs_, config_.timeout);
   State s;
@@ -156,6 +173,8 @@ void RtdeCell::receive(bool latest) {
   s.applied = std::get<std::int32_t>(v[8]);
   s.started = std::get<std::int32_t>(v[9]);
   s.tcp_offset = std::get<std::array<double, 6>>(v[10]);
+  s.gripper_position = position;  // read from the gripper, not the controller's outputs
+  s.gripper_object = object;
   state_ = s;
 }
 
@@ -197,8 +216,11 @@ std::vector<sim::StepEvent> RtdeCell::step(const std::array<double, 7>& action) 
     if (sim::clamp_to_workspace(xyz, config_.limits))
       events.push_back({sim::StepEvent::WorkspaceClamp, "target clamped into the workspace box"});
     std::copy(xyz.begin(), xyz.end(), target.begin());
+    const bool was_gripping = grip_;
     grip_ = a[6] > 0;
     send_target(pose_of(base.inverse() * isometry_of(target)), grip_, ++seq_, nonce_);
+    const bool robotiq = config_.gripper_interface == RtdeCellConfig::GripperInterface::RobotiqUrcap;
+    if (robotiq && grip_ != was_gripping) gripper_.set({{"POS", grip_ ? 255 : 0}}, config_.timeout);
     // One control step of the controller's clock, every output checked.
     const double until = state_.time + robot::kControlPeriodS - 1e-9;
     bool held = false;
@@ -215,6 +237,10 @@ std::vector<sim::StepEvent> RtdeCell::step(const std::array<double, 7>& action) 
             {sim::StepEvent::SafetyHold, v.reason + "; the arm is held for the rest of the step"});
       }
     } while (state_.time < until);
+    if (robotiq) read_gripper();
+  } catch (const GripperError& e) {
+    stop();
+    throw CellStopped(std::string(e.what()) + "; the arm is stopped");
   } catch (const ClientError& e) {
     throw CellStopped(std::string("the link to the controller was lost (") + e.what() +
                       "); the program's watchdog stops the arm within " +
@@ -232,8 +258,15 @@ Observation RtdeCell::observe() const {
   o.ee_q = {q.w(), q.x(), q.y(), q.z()};
   std::copy(state_.q.begin(), state_.q.end(), o.q.begin());
   std::copy(state_.qd.begin(), state_.qd.end(), o.dq.begin());
-  // A gripper on a digital output reports its command, not its gap or contacts.
-  o.gripper_opening = state_.gripper_closed ? 0.0 : config_.gripper_stroke_m;
+  if (state_.gripper_position >= 0) {
+    // A Robotiq gripper reports its fingers' position, and whether they stopped on an object while closing:
+    // then both pads touch it.
+    o.gripper_opening = robotiq_gap(state_.gripper_position, config_.robotiq_range, config_.gripper_stroke_m);
+    o.contact_left = o.contact_right = state_.gripper_object == static_cast<int>(GripperObject::StoppedClosing);
+  } else {
+    // A gripper on a digital output reports its command, not its gap or contacts.
+    o.gripper_opening = state_.gripper_closed ? 0.0 : config_.gripper_stroke_m;
+  }
   o.gripper = config_.gripper;
   o.entities = config_.entities;
   return o;

@@ -45,6 +45,7 @@ std::string servo_program_text(const ServoProgram& p) {
          "  idle = 0.0\n"
          "  moving = False\n"
          "  target = get_actual_tcp_pose()\n"
+         "  ref = get_actual_joint_positions()\n"
          "  while True:\n"
          "    seq = read_input_integer_register(" +
          std::to_string(seq) +
@@ -75,7 +76,19 @@ std::string servo_program_text(const ServoProgram& p) {
          ", 0)\n"
          "    end\n"
          "    if moving:\n"
-         "      servoj(get_inverse_kin(target, qnear=get_actual_joint_positions()), t=" +
+         "      q = get_inverse_kin(target, qnear=ref)\n"
+         "      i = 0\n"
+         "      while i < 6:\n"
+         "        d = q[i] - ref[i]\n"
+         "        if d > " + num(p.joint_speed * p.timing.t_s) + ":\n"
+         "          d = " + num(p.joint_speed * p.timing.t_s) + "\n"
+         "        elif d < -" + num(p.joint_speed * p.timing.t_s) + ":\n"
+         "          d = -" + num(p.joint_speed * p.timing.t_s) + "\n"
+         "        end\n"
+         "        ref[i] = ref[i] + d\n"
+         "        i = i + 1\n"
+         "      end\n"
+         "      servoj(ref, t=" +
          num(p.timing.t_s) + ", lookahead_time=" + num(p.timing.lookahead_s) +
          ", gain=" + num(p.timing.gain) +
          ")\n"
@@ -83,6 +96,7 @@ std::string servo_program_text(const ServoProgram& p) {
          num(p.timing.t_s) +
          "\n"
          "    else:\n"
+         "      ref = get_actual_joint_positions()\n"
          "      sync()\n"
          "    end\n"
          "  end\n"

@@ -10,6 +10,7 @@
 
 #include "dh/rtde/servo_program.hpp"
 #include "dh/sim/model.hpp"
+#include "dh/sim/placing.hpp"
 #include "dh/sim/robot_model.hpp"
 #include "rotation_vector.hpp"
 
@@ -30,15 +31,6 @@ constexpr std::int32_t kSafetyNormal = 1, kSafetyProtectiveStop = 3;
 constexpr std::uint32_t kBitNormal = 1u << 0, kBitProtectiveStopped = 1u << 2;
 constexpr std::uint64_t kToolOutput0Bit = 1ull << 16;  ///< tool digital outputs are bits 16–17
 
-std::array<double, 6> pose_of(const mjData* d, int site) {
-  Eigen::Matrix3d r;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) r(i, j) = d->site_xmat[9 * site + 3 * i + j];
-  const Eigen::Vector3d rv = rotation_vector_of(r);
-  return {
-      d->site_xpos[3 * site], d->site_xpos[3 * site + 1], d->site_xpos[3 * site + 2], rv.x(), rv.y(), rv.z()};
-}
-
 }  // namespace
 
 struct SimulatedUr::Sim {
@@ -46,24 +38,40 @@ struct SimulatedUr::Sim {
   sim::DataPtr data, ik;
   std::array<int, 6> qpos{}, dof{}, motor{};
   int tcp = -1, gripper = -1;
+  int finger_qpos = -1, finger_dof = -1;  ///< the jaw's driven finger
   std::array<double, 6> q_ref{}, dq_ref{};
 };
 
 SimulatedUr::SimulatedUr(const std::filesystem::path& urdf, const std::array<double, 6>& ready_q)
     : sim_(std::make_unique<Sim>()) {
   const sim::RobotSpec spec = sim::load_robot(urdf);
-  if (spec.arm.size() != 6)
-    throw std::invalid_argument(urdf.string() + ": the simulated UR needs a 6-joint arm, found " +
+  const double origin[3] = {0, 0, 0};
+  const auto f = sim::robot_mjcf(spec, origin, 1.5);
+  build("<mujoco model=\"simulated_ur\"><compiler angle=\"radian\"/><option timestep=\"" + std::to_string(kCycleS) +
+            "\"/><worldbody><geom name=\"floor\" type=\"plane\" size=\"2 2 0.1\"/>" + f.body +
+            "</worldbody><actuator>" + f.actuators + "</actuator><equality>" + f.equalities + "</equality></mujoco>",
+        urdf.string(), spec, {ready_q.begin(), ready_q.end()});
+}
+
+SimulatedUr::SimulatedUr(const sim::SceneSpec& scene, std::uint64_t seed) : sim_(std::make_unique<Sim>()) {
+  base_ = scene.robot_base;
+  const auto placements = sim::sample_placements(scene, seed);
+  build(sim::scene_mjcf(scene, placements), scene.file.string(), scene.robot, scene.ready_q);
+  sim::place_entities(sim_->model.get(), sim_->data.get(), scene, placements);
+  mj_forward(sim_->model.get(), sim_->data.get());
+}
+
+void SimulatedUr::build(const std::string& mjcf, const std::string& source, const sim::RobotSpec& spec,
+                        const std::vector<double>& ready_q) {
+  if (spec.arm.size() != 6 || ready_q.size() != 6)
+    throw std::invalid_argument(source + ": the simulated UR needs a 6-joint arm, found " +
                                 std::to_string(spec.arm.size()));
-  const double base[3] = {0, 0, 0};
-  const auto f = sim::robot_mjcf(spec, base, 1.5);
-  sim_->model = sim::compile_model(
-      "<mujoco model=\"simulated_ur\"><compiler angle=\"radian\"/><option timestep=\"" +
-          std::to_string(kCycleS) + "\"/><worldbody><geom name=\"floor\" type=\"plane\" size=\"2 2 0.1\"/>" +
-          f.body + "</worldbody><actuator>" + f.actuators + "</actuator><equality>" + f.equalities +
-          "</equality></mujoco>",
-      urdf.string());
+  sim_->model = sim::compile_model(mjcf, source);
   mjModel* m = sim_->model.get();
+  // The program's contract is per 2 ms cycle: one physics step each.
+  if (std::abs(m->opt.timestep - kCycleS) > 1e-12)
+    throw std::invalid_argument(source + ": the simulated UR steps at " + std::to_string(kCycleS) +
+                                " s, the model at " + std::to_string(m->opt.timestep));
   sim_->data = sim::make_data(m);
   sim_->ik = sim::make_data(m);
   for (int i = 0; i < 6; ++i) {
@@ -72,6 +80,7 @@ SimulatedUr::SimulatedUr(const std::filesystem::path& urdf, const std::array<dou
     sim_->dof[i] = m->jnt_dofadr[j];
     sim_->motor[i] = mj_name2id(m, mjOBJ_ACTUATOR, (spec.arm[i].name + "_motor").c_str());
     sim_->data->qpos[sim_->qpos[i]] = ready_q[i];
+    sim_->q_ref[i] = ready_q[i];
   }
   // The jaw starts open: closed, the pads start in contact with each other.
   for (const auto& finger : spec.fingers)
@@ -82,10 +91,12 @@ SimulatedUr::SimulatedUr(const std::filesystem::path& urdf, const std::array<dou
   for (int i = 0; i < 3; ++i)
     tcp_offset_[i] = m->body_pos[3 * tool_body + i] + m->site_pos[3 * sim_->tcp + i];
   sim_->gripper = mj_name2id(m, mjOBJ_ACTUATOR, "gripper");
+  const int finger = mj_name2id(m, mjOBJ_JOINT, spec.fingers.front().name.c_str());
+  sim_->finger_qpos = m->jnt_qposadr[finger];
+  sim_->finger_dof = m->jnt_dofadr[finger];
   sim_->data->ctrl[sim_->gripper] = kGripperOpen;
-  sim_->q_ref = ready_q;
   mj_forward(m, sim_->data.get());
-  target_ = pose_of(sim_->data.get(), sim_->tcp);
+  target_ = tcp_pose();
 }
 
 SimulatedUr::~SimulatedUr() = default;
@@ -122,6 +133,52 @@ void SimulatedUr::run_script(const std::string& script) {
   moving_ = false;
   applied_ = 0;
   last_seq_ = 0;
+}
+
+bool SimulatedUr::robotiq_set(const std::string& var, int value) {
+  if (var == "ACT") robotiq_active_ = value == 1;
+  else if (var == "GTO") robotiq_go_ = value == 1;
+  else if (var == "POS") {
+    robotiq_request_ = std::clamp(value, 0, 255);
+    robotiq_stopped_at_.reset();
+    robotiq_object_ = GripperObject::Moving;
+  }
+  else if (var != "SPE" && var != "FOR") return false;  // the double's jaw moves at one speed and force
+  return true;
+}
+
+int SimulatedUr::robotiq_position() const {
+  const RobotiqRange range;
+  const double gap = sim_->data->qpos[sim_->finger_qpos];  // each finger's travel from shut, m
+  return static_cast<int>(std::lround(range.closed - (range.closed - range.open) * gap / kGripperOpen));
+}
+
+void SimulatedUr::update_robotiq() {
+  if (!robotiq_active_ || !robotiq_go_) return;
+  const int position = robotiq_position();
+  if (robotiq_stopped_at_ && std::abs(position - *robotiq_stopped_at_) <= 3) return;
+  robotiq_stopped_at_.reset();
+  // Moving faster than 2 mm/s; else at the request (within 3 counts) or stopped short of it by an object.
+  if (std::abs(sim_->data->qvel[sim_->finger_dof]) > 0.002) {
+    robotiq_object_ = GripperObject::Moving;
+    return;
+  }
+  const RobotiqRange range;
+  const int aim = std::clamp(robotiq_request_, range.open, range.closed);
+  robotiq_object_ = std::abs(position - aim) <= 3 ? GripperObject::AtRequest
+                    : aim > position             ? GripperObject::StoppedClosing
+                                                 : GripperObject::StoppedOpening;
+  robotiq_stopped_at_ = position;
+}
+
+std::optional<int> SimulatedUr::robotiq_get(const std::string& var) const {
+  if (var == "POS") return robotiq_position();
+  if (var == "PRE") return robotiq_request_;
+  if (var == "ACT") return robotiq_active_ ? 1 : 0;
+  if (var == "GTO") return robotiq_go_ ? 1 : 0;
+  if (var == "STA") return robotiq_active_ ? 3 : 0;
+  if (var == "OBJ") return static_cast<int>(robotiq_object_);
+  return std::nullopt;
 }
 
 void SimulatedUr::protective_stop() {
@@ -176,9 +233,16 @@ void SimulatedUr::cycle(const std::map<std::string, Value>& inputs) {
     const double limit = m->actuator_ctrlrange[2 * sim_->motor[i] + 1];
     d->ctrl[sim_->motor[i]] = std::clamp(tau, -limit, limit);
   }
-  d->ctrl[sim_->gripper] = gripper_closed_ ? 0.0 : kGripperOpen;
+  if (robotiq_active_ && robotiq_go_) {
+    const RobotiqRange range;
+    d->ctrl[sim_->gripper] =
+        kGripperOpen * std::clamp(static_cast<double>(range.closed - robotiq_request_) / (range.closed - range.open), 0.0, 1.0);
+  } else {
+    d->ctrl[sim_->gripper] = gripper_closed_ ? 0.0 : kGripperOpen;
+  }
   mj_step(m, d);
   ++cycles_;
+  update_robotiq();
   for (double v : qd()) peak_ = std::max(peak_, std::abs(v));
 }
 
@@ -188,7 +252,7 @@ void SimulatedUr::servo_towards(const std::array<double, 6>& target) {
   // Inverse kinematics near the reference (get_inverse_kin with qnear), damped least squares.
   std::copy_n(sim_->data->qpos, m->nq, k->qpos);
   for (int i = 0; i < 6; ++i) k->qpos[sim_->qpos[i]] = sim_->q_ref[i];
-  const Eigen::Vector3d p_goal(target[0], target[1], target[2]);
+  const Eigen::Vector3d p_goal(target[0] + base_[0], target[1] + base_[1], target[2] + base_[2]);
   const Eigen::Matrix3d r_goal = rotation_of({target[3], target[4], target[5]});
   std::vector<double> jp(3 * m->nv), jr(3 * m->nv);
   for (int it = 0; it < kIkIterations; ++it) {
@@ -216,16 +280,31 @@ void SimulatedUr::servo_towards(const std::array<double, 6>& target) {
             .solve(err);
     for (int i = 0; i < 6; ++i) k->qpos[sim_->qpos[i]] += dq[i];
   }
-  // servoj: the reference follows the solution at the gain's share per cycle, within the joints' speed.
-  const ServoTiming timing;
-  const double share = std::min(1.0, timing.gain * timing.t_s);
-  const double max_step = M_PI * kCycleS;
+  // The program steps its reference towards the solution within its joint speed; servoj follows it at the
+  // gain's share per cycle.
+  const ServoProgram program;
+  const double share = std::min(1.0, program.timing.gain * program.timing.t_s);
+  const double max_step = program.joint_speed * kCycleS;
   for (int i = 0; i < 6; ++i) {
     const double step = std::clamp(share * (k->qpos[sim_->qpos[i]] - sim_->q_ref[i]), -max_step, max_step);
     sim_->q_ref[i] += step;
     sim_->dq_ref[i] = step / kCycleS;
   }
 }
+
+std::array<double, 6> SimulatedUr::tcp_pose() const {
+  const mjData* d = sim_->data.get();
+  const int t = sim_->tcp;
+  Eigen::Matrix3d r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r(i, j) = d->site_xmat[9 * t + 3 * i + j];
+  const Eigen::Vector3d rv = rotation_vector_of(r);
+  return {d->site_xpos[3 * t] - base_[0], d->site_xpos[3 * t + 1] - base_[1], d->site_xpos[3 * t + 2] - base_[2],
+          rv.x(), rv.y(), rv.z()};
+}
+
+const mjModel* SimulatedUr::mj_model() const { return sim_->model.get(); }
+mjData* SimulatedUr::mj_data() { return sim_->data.get(); }
 
 std::array<double, 6> SimulatedUr::qd() const {
   std::array<double, 6> v{};
@@ -241,7 +320,7 @@ Value SimulatedUr::output(const std::string& name) const {
   if (name == "actual_q") return q;
   if (name == "target_q") return sim_->q_ref;
   if (name == "actual_qd") return qd();
-  if (name == "actual_TCP_pose") return pose_of(d, sim_->tcp);
+  if (name == "actual_TCP_pose") return tcp_pose();
   if (name == "target_TCP_pose") return target_;
   if (name == "robot_mode") return kRobotRunning;
   if (name == "safety_mode") return protective_ ? kSafetyProtectiveStop : kSafetyNormal;
@@ -257,8 +336,16 @@ Value SimulatedUr::output(const std::string& name) const {
 
 SimulatedController::SimulatedController(const std::filesystem::path& urdf,
                                          const std::array<double, 6>& ready_q, std::uint16_t port,
-                                         std::uint16_t script_port)
-    : arm_(urdf, ready_q),
+                                         std::uint16_t script_port, std::uint16_t gripper_port)
+    : SimulatedController(std::make_unique<SimulatedUr>(urdf, ready_q), port, script_port, gripper_port) {}
+
+SimulatedController::SimulatedController(const sim::SceneSpec& scene, std::uint64_t seed, std::uint16_t port,
+                                         std::uint16_t script_port, std::uint16_t gripper_port)
+    : SimulatedController(std::make_unique<SimulatedUr>(scene, seed), port, script_port, gripper_port) {}
+
+SimulatedController::SimulatedController(std::unique_ptr<SimulatedUr> arm, std::uint16_t port,
+                                         std::uint16_t script_port, std::uint16_t gripper_port)
+    : arm_(std::move(arm)),
       start_(std::chrono::steady_clock::now()),
       controller_(
           SimulatedUr::model(),
@@ -266,18 +353,30 @@ SimulatedController::SimulatedController(const std::filesystem::path& urdf,
             std::lock_guard lock(mutex_);
             advance();
             std::vector<Value> values;
-            for (const auto& name : names) values.push_back(arm_.output(name));
+            for (const auto& name : names) values.push_back(arm_->output(name));
             return values;
           },
           [this](const std::string& script) {
             std::lock_guard lock(mutex_);
             advance();
-            arm_.run_script(script);
+            arm_->run_script(script);
           },
-          port, script_port) {}
+          port, script_port),
+      gripper_(
+          [this](const std::string& var, int value) {
+            std::lock_guard lock(mutex_);
+            advance();
+            return arm_->robotiq_set(var, value);
+          },
+          [this](const std::string& var) {
+            std::lock_guard lock(mutex_);
+            advance();
+            return arm_->robotiq_get(var);
+          },
+          gripper_port) {}
 
 void SimulatedController::advance() {
-  arm_.advance_to(std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(),
+  arm_->advance_to(std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(),
                   controller_.inputs());
 }
 

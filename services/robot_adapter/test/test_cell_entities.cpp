@@ -49,6 +49,34 @@ TEST(CellEntities, AreReadAsTheObservationCarriesThem) {
   EXPECT_EQ(e[2].owner, "plate") << "a region's owner may be a free object, which perception names";
 }
 
+// What the test controller writes for the adapter is read back as it was written.
+TEST(CellEntities, WrittenAreReadBackAsTheyWere) {
+  EntityState cabinet{"cabinet", "cabinet", {0.05, -0.3, 0}, {1, 0, 0, 0}, {0.1, 0.15, 0.2}, 0, "cabinet", "white",
+                      "", ""};
+  EntityState drawer{"cabinet_top_drawer", "drawer", {-0.0612345678, -0.3, 0.25}, {0.7071067812, 0, 0, 0.7071067812},
+                     {0.005, 0.035, 0.006}, 0.0421, "drawer", "", "cabinet", ""};
+  EntityState region{"plate_region", "region", {-0.2, 0.22, 0}, {1, 0, 0, 0}, {0.06, 0.06, 0.02}, 0, "", "", "plate",
+                     "on"};
+  const std::vector<EntityState> written{cabinet, drawer, region};
+  const auto read = load_cell_entities(write("round_trip.yaml", cell_entities_yaml(written)));
+  ASSERT_EQ(read.size(), written.size());
+  for (std::size_t i = 0; i < read.size(); ++i) {
+    SCOPED_TRACE(written[i].name);
+    EXPECT_EQ(read[i].name, written[i].name);
+    EXPECT_EQ(read[i].kind, written[i].kind);
+    EXPECT_EQ(read[i].category, written[i].category);
+    EXPECT_EQ(read[i].colour, written[i].colour);
+    EXPECT_EQ(read[i].owner, written[i].owner);
+    EXPECT_EQ(read[i].relation, written[i].relation);
+    EXPECT_DOUBLE_EQ(read[i].joint, written[i].joint);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_NEAR(read[i].p[k], written[i].p[k], 1e-10);
+      EXPECT_NEAR(read[i].half_extents[k], written[i].half_extents[k], 1e-10);
+    }
+    for (int k = 0; k < 4; ++k) EXPECT_NEAR(read[i].q[k], written[i].q[k], 1e-10);
+  }
+}
+
 TEST(CellEntities, BadFilesAreNamedWithTheirKey) {
   EXPECT_NE(error_of("entities:\n  - {name: a, kind: cabinet, p: [0, 0], half_extents: [1, 1, 1]}\n")
                 .find("bad.yaml: key 'entities[0].p': expected a list of 3 numbers"),

@@ -2,6 +2,8 @@
 // watchdog, the gripper output; a controller recognises it by its first two lines and nothing else.
 #include <gtest/gtest.h>
 
+#include <sstream>
+
 #include "dh/rtde/servo_program.hpp"
 
 namespace dh::rtde {
@@ -15,7 +17,7 @@ TEST(ServoProgram, ReadsTheDeclaredRegistersAndServosWithTheDeclaredTiming) {
   p.watchdog_s = 0.15;
   p.gripper_output = 1;
   const std::string text = servo_program_text(p);
-  EXPECT_EQ(text.rfind("def dh_servo():\n  # dh_servo version 1\n", 0), 0u) << text;
+  EXPECT_EQ(text.rfind("def dh_servo():\n  # dh_servo version 2\n", 0), 0u) << text;
   EXPECT_TRUE(has(text, "seq = read_input_integer_register(24)"));
   EXPECT_TRUE(has(text,
                   "p[read_input_float_register(24), read_input_float_register(25), "
@@ -23,19 +25,21 @@ TEST(ServoProgram, ReadsTheDeclaredRegistersAndServosWithTheDeclaredTiming) {
                   "read_input_float_register(28), read_input_float_register(29)]"));
   EXPECT_TRUE(has(text, "write_output_integer_register(24, seq)"));
   EXPECT_TRUE(has(text, "set_tool_digital_out(1, read_input_integer_register(25) == 1)"));
-  EXPECT_TRUE(has(text,
-                  "servoj(get_inverse_kin(target, qnear=get_actual_joint_positions()), t=0.002, "
-                  "lookahead_time=0.05, gain=500)"));
+  EXPECT_TRUE(has(text, "q = get_inverse_kin(target, qnear=ref)"));
+  // Each joint's reference steps towards the solution at 1.5 rad/s at most: 0.003 rad per 2 ms cycle.
+  EXPECT_TRUE(has(text, "if d > 0.003:\n          d = 0.003\n        elif d < -0.003:\n          d = -0.003\n"));
+  EXPECT_TRUE(has(text, "servoj(ref, t=0.002, lookahead_time=0.05, gain=500)"));
   EXPECT_TRUE(has(text, "idle >= 0.15"));
   EXPECT_TRUE(has(text, "stopj(4)"));
-  // Every block is closed: as many `end`s as openers, and the program is called at the end.
-  auto count = [&](const std::string& w) {
-    std::size_t n = 0;
-    for (std::size_t at = text.find(w); at != std::string::npos; at = text.find(w, at + 1)) ++n;
-    return n;
-  };
-  EXPECT_EQ(count("\n  end\n") + count("\n    end\n") + count("\nend\n"),
-            count("def ") + count(" if ") + count("while "));
+  // Every block is closed: as many `end` lines as openers.
+  std::size_t ends = 0, openers = 0;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);) {
+    const std::string word = line.substr(line.find_first_not_of(' '));
+    ends += word == "end";
+    openers += word.starts_with("def ") || word.starts_with("if ") || word.starts_with("while ");
+  }
+  EXPECT_EQ(ends, openers);
   EXPECT_TRUE(has(text, "write_output_integer_register(25, read_input_integer_register(26))"));
   // One def block, which the controller runs when received: nothing after its end.
   EXPECT_TRUE(text.ends_with("    end\n  end\nend\n"));
@@ -43,7 +47,7 @@ TEST(ServoProgram, ReadsTheDeclaredRegistersAndServosWithTheDeclaredTiming) {
 
 TEST(ServoProgram, IsRecognisedByItsNameAndVersionOnly) {
   EXPECT_TRUE(is_servo_program(servo_program_text({})));
-  EXPECT_FALSE(is_servo_program("def dh_servo():\n  # dh_servo version 2\n"));
+  EXPECT_FALSE(is_servo_program("def dh_servo():\n  # dh_servo version 1\n"));
   EXPECT_FALSE(is_servo_program("def other():\n  # dh_servo version 1\n"));
   EXPECT_FALSE(is_servo_program(""));
 }

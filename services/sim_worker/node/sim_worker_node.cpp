@@ -49,6 +49,7 @@
 #include "dh/msg/episodePubSubTypes.h"
 #include "dh/msg/robotPubSubTypes.h"
 #include "dh/sim/camera.hpp"
+#include "dh/sim/rgbd_frame_msg.hpp"
 #include "dh/sim/rgbd.hpp"
 #include "dh/sim/seam_core.hpp"
 #include "dh/sim/seam_messages.hpp"
@@ -397,15 +398,7 @@ class Channel {
       const sim::Pinhole K = sim::camera_pinhole(shown_->model(), camera, rig->width(), rig->height());
       const sim::CameraPose pose = sim::camera_pose(shown_->model(), shown_->data(), camera);
       rgbd_msg_.stamp_s(shown_->data()->time);
-      rgbd_msg_.width(static_cast<std::uint32_t>(K.width));
-      rgbd_msg_.height(static_cast<std::uint32_t>(K.height));
-      rgbd_msg_.fx(K.fx);
-      rgbd_msg_.fy(K.fy);
-      rgbd_msg_.cx(K.cx);
-      rgbd_msg_.cy(K.cy);
-      rgbd_msg_.has_pose(true);
-      rgbd_msg_.position(pose.position);
-      rgbd_msg_.orientation(pose.wxyz);
+      sim::set_camera(rgbd_msg_, K, pose);
       rgbd_msg_.rgb().swap(rgbd_image_.rgb);  // no copy; render() refills the other buffer next time
       auto& bytes = rgbd_msg_.depth();
       bytes.resize(2 * rgbd_depth_.size());

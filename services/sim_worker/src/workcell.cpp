@@ -13,6 +13,7 @@
 #include "dh/common/digest.hpp"
 #include "dh/common/geometry.hpp"
 #include "dh/sim/model.hpp"
+#include "dh/sim/placing.hpp"
 
 namespace dh::sim {
 
@@ -28,7 +29,7 @@ struct Workcell::Ids {
   int gripper_act = -1;
   int tcp_site = -1;
   int finger_left_body = -1, finger_right_body = -1;
-  std::vector<int> object_body, object_qpos;  ///< free objects, in scene order
+  std::vector<int> object_body;  ///< free objects, in scene order
   std::vector<std::size_t> object_entity;     ///< index into scene.entities
   std::vector<int> fixture_body;
   std::vector<std::size_t> fixture_entity;
@@ -102,7 +103,6 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
       continue;
     }
     ids_->object_body.push_back(need(mjOBJ_BODY, e.name));
-    ids_->object_qpos.push_back(m_->jnt_qposadr[need(mjOBJ_JOINT, e.name + "_free")]);
     ids_->object_entity.push_back(k);
   }
   OscGains gains;
@@ -140,20 +140,7 @@ void Workcell::reset(std::uint64_t seed, const std::vector<PredicateSpec>& goal)
   mj_resetData(m_, d_);
   for (std::size_t i = 0; i < ids_->arm; ++i) d_->qpos[ids_->arm_qpos[i]] = scene_.ready_q[i];
   for (int a : ids_->finger_qpos) d_->qpos[a] = 0.04;
-  for (std::size_t i = 0; i < ids_->object_body.size(); ++i) {
-    const Placement& p = placements[ids_->object_entity[i]];
-    double* q = d_->qpos + ids_->object_qpos[i];
-    q[0] = p.x;
-    q[1] = p.y;
-    q[2] = 0.001;
-    q[3] = std::cos(p.yaw / 2);
-    q[4] = 0;
-    q[5] = 0;
-    q[6] = std::sin(p.yaw / 2);
-  }
-  for (const auto& e : scene_.entities)
-    for (const auto& [part, q] : e.init_joints)
-      d_->qpos[m_->jnt_qposadr[mj_name2id(m_, mjOBJ_JOINT, part_joint(e.name, part).c_str())]] = q;
+  place_entities(m_, d_, scene_, placements);
   mj_forward(m_, d_);
   // The controller starts with the orientation it finds, as robosuite's does when it is made at reset.
   if (osc_) {

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "dh/policy/policy_server_client.hpp"
+#include "../../support/unused_port.hpp"
 #include "fake_server.hpp"
 
 extern char** environ;
@@ -40,19 +41,7 @@ FakeServer start(const std::string& mode, std::vector<std::string> extra = {}) {
   return FakeServer(extra);
 }
 
-// A port on 127.0.0.1 that nothing listens on (bound, read, released).
-int unused_port() {
-  const int fd = socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  a.sin_port = 0;
-  bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
-  socklen_t len = sizeof a;
-  getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
-  ::close(fd);
-  return ntohs(a.sin_port);
-}
+using dh::testsupport::unused_port;
 
 CameraImage pattern(const std::string& name, int w, int h, int seed) {
   CameraImage im{name, w, h, std::vector<std::uint8_t>(std::size_t(w) * h * 3)};

@@ -25,6 +25,9 @@ struct PerceivedEntity {
   std::array<double, 3> half_extents{};  ///< m, along the box's own axes
   double confidence = 0;                 ///< 0..1
   double yaw = 0;                        ///< rad about world z: the box's x axis (a jaw closes across it)
+  /// What it is, as the perception service's description names it (EntityState's fields of the same
+  /// names): what an observation without free objects, a real cell's, takes it in as.
+  std::string kind{}, category{}, colour{};
 };
 
 /// One frame's estimates from the perception service.
@@ -75,7 +78,8 @@ class PerceivedWorld {
   void track(const Observation& obs);
 
   /// Rewrites `obs` as perception sees it: each entity the service looks for takes its perceived place,
-  /// size and yaw (upright: no tilt is estimated), or leaves the scene when no frame of the episode saw it.
+  /// size and yaw (upright: no tilt is estimated), or leaves the scene when no frame of the episode saw it;
+  /// one the observation lacks (a real cell's observation has no free objects) comes in as seen.
   /// Returns why it cannot — no estimate, a stale one, or an entity of `needed` never seen — or nullopt.
   std::optional<Unperceived> view(Observation& obs, const std::vector<std::string>& needed);
 

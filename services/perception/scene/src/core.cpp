@@ -115,6 +115,7 @@ SceneOut PerceptionCore::estimate(const FrameMeta& meta, Channel& ch,
                                                 meta.request_id + " not processed: " + e.what()});
   }
   for (const auto& a : ch.looked_for) out.looked_for.push_back(a.entity);
+  for (const auto& o : ch.objects) out.identities[o.appearance.entity] = o.identity;
   out.latency_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   return out;
 }

@@ -54,6 +54,7 @@ std::vector<LookFor> free_objects(const sim::SceneSpec& scene) {
     LookFor o;
     o.size = asset_size(e.asset);
     o.prior_xy = Eigen::Vector2d(e.nominal_xy[0], e.nominal_xy[1]);
+    o.identity = {e.asset.kind, e.asset.category, e.colour};
     // 600 px focal length, 0.8 m away: the most pixels the object can cover in the workcell view.
     const double span_px = 600.0 * o.size.norm() / 0.8;
     o.appearance = {e.name, {to_rgb8(e.rgba)}, 40, span_px * span_px};

@@ -180,10 +180,14 @@ class EpisodeMachine {
   /// For restore: a machine that records nothing at its construction.
   EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, const Registry& registry, EvidenceWriter& evidence);
   /// AwaitingCapability: the bare arm's policy has not been announced to this governor yet.
-  /// AwaitingPerception: grounding from perception waits for a fresh scene estimate.
+  /// AwaitingPerception: planning or grounding from perception waits for a fresh scene estimate.
   /// Verifying: the plan is complete and the perceived verdict, which lags by its frames, is awaited.
   enum class Phase { WaitingFirstObservation, Planning, AwaitingCapability, AwaitingPerception, Running, Ended, Verifying };
   Effects request_plan(const std::string& why, Clock::time_point now);
+  /// Under perception grounding, when the latest scene estimate is missing or stale and the wait for one
+  /// (config perception.wait, from the first time it was missing) is not over: waits for it, to ground
+  /// `advice` or, without one, to plan; true then.
+  bool wait_for_perception(const std::optional<Advice>& advice, Clock::time_point now);
   Observation perceived_scene();  ///< the last observation as the planner may see it
   Effects ground_and_dispatch(const Advice& advice, Clock::time_point now);
   Effects refuse(Refusal r, const std::string& reason, Clock::time_point now);
@@ -238,7 +242,8 @@ class EpisodeMachine {
   std::optional<PerceivedVerdict> perceived_;
   /// The verdict the episode goes by now: the oracle's at the last observation, or the perceived one.
   bool verdict_now() const;
-  std::optional<Advice> awaiting_perception_;     ///< the step waiting for a fresh scene estimate
+  /// The step waiting for a fresh scene estimate to be grounded; none while a plan request waits for one.
+  std::optional<Advice> awaiting_perception_;
   Clock::time_point perception_wait_until_;
   VerdictLatch latch_;
   std::optional<Advice> last_advice_;            ///< the step being executed (capability + arguments); set_step

@@ -19,6 +19,7 @@
 #pragma once
 
 #include <filesystem>
+#include <string>
 #include <vector>
 
 #include "dh/common/observation.hpp"
@@ -28,5 +29,10 @@ namespace dh::rtde {
 /// Reads `file`; throws ConfigError naming the file and key for a missing field, a list of the wrong
 /// length, a duplicate name, a part without its owner in the file, or a region without owner or relation.
 std::vector<EntityState> load_cell_entities(const std::filesystem::path& file);
+
+/// `entities` in that format, every key written (0.1 µm and 1e-9 of a quaternion), so that
+/// load_cell_entities gives them back: what the test controller's world tells the adapter, as a
+/// calibration tells it a real cell's.
+std::string cell_entities_yaml(const std::vector<EntityState>& entities);
 
 }  // namespace dh::rtde

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "dh/rtde/client.hpp"
+#include "dh/rtde/robotiq_socket.hpp"
 #include "dh/rtde/servo_program.hpp"
 #include "dh/sim/safety.hpp"
 #include "dh/sim/seam_cell.hpp"
@@ -45,6 +46,14 @@ struct RtdeCellConfig {
   sim::SafetyLimits limits;  ///< the envelope and the workspace box, world frame
   ServoProgram program;
   double gripper_stroke_m = 0.085;  ///< the gap a fully open jaw reports
+  /// How the jaw is driven and read: a tool digital output, which reports only its command, or a Robotiq
+  /// gripper through its URCap's socket (robotiq_socket.hpp), which reports its fingers' position and
+  /// whether they stopped on an object (the observation's gap and contacts).
+  enum class GripperInterface { DigitalOutput, RobotiqUrcap };
+  GripperInterface gripper_interface = GripperInterface::DigitalOutput;
+  std::uint16_t gripper_port = 63352;  ///< the URCap's server on the controller
+  RobotiqRange robotiq_range;          ///< the fingers' measured open and touching positions
+  int gripper_force = 100;             ///< the Robotiq force register, 0..255
   /// The jaw's shape about the TCP, as skills plan contact with it: the 2F-85's (configs/robots/ur7e.yaml
   /// declares the same; a test holds them equal): pads 37.5 mm tall centred on the TCP, 22 mm wide, 8 mm
   /// thick; the coupling and body 0.1415 m up to the flange.
@@ -82,7 +91,9 @@ class RtdeCell final : public sim::SeamCell {
     std::int32_t safety_mode = 0, applied = 0, started = 0;
     std::array<double, 6> tcp_offset{};
     std::uint32_t safety_bits = 0, runtime_state = 0;
-    bool gripper_closed = false;
+    bool gripper_closed = false;  ///< the tool digital output the program drives
+    /// A Robotiq gripper's fingers: measured position and object status (robotiq_socket.hpp); -1 without one.
+    int gripper_position = -1, gripper_object = -1;
   };
   const State& state() const { return state_; }
   bool connected() const { return client_.connected(); }
@@ -93,9 +104,12 @@ class RtdeCell final : public sim::SeamCell {
   /// CellStopped when the controller reports a stop or the program is not running; the session is closed.
   void check_running(const char* when);
   void send_target(const std::array<double, 6>& base_pose, bool grip, std::int32_t seq, std::int32_t nonce);
+  /// The Robotiq gripper's position and object status into the state (with a Robotiq gripper).
+  void read_gripper();
 
   RtdeCellConfig config_;
   Client client_;
+  RobotiqClient gripper_;
   std::optional<Recipe> outputs_, inputs_;
   State state_;
   std::int32_t seq_ = 0, nonce_ = 0;

@@ -7,7 +7,9 @@
 // cycle (2 ms):
 // - a new target: the sequence register differs from the last one applied and is > 0; the program reads
 //   the pose, acknowledges the sequence on its output register and servos to it (servoj on the pose's
-//   inverse kinematics, near the measured joints, with ServoTiming's t, lookahead and gain);
+//   inverse kinematics, near the measured joints, with ServoTiming's t, lookahead and gain), its joint
+//   reference stepping towards that solution no faster than `joint_speed`, so a fast motion near the
+//   base, or a large turn of the wrist, does not take the joints past the adapter's envelope;
 // - the watchdog: no new target for `watchdog_s`, or sequence 0, and the program stops the arm
 //   (stopj with `stop_deceleration`) and waits for the next target. So a dead adapter, a lost link or a
 //   seam that holds (an expired lease sends no target) stops the arm on the controller's side;
@@ -24,7 +26,7 @@ namespace dh::rtde {
 
 struct ServoProgram {
   static constexpr const char* kName = "dh_servo";
-  static constexpr int kVersion = 1;
+  static constexpr int kVersion = 2;
   /// Inputs: the target TCP pose (x, y, z m; rotation vector rad; base frame), its sequence, the gripper.
   static constexpr std::array<const char*, 6> kTargetRegisters{
       "input_double_register_24", "input_double_register_25", "input_double_register_26",
@@ -42,6 +44,9 @@ struct ServoProgram {
   ServoTiming timing;
   double watchdog_s = 0.1;         ///< two 20 Hz control steps without a target: stop
   double stop_deceleration = 4.0;  ///< rad/s², stopj's
+  /// rad/s, each joint's reference at most: 0.75 of the adapter's 2 rad/s envelope, for the arm overshoots
+  /// its reference's speed as it catches up (by up to a fifth on the simulated UR7e's wrist)
+  double joint_speed = 1.5;
   int gripper_output = 0;          ///< the tool digital output that closes the gripper
 };
 

@@ -4,6 +4,10 @@
 // from damped least-squares inverse kinematics, tracked by a joint PD with gravity compensation; it
 // answers for the outputs the adapter reads. Time is simulated and advanced on demand (advance_to), so a
 // test reads it at any rate without a thread of its own.
+//
+// It stands either alone on a floor, its base at the world's origin, or on a benchmark scene's mount
+// among the scene's fixtures and objects (the cell's dry run): poses in and out are in the arm's base
+// frame, as a controller gives them, and the world is the scene's.
 #pragma once
 
 #include <array>
@@ -13,10 +17,17 @@
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include "dh/rtde/protocol.hpp"
+#include "dh/rtde/robotiq_socket.hpp"
+#include "dh/sim/scene.hpp"
 #include "dh/rtde/test_controller.hpp"
+
+struct mjModel_;
+struct mjData_;
 
 namespace dh::rtde {
 
@@ -24,6 +35,10 @@ class SimulatedUr {
  public:
   /// Loads the arm from `urdf` (6 joints, a `tcp` link) with its base at the world's origin, at `ready_q`.
   SimulatedUr(const std::filesystem::path& urdf, const std::array<double, 6>& ready_q);
+  /// The scene's arm (its robot profile must have 6 joints) on the scene's mount at the profile's ready
+  /// pose, the scene's entities where `seed` places them (sim::sample_placements), its cameras in the
+  /// model. Throws std::invalid_argument for another arm.
+  SimulatedUr(const sim::SceneSpec& scene, std::uint64_t seed);
   ~SimulatedUr();
   SimulatedUr(const SimulatedUr&) = delete;
   SimulatedUr& operator=(const SimulatedUr&) = delete;
@@ -40,6 +55,13 @@ class SimulatedUr {
   /// The output named `name` now (model() lists them); throws std::invalid_argument for another.
   Value output(const std::string& name) const;
 
+  /// The Robotiq URCap's variables (robotiq_socket.hpp) for the arm's 2F-85-sized jaw: ACT, GTO, POS, SPE
+  /// and FOR are set (false for another), POS, PRE, STA, OBJ, ACT and GTO read (nullopt for another).
+  /// Once active with GTO 1 the jaw goes to the requested position, no longer following the tool's
+  /// digital output.
+  bool robotiq_set(const std::string& var, int value);
+  std::optional<int> robotiq_get(const std::string& var) const;
+
   /// A protective stop: the arm halts, the program stops, the safety bits say so.
   void protective_stop();
   /// The stop released on the pendant: the arm may run a program again.
@@ -54,12 +76,22 @@ class SimulatedUr {
   void reset_peak() { peak_ = 0; }
   const std::string& last_script_error() const { return script_error_; }
 
+  /// The arm's base in the world (m; the base is not turned).
+  const std::array<double, 3>& base() const { return base_; }
+  /// The simulation, for a camera that renders the world (under the controller's lock).
+  const mjModel_* mj_model() const;
+  mjData_* mj_data();
+
   static constexpr double kCycleS = 0.002;
 
  private:
   struct Sim;
+  void build(const std::string& mjcf, const std::string& source, const sim::RobotSpec& spec,
+             const std::vector<double>& ready_q);
   void cycle(const std::map<std::string, Value>& inputs);
-  /// The joint reference that servos towards `target` (a UR pose) this cycle.
+  /// The tool's pose in the base frame (position, rotation vector).
+  std::array<double, 6> tcp_pose() const;
+  /// The joint reference that servos towards `target` (a UR pose in the base frame) this cycle.
   void servo_towards(const std::array<double, 6>& target);
 
   std::unique_ptr<Sim> sim_;
@@ -67,9 +99,18 @@ class SimulatedUr {
   bool running_ = false, starting_ = false, moving_ = false, protective_ = false;
   std::int32_t last_seq_ = 0, applied_ = 0, started_ = 0;
   std::array<double, 6> tcp_offset_{};
+  std::array<double, 3> base_{};
   double idle_s_ = 0, peak_ = 0;
   std::array<double, 6> target_{};
   bool gripper_closed_ = false;
+  bool robotiq_active_ = false, robotiq_go_ = false;
+  int robotiq_request_ = 0;
+  /// OBJ as a gripper reports it: once the fingers stop, the status they stopped with, kept while they stay
+  /// within 3 counts of where they stopped (a held object that slips lets them move on: moving again).
+  GripperObject robotiq_object_ = GripperObject::AtRequest;
+  std::optional<int> robotiq_stopped_at_;
+  int robotiq_position() const;
+  void update_robotiq();
   std::string script_error_;
 };
 
@@ -80,24 +121,32 @@ class SimulatedController {
  public:
   /// Ports 0: ones the system picks.
   SimulatedController(const std::filesystem::path& urdf, const std::array<double, 6>& ready_q,
-                      std::uint16_t port = 0, std::uint16_t script_port = 0);
+                      std::uint16_t port = 0, std::uint16_t script_port = 0, std::uint16_t gripper_port = 0);
+  /// The arm on a scene's mount among its entities (SimulatedUr's second constructor).
+  SimulatedController(const sim::SceneSpec& scene, std::uint64_t seed, std::uint16_t port = 0,
+                      std::uint16_t script_port = 0, std::uint16_t gripper_port = 0);
   std::uint16_t port() const { return controller_.port(); }
   std::uint16_t script_port() const { return controller_.script_port(); }
+  /// The Robotiq URCap's server stand-in (robotiq_socket.hpp; 63352 on a UR).
+  std::uint16_t gripper_port() const { return gripper_.port(); }
   TestController& controller() { return controller_; }
   /// Runs `f` on the arm, advanced to now, under its lock.
   template <class F>
   auto with_arm(F&& f) {
     std::lock_guard lock(mutex_);
     advance();
-    return f(arm_);
+    return f(*arm_);
   }
 
  private:
+  SimulatedController(std::unique_ptr<SimulatedUr> arm, std::uint16_t port, std::uint16_t script_port,
+                      std::uint16_t gripper_port);
   void advance();
   std::mutex mutex_;
-  SimulatedUr arm_;
+  std::unique_ptr<SimulatedUr> arm_;
   std::chrono::steady_clock::time_point start_;
-  TestController controller_;  ///< last: its thread reads the arm
+  TestController controller_;  ///< after the arm: its thread reads the arm
+  RobotiqServer gripper_;      ///< the same
 };
 
 }  // namespace dh::rtde

@@ -57,6 +57,7 @@ struct SceneOut {
   double stamp_s = 0;
   std::vector<EntityEstimate> seen;     ///< the estimates with a positive confidence
   std::vector<std::string> looked_for;  ///< every object looked for, seen or not
+  std::map<std::string, ObjectIdentity> identities;  ///< what each object looked for is
   double latency_ms = 0;                ///< segmentation and estimation of this frame
 };
 

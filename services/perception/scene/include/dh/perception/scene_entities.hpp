@@ -13,9 +13,17 @@
 
 namespace dh::perception {
 
+/// What an object is, as its description names it (an observation's entity has the same fields).
+struct ObjectIdentity {
+  std::string kind;      ///< its asset's kind: "bowl"
+  std::string category;  ///< what a person calls it: "cream cheese"
+  std::string colour;    ///< in words; empty when the description does not say
+};
+
 /// A free object to find: its colours, and its size from its asset's geometry (the shape cue).
 struct LookFor {
   EntityAppearance appearance;
+  ObjectIdentity identity;
   Eigen::Vector3d size = Eigen::Vector3d::Zero();  ///< full extents of its upright box: x, y, z (m)
   /// Where it is expected (world xy, m): its nominal place in the scene description, or where the last
   /// frame saw it. Tells identical objects apart; unset, they are assigned in the scene's order.
