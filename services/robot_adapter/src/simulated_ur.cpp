@@ -351,33 +351,43 @@ SimulatedController::SimulatedController(std::unique_ptr<SimulatedUr> arm, std::
           SimulatedUr::model(),
           [this](const std::vector<std::string>& names) {
             std::lock_guard lock(mutex_);
-            advance();
             std::vector<Value> values;
             for (const auto& name : names) values.push_back(arm_->output(name));
             return values;
           },
           [this](const std::string& script) {
             std::lock_guard lock(mutex_);
-            advance();
             arm_->run_script(script);
           },
           port, script_port),
       gripper_(
           [this](const std::string& var, int value) {
             std::lock_guard lock(mutex_);
-            advance();
             return arm_->robotiq_set(var, value);
           },
           [this](const std::string& var) {
             std::lock_guard lock(mutex_);
-            advance();
             return arm_->robotiq_get(var);
           },
-          gripper_port) {}
+          gripper_port),
+      cycle_([this] { cycle(); }) {}
 
-void SimulatedController::advance() {
-  arm_->advance_to(std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count(),
-                  controller_.inputs());
+SimulatedController::~SimulatedController() {
+  stop_ = true;
+  cycle_.join();
+}
+
+void SimulatedController::cycle() {
+  while (!stop_) {
+    bool caught_up = false;
+    {
+      std::lock_guard lock(mutex_);
+      const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+      arm_->advance_to(std::min(wall, arm_->time() + kSliceS), controller_.inputs());
+      caught_up = wall - arm_->time() < SimulatedUr::kCycleS;
+    }
+    if (caught_up) std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
 }
 
 }  // namespace dh::rtde

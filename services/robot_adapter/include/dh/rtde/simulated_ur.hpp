@@ -11,12 +11,14 @@
 #pragma once
 
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <thread>
 #include <optional>
 #include <string>
 #include <vector>
@@ -114,8 +116,10 @@ class SimulatedUr {
   std::string script_error_;
 };
 
-/// The RTDE test controller backed by a SimulatedUr in real time: each data package is the arm's outputs
-/// at one moment, after it is advanced to the wall clock; a script on the script port runs on it. Its methods may be called
+/// The RTDE test controller backed by a SimulatedUr in real time: a cycle thread of its own advances the
+/// arm with the wall clock, as a controller's does, in slices that leave the lock to the answers, so a
+/// machine too busy to simulate in real time makes the arm lag, never an answer wait. Each data package
+/// is the arm's outputs at one moment; a script on the script port runs on it. Its methods may be called
 /// from any thread.
 class SimulatedController {
  public:
@@ -129,24 +133,28 @@ class SimulatedController {
   std::uint16_t script_port() const { return controller_.script_port(); }
   /// The Robotiq URCap's server stand-in (robotiq_socket.hpp; 63352 on a UR).
   std::uint16_t gripper_port() const { return gripper_.port(); }
+  ~SimulatedController();
   TestController& controller() { return controller_; }
-  /// Runs `f` on the arm, advanced to now, under its lock.
+  /// Runs `f` on the arm under its lock.
   template <class F>
   auto with_arm(F&& f) {
     std::lock_guard lock(mutex_);
-    advance();
     return f(*arm_);
   }
 
  private:
   SimulatedController(std::unique_ptr<SimulatedUr> arm, std::uint16_t port, std::uint16_t script_port,
                       std::uint16_t gripper_port);
-  void advance();
+  /// The cycle thread: the arm advanced to the wall clock, at most kSliceS of it per hold of the lock.
+  void cycle();
+  static constexpr double kSliceS = 0.01;
   std::mutex mutex_;
   std::unique_ptr<SimulatedUr> arm_;
   std::chrono::steady_clock::time_point start_;
   TestController controller_;  ///< after the arm: its thread reads the arm
   RobotiqServer gripper_;      ///< the same
+  std::atomic<bool> stop_{false};
+  std::thread cycle_;  ///< last: started once the rest is made
 };
 
 }  // namespace dh::rtde
