@@ -293,7 +293,8 @@ class Reader {
 
   std::optional<Target> target() {
     const std::size_t save = i_;
-    while (is("just") || is("up") || is("down") || is("over")) ++i_;
+    bool over = false;  // "over the post" with no relation after it
+    for (; is("just") || is("up") || is("down") || is("over"); ++i_) over = is("over");
     Target t;
     if (is("there")) {
       ++i_;
@@ -321,6 +322,8 @@ class Reader {
       if (boundary(i_)) return t.bare = true, t;  // "put the bowl inside"
     } else if (is("to") && !to_verb(i_)) {
       t.relation = "to", ++i_;
+    } else if (over) {
+      t.relation = "in";  // a ring put over a post goes into the room about its foot, the post's "in" region
     } else {
       i_ = save;
       return std::nullopt;

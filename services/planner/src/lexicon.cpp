@@ -65,6 +65,7 @@ struct RegionNoun {
   std::string relation, owner;
 };
 const std::map<std::string, RegionNoun> kRegionNouns{{"compartment", {"in", ""}},
+                                                     {"slot", {"in", ""}},
                                                      {"surface", {"on", ""}},
                                                      {"burner", {"on", "stove"}},
                                                      {"cooking area", {"on", "stove"}}};

@@ -13,15 +13,20 @@
 //
 // and --entities-out FILE writes the scene's fixtures, their parts and the table's regions in the format
 // robot_adapter --entities reads (cell_entities.hpp): what a calibration measures on a real cell.
+// --verdict-out FILE keeps there whether the task's goal holds in the controller's world, the oracle a
+// real cell lacks, for the dry run to set beside the perceived verdict: a JSON object (goal, holds,
+// time_s) rewritten whenever the value changes and at exit.
 #include <CLI/CLI.hpp>
 #include <cstdlib>
 #include <fstream>
+#include <iostream>
 #include <map>
 #include <memory>
 #include <optional>
 #include <thread>
 
 #include <mujoco/mujoco.h>
+#include <nlohmann/json.hpp>
 
 #include "dh/common/dds.hpp"
 #include "dh/common/event_queue.hpp"
@@ -36,6 +41,7 @@
 #include "dh/rtde/simulated_ur.hpp"
 #include "dh/sim/camera.hpp"
 #include "dh/sim/model.hpp"
+#include "dh/sim/predicates.hpp"
 #include "dh/sim/rgbd.hpp"
 #include "dh/sim/rgbd_frame_msg.hpp"
 #include "dh/sim/workcell.hpp"
@@ -55,6 +61,40 @@ std::vector<EntityState> static_entities(const sim::SceneSpec& scene, std::uint6
   }
   return out;
 }
+
+/// The oracle's verdict on the controller's world, written to a file whenever it changes (and at exit).
+class VerdictFile {
+ public:
+  VerdictFile(rtde::SimulatedController& controller, const sim::SceneSpec& scene, const TaskDef& task,
+              std::filesystem::path file)
+      : controller_(controller), goal_(goal_text(task.goal)), file_(std::move(file)) {
+    controller_.with_arm([&](rtde::SimulatedUr& a) { eval_.emplace(a.mj_model(), scene, task.goal); });
+  }
+  void update(bool force = false) {
+    double t = 0;
+    const bool holds = controller_.with_arm([&](rtde::SimulatedUr& a) {
+      t = a.mj_data()->time;
+      return eval_->holds(a.mj_data());
+    });
+    if (!force && written_ && holds == last_) return;
+    const auto tmp = file_.string() + ".tmp";
+    {
+      std::ofstream out(tmp);
+      out << nlohmann::json{{"goal", goal_}, {"holds", holds}, {"time_s", t}}.dump() << "\n";
+      if (!out) throw std::runtime_error("cannot write " + tmp);
+    }
+    std::filesystem::rename(tmp, file_);
+    written_ = true;
+    last_ = holds;
+  }
+
+ private:
+  rtde::SimulatedController& controller_;
+  std::optional<sim::GoalEvaluator> eval_;
+  std::string goal_;
+  std::filesystem::path file_;
+  bool written_ = false, last_ = false;
+};
 
 /// Answers RGB-D requests with frames of the arm's world. Renders a copy of the state taken under the
 /// controller's lock, so the arm's cycle waits only for the copy; the GPU state of every camera is made
@@ -117,7 +157,7 @@ int run(int argc, char** argv) {
   std::uint16_t port = 30004, script_port = 30002, gripper_port = 63352;
   std::string urdf = (paths::config_dir() / "robots" / "ur7e.urdf").string();
   std::vector<double> ready{0, -1.3, 1.6, -1.87, -1.5708, 0};
-  std::string cell, robot = "ur7e", entities_out;
+  std::string cell, robot = "ur7e", entities_out, verdict_out;
   unsigned task = 0, channel = 0;
   std::uint64_t seed = 0;
   app.add_option("--port", port, "RTDE port on 127.0.0.1");
@@ -132,18 +172,26 @@ int run(int argc, char** argv) {
   app.add_option("--channel", channel, "the channel whose RGB-D requests it answers (with --cell)");
   app.add_option("--entities-out", entities_out,
                  "write the scene's fixtures, parts and regions for robot_adapter --entities (with --cell)");
+  app.add_option("--verdict-out", verdict_out,
+                 "keep whether the task's goal holds in the controller's world in this JSON file (with --cell)");
   CLI11_PARSE(app, argc, argv);
+  if (!verdict_out.empty() && cell.empty()) {
+    std::cerr << "--verdict-out needs --cell: the goal is the cell's task's\n";
+    return 2;
+  }
   auto log = make_logger("rtde_test_controller");
   install_shutdown_handlers();
   try {
     std::optional<rtde::SimulatedController> controller;
     std::vector<sim::CameraSpec> cameras;
+    std::optional<VerdictFile> verdict;
     if (cell.empty()) {
       controller.emplace(urdf, std::array<double, 6>{ready[0], ready[1], ready[2], ready[3], ready[4], ready[5]}, port,
                          script_port, gripper_port);
     } else {
       const auto suites = load_suites(paths::config_dir());
-      sim::SceneSpec scene = sim::load_task_scene(find_task(suites, cell, task), seed, robot);
+      const TaskDef& task_def = find_task(suites, cell, task);
+      sim::SceneSpec scene = sim::load_task_scene(task_def, seed, robot);
       const auto rgbd_file = paths::config_dir() / "cameras.yaml";
       if (std::filesystem::exists(rgbd_file)) scene.cameras = sim::load_cameras_config(rgbd_file).for_scene(scene.name);
       cameras = scene.cameras;
@@ -154,6 +202,10 @@ int run(int argc, char** argv) {
         log->info("the scene's fixtures, parts and regions written to {}", entities_out);
       }
       controller.emplace(scene, seed, port, script_port, gripper_port);
+      if (!verdict_out.empty()) {
+        verdict.emplace(*controller, scene, task_def, verdict_out);
+        verdict->update(true);
+      }
       log->info("the arm ({}) on {}'s mount at [{}, {}, {}], objects placed by seed {}", robot, scene.name,
                 scene.robot_base[0], scene.robot_base[1], scene.robot_base[2], seed);
     }
@@ -186,6 +238,7 @@ int run(int argc, char** argv) {
         frames->write(rig->frame(r->camera(), r->request_id()));
         log->debug("frame of camera {} sent for request '{}'", r->camera(), r->request_id());
       }
+      if (verdict) verdict->update();
       if (std::chrono::steady_clock::now() < next_log) continue;
       next_log += std::chrono::seconds(1);
       const auto [running, peak] = controller->with_arm([](rtde::SimulatedUr& a) {
@@ -195,6 +248,7 @@ int run(int argc, char** argv) {
       });
       log->debug("program {} peak joint speed {:.4f} rad/s", running ? "running" : "stopped", peak);
     }
+    if (verdict) verdict->update(true);
   } catch (const std::exception& e) {
     log->error("{}", e.what());
     return 1;

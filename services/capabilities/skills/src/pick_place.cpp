@@ -39,7 +39,9 @@ std::optional<Cavity> find_cavity(const Observation& obs, const std::string& tar
   return std::nullopt;
 }
 
-bool has_rim(const EntityState& e) { return e.kind == "bowl" || e.kind == "plate" || e.kind == "mug"; }
+bool has_rim(const EntityState& e) {
+  return e.kind == "bowl" || e.kind == "plate" || e.kind == "mug" || e.kind == "cup" || e.kind == "ring";
+}
 
 double PickPlaceSkill::grasp_above_bottom(const EntityState& o, const robot::Gripper& g) const {
   if (has_rim(o))
@@ -182,6 +184,9 @@ Eigen::Vector2d PickPlaceSkill::place_xy(const Observation& obs) const {
                                                      : std::max(o.half_extents[0], o.half_extents[1]);
   const double fx = std::max(0.0, t.half_extents[0] - r - 0.005), fy = std::max(0.0, t.half_extents[1] - r - 0.005);
   auto handle = [](const EntityState& e) { return e.kind == "drawer" || e.kind == "door"; };
+  // What fits through a ring's hole (the post it goes over) is not in its way: it passes inside.
+  const double hole = o.kind == "ring" ? rim_radius(o) - 0.006 : 0;
+  auto through_hole = [&](const EntityState& e) { return std::max(e.half_extents[0], e.half_extents[1]) < hole; };
   // Objects already resting in or on the target take their room; the slots are the centre and the
   // eight points half a free width away from it.
   std::vector<Eigen::Vector2d> occupants;
@@ -208,7 +213,9 @@ Eigen::Vector2d PickPlaceSkill::place_xy(const Observation& obs) const {
   for (const auto& c : obs.entities) {
     // Fixtures and the handles of other drawers count; regions, knobs and what rests inside do not.
     const bool rests_inside = inside_xy(t, {c.p[0], c.p[1]}, 0) && c.p[2] <= top_of(t);
-    if ((part_or_region(c) && !handle(c)) || c.name == object_ || top_of(c) <= top_of(t) + 0.01 || rests_inside) continue;
+    if ((part_or_region(c) && !handle(c)) || c.name == object_ || top_of(c) <= top_of(t) + 0.01 || rests_inside ||
+        through_hole(c))
+      continue;
     const double ox = c.half_extents[0] + r + 0.005 - std::abs(best.x() - c.p[0]);
     const double oy = c.half_extents[1] + r + 0.005 - std::abs(best.y() - c.p[1]);
     if (ox <= 0 || oy <= 0) continue;

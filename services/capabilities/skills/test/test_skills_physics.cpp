@@ -209,3 +209,35 @@ TEST_F(SkillsPhysics, KeyframeReturnGoesBackToARecordedPose) {
   EXPECT_EQ(r.state, CommandState::Completed) << r.stage << ": " << r.reason;
   for (int i = 0; i < 3; ++i) EXPECT_NEAR(r.last.ee_p[i], start.ee_p[i], 0.02) << i;
 }
+
+// The paper's real-world tasks as scenes (configs/suites/hw.yaml): a ring is pinched at its wall like a
+// rim and goes down around the post, which fits through its hole; the bread goes upright into a 4.75 cm
+// slot; a cup stands on another's rim.
+TEST_F(SkillsPhysics, TheRingGoesOverThePostAndTheBreadIntoTheToastersSlot) {
+  int ring = 0, bread = 0;
+  for (int seed = 1; seed <= 5; ++seed) {
+    const auto r = run(task("hw", 0), seed, "pick_place", {{"object", "ring"}, {"target", "post_around_region"}});
+    ring += r.goal;
+    if (!r.goal) ADD_FAILURE() << "ring, seed " << seed << " " << r.stage << ": " << r.reason;
+    const auto b = run(task("hw", 2), seed, "pick_place", {{"object", "bread"}, {"target", "toaster_left_slot"}});
+    bread += b.goal;
+    if (!b.goal) ADD_FAILURE() << "bread, seed " << seed << " " << b.stage << ": " << b.reason;
+    EXPECT_EQ(r.safety_events + b.safety_events, 0) << "seed " << seed;
+  }
+  EXPECT_GE(ring, 4);
+  EXPECT_GE(bread, 4);
+}
+
+TEST_F(SkillsPhysics, ThreeCupsStack) {
+  const TaskDef& t = task("hw", 1);
+  int ok = 0;
+  for (int seed = 1; seed <= 3; ++seed) {
+    const auto a = run(t, seed, "pick_place", {{"object", "green_cup"}, {"target", "red_cup"}});
+    EXPECT_EQ(a.state, CommandState::Completed) << "seed " << seed << " " << a.stage << ": " << a.reason;
+    EXPECT_FALSE(a.goal) << "one cup on another is half the stack";
+    const auto b = run(t, seed, "pick_place", {{"object", "blue_cup"}, {"target", "green_cup"}}, {}, false);
+    ok += b.goal;
+    if (!b.goal) ADD_FAILURE() << "seed " << seed << " " << b.stage << ": " << b.reason;
+  }
+  EXPECT_GE(ok, 2);
+}
