@@ -26,7 +26,6 @@
 #include <thread>
 
 #include <mujoco/mujoco.h>
-#include <nlohmann/json.hpp>
 
 #include "dh/common/dds.hpp"
 #include "dh/common/event_queue.hpp"
@@ -38,10 +37,10 @@
 #include "dh/frames/recording.hpp"
 #include "dh/msg/cameraPubSubTypes.h"
 #include "dh/rtde/cell_entities.hpp"
+#include "dh/rtde/oracle_verdict.hpp"
 #include "dh/rtde/simulated_ur.hpp"
 #include "dh/sim/camera.hpp"
 #include "dh/sim/model.hpp"
-#include "dh/sim/predicates.hpp"
 #include "dh/sim/rgbd.hpp"
 #include "dh/sim/rgbd_frame_msg.hpp"
 #include "dh/sim/workcell.hpp"
@@ -61,40 +60,6 @@ std::vector<EntityState> static_entities(const sim::SceneSpec& scene, std::uint6
   }
   return out;
 }
-
-/// The oracle's verdict on the controller's world, written to a file whenever it changes (and at exit).
-class VerdictFile {
- public:
-  VerdictFile(rtde::SimulatedController& controller, const sim::SceneSpec& scene, const TaskDef& task,
-              std::filesystem::path file)
-      : controller_(controller), goal_(goal_text(task.goal)), file_(std::move(file)) {
-    controller_.with_arm([&](rtde::SimulatedUr& a) { eval_.emplace(a.mj_model(), scene, task.goal); });
-  }
-  void update(bool force = false) {
-    double t = 0;
-    const bool holds = controller_.with_arm([&](rtde::SimulatedUr& a) {
-      t = a.mj_data()->time;
-      return eval_->holds(a.mj_data());
-    });
-    if (!force && written_ && holds == last_) return;
-    const auto tmp = file_.string() + ".tmp";
-    {
-      std::ofstream out(tmp);
-      out << nlohmann::json{{"goal", goal_}, {"holds", holds}, {"time_s", t}}.dump() << "\n";
-      if (!out) throw std::runtime_error("cannot write " + tmp);
-    }
-    std::filesystem::rename(tmp, file_);
-    written_ = true;
-    last_ = holds;
-  }
-
- private:
-  rtde::SimulatedController& controller_;
-  std::optional<sim::GoalEvaluator> eval_;
-  std::string goal_;
-  std::filesystem::path file_;
-  bool written_ = false, last_ = false;
-};
 
 /// Answers RGB-D requests with frames of the arm's world. Renders a copy of the state taken under the
 /// controller's lock, so the arm's cycle waits only for the copy; the GPU state of every camera is made
@@ -184,7 +149,7 @@ int run(int argc, char** argv) {
   try {
     std::optional<rtde::SimulatedController> controller;
     std::vector<sim::CameraSpec> cameras;
-    std::optional<VerdictFile> verdict;
+    std::optional<rtde::OracleVerdict> verdict;
     if (cell.empty()) {
       controller.emplace(urdf, std::array<double, 6>{ready[0], ready[1], ready[2], ready[3], ready[4], ready[5]}, port,
                          script_port, gripper_port);
@@ -203,8 +168,11 @@ int run(int argc, char** argv) {
       }
       controller.emplace(scene, seed, port, script_port, gripper_port);
       if (!verdict_out.empty()) {
-        verdict.emplace(*controller, scene, task_def, verdict_out);
-        verdict->update(true);
+        controller->with_arm([&](rtde::SimulatedUr& a) {
+          verdict.emplace(a, scene, task_def, verdict_out);
+          verdict->judge(a);
+        });
+        verdict->write();
       }
       log->info("the arm ({}) on {}'s mount at [{}, {}, {}], objects placed by seed {}", robot, scene.name,
                 scene.robot_base[0], scene.robot_base[1], scene.robot_base[2], seed);
@@ -238,7 +206,7 @@ int run(int argc, char** argv) {
         frames->write(rig->frame(r->camera(), r->request_id()));
         log->debug("frame of camera {} sent for request '{}'", r->camera(), r->request_id());
       }
-      if (verdict) verdict->update();
+      if (verdict && controller->with_arm([&](rtde::SimulatedUr& a) { return verdict->judge(a); })) verdict->write();
       if (std::chrono::steady_clock::now() < next_log) continue;
       next_log += std::chrono::seconds(1);
       const auto [running, peak] = controller->with_arm([](rtde::SimulatedUr& a) {
@@ -248,7 +216,10 @@ int run(int argc, char** argv) {
       });
       log->debug("program {} peak joint speed {:.4f} rad/s", running ? "running" : "stopped", peak);
     }
-    if (verdict) verdict->update(true);
+    if (verdict) {
+      controller->with_arm([&](rtde::SimulatedUr& a) { verdict->judge(a); });
+      verdict->write();
+    }
   } catch (const std::exception& e) {
     log->error("{}", e.what());
     return 1;

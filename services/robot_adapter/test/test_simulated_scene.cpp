@@ -4,8 +4,12 @@
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
+#include <fstream>
+#include <nlohmann/json.hpp>
+
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
+#include "dh/rtde/oracle_verdict.hpp"
 #include "dh/rtde/rtde_cell.hpp"
 #include "dh/rtde/simulated_ur.hpp"
 #include "dh/sim/workcell.hpp"
@@ -90,6 +94,38 @@ TEST(SceneArm, AnArmOfAnotherJointCountIsRefusedNamingIt) {
     FAIL() << "a 7-joint arm was accepted";
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("needs a 6-joint arm, found 7"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SceneArm, TheOracleSaysWhetherTheGoalHoldsInTheArmsWorld) {
+  static const auto suites = load_suites(paths::config_dir());
+  const TaskDef& task = find_task(suites, "hw", 0);  // the ring over the post
+  const sim::SceneSpec scene = sim::load_task_scene(task, 3, "ur7e");
+  SimulatedUr arm(scene, 3);
+  const auto file = std::filesystem::path(testing::TempDir()) / "oracle.json";
+  OracleVerdict oracle(arm, scene, task, file);
+  EXPECT_TRUE(oracle.judge(arm)) << "the first judgement is news";
+  EXPECT_FALSE(oracle.holds());
+  EXPECT_FALSE(oracle.judge(arm)) << "nothing changed";
+  // The ring moved down around the post's foot.
+  mjData* d = arm.mj_data();
+  const int q = arm.mj_model()->jnt_qposadr[arm.mj_model()->body_jntadr[mj_name2id(arm.mj_model(), mjOBJ_BODY, "ring")]];
+  d->qpos[q] = 0.0, d->qpos[q + 1] = -0.3, d->qpos[q + 2] = 0.007;
+  mj_forward(arm.mj_model(), d);
+  EXPECT_TRUE(oracle.judge(arm));
+  EXPECT_TRUE(oracle.holds());
+  oracle.write();
+  const auto j = nlohmann::json::parse(std::ifstream(file));
+  EXPECT_TRUE(j["holds"].get<bool>());
+  EXPECT_EQ(j["goal"], "In(ring, post_around_region)");
+  // A goal naming what the scene lacks is refused with the term.
+  TaskDef wrong = task;
+  wrong.goal = {{"In", {"ring", "toaster_middle_slot"}}};
+  try {
+    OracleVerdict bad(arm, scene, wrong, file);
+    ADD_FAILURE() << "a goal naming a missing region was taken";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("toaster_middle_slot"), std::string::npos) << e.what();
   }
 }
 

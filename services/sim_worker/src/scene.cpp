@@ -345,8 +345,7 @@ std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& pla
   x += "<compiler angle=\"radian\"/>\n";
   // Elliptic cones with a high impratio keep a pinched object from creeping out of the jaw.
   x += "<option timestep=\"0.002\" integrator=\"Euler\" cone=\"elliptic\" impratio=\"10\" jacobian=\"sparse\"/>\n";
-  // Cups standing on cups (the hw suite's stack) touch rim box on base box by the dozen: over 250 contacts.
-  x += "<size njmax=\"3000\" nconmax=\"750\" nuserdata=\"" + std::to_string(kUserdataSize) + "\"/>\n";
+  x += "<size njmax=\"1000\" nconmax=\"250\" nuserdata=\"" + std::to_string(kUserdataSize) + "\"/>\n";
   // Scene geoms also answer the arm links' contact bit (robot_model.cpp).
   x += "<default><geom conaffinity=\"3\"/></default>\n";
   // Rendering only (camera.hpp): the offscreen buffer bounds the image size; on llvmpipe a 1024² shadow
