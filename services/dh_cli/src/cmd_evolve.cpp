@@ -168,7 +168,7 @@ class Climb {
 
   std::string all_cells() const {
     std::string cells;
-    for (const auto& [name, suite] : load_suites(paths::config_dir())) cells += (cells.empty() ? "" : ",") + name;
+    for (const auto& c : broader_round_cells(a_.tasks)) cells += (cells.empty() ? "" : ",") + c;
     return cells;
   }
 
@@ -255,6 +255,7 @@ class Climb {
     g.library = str(r["candidate"]);
     g.capability = str(r["capability"]);
     g.arm = a_.arm;
+    g.tasks = a_.tasks;
     if (a_.bare) g.bare = (out_ / "bare.db").string();
     g.registry = (out_ / "registry").string();
     if (r["stage"] == "gate") {

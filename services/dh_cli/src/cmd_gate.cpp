@@ -2,12 +2,14 @@
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
+#include <algorithm>
 #include <fstream>
 #include <iostream>
 #include <optional>
 #include <set>
 
 #include "commands.hpp"
+#include "dh/campaign/plan.hpp"
 #include "dh/cap/library_theta.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
@@ -17,6 +19,15 @@
 #include "evolution_inputs.hpp"
 
 namespace dh::cli {
+
+std::vector<std::string> broader_round_cells(const std::string& tasks) {
+  const auto wanted = tasks.empty() ? std::vector<unsigned>{} : campaign::parse_numbers(tasks, "--tasks");
+  std::vector<std::string> cells;
+  for (const auto& [name, suite] : load_suites(paths::config_dir()))
+    if (std::all_of(wanted.begin(), wanted.end(), [&](unsigned t) { return suite.tasks.count(t) > 0; }))
+      cells.push_back(name);
+  return cells;
+}
 
 nlohmann::json gate_decision(const GateArgs& a) {
   const std::filesystem::path config_file =
@@ -62,14 +73,14 @@ nlohmann::json gate_decision(const GateArgs& a) {
                                 a.capability + "' (dh attribute --db " + a.parent +
                                 " lists the signatures): D is empty");
   const evo::GateResult g = evo::paired_gate(episodes(parent), episodes(candidate), episodes(bare), targeted);
-  // The broader round, when given: every cell `dh tasks` lists, on its own block of seeds.
+  // The broader round, when given: every cell `dh tasks` lists (that has the --tasks), on its own block of seeds.
   std::optional<evo::RegressionResult> regression;
   if (!a.regression_parent.empty() || !a.regression_candidate.empty()) {
     if (a.regression_parent.empty() || a.regression_candidate.empty())
       throw std::invalid_argument(
           "the broader round needs both --regression-parent and --regression-candidate");
-    std::set<std::string> cells;
-    for (const auto& [name, suite] : load_suites(paths::config_dir())) cells.insert(name);
+    const auto listed = broader_round_cells(a.tasks);
+    const std::set<std::string> cells(listed.begin(), listed.end());
     regression = evo::broader_regression(
         episodes(evo::gate_rows(arm_rows(a.regression_parent, a.arm), config, "")),
         episodes(evo::gate_rows(arm_rows(a.regression_candidate, a.arm), config, version)), cells);

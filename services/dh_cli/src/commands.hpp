@@ -80,9 +80,13 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
 struct GateArgs {
   std::string parent, candidate, bare, capability, library, config, arm = "full", bare_arm = "bare";
   std::string regression_parent, regression_candidate;  ///< the broader round's two campaigns
+  std::string tasks;  ///< the tasks the broader round ran ("" = every task): it covers the cells having them
   std::string registry;                                 ///< with register: the registry folder
   bool register_decision = false, json = false;
 };
+/// The broader round's cells: every cell `dh tasks` lists that has each of `tasks` (a --tasks list; all
+/// cells when empty). The hw cells have four tasks, the others ten.
+std::vector<std::string> broader_round_cells(const std::string& tasks);
 /// `dh gate`: exit 0 the candidate passes Eq. 6's four conditions (and the broader regression, when
 /// given), 3 it does not. With --register the decision goes to the registry.
 int cmd_gate(const GateArgs& a);

@@ -299,6 +299,8 @@ int main(int argc, char** argv) {
                    "the broader round: the parent's campaign over every cell on a separate block of seeds");
   gate->add_option("--regression-candidate", gate_args.regression_candidate,
                    "the broader round: the candidate's campaign on the same cells, tasks and seeds");
+  gate->add_option("--tasks", gate_args.tasks,
+                   "the tasks the broader round ran, e.g. 5 (default every task): it must cover every cell having them");
   gate->add_flag("--register", gate_args.register_decision,
                  "append the decision to the registry (admitted: passes the gate and the broader round)");
   gate->add_option("--registry", gate_args.registry, "registry folder (default $DH_RUNS_DIR/registry)");
