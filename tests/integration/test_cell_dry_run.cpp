@@ -35,7 +35,7 @@ TEST(CellDryRun, OneTrialOfTheRingOverThePostIsTabledWithBothVerdicts) {
   std::ifstream table(out / "table.md");
   std::stringstream t;
   t << table.rdbuf();
-  EXPECT_NE(t.str().find("| 0 (ring over the post) | 1 | 1/1 | 1/1 | 0 |"), std::string::npos) << t.str();
+  EXPECT_NE(t.str().find("| 0 (put the ring over the post) | 1 | 1/1 | 1/1 | 0 |"), std::string::npos) << t.str();
 }
 
 }  // namespace
