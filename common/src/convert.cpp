@@ -194,7 +194,12 @@ std::vector<msg::Param> to_msg(const std::map<std::string, double>& p) {
 }
 
 SceneEstimate from_msg(const msg::SceneEstimate& m) {
-  SceneEstimate e{m.episode_id(), m.step(), m.looked_for(), {}};
+  SceneEstimate e{m.episode_id(), m.step(), m.looked_for(), {}, {}};
+  for (const auto& p : m.parts()) {
+    PerceivedPart part{p.entity(), p.joint(), p.confidence(), {}};
+    for (const auto& r : p.riders()) part.riders.push_back({r.entity(), r.p(), r.q()});
+    e.parts.push_back(std::move(part));
+  }
   for (const auto& p : m.seen()) {
     const auto& c = p.centroid();
     const auto& size = p.size();

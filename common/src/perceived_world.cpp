@@ -47,6 +47,11 @@ void PerceivedWorld::on_estimate(const SceneEstimate& e) {
   for (const auto& s : e.seen)
     if (s.confidence >= limits_.min_confidence) bottoms[s.name] = s.p;
   if (held_) bottoms.erase(*held_);
+  for (const auto& part : e.parts) {
+    if (part.confidence < limits_.min_confidence) continue;
+    joints_[part.name] = part.joint;
+    for (const auto& r : part.riders) riders_[r.name] = r;
+  }
   for (const auto& s : e.seen) {
     if (s.confidence < limits_.min_confidence || held_ == s.name) continue;
     auto it = seen_.find(s.name);
@@ -140,6 +145,11 @@ std::optional<Unperceived> PerceivedWorld::view(Observation& obs, const std::vec
   std::set<std::string> observed;
   for (auto& e : obs.entities) {
     observed.insert(e.name);
+    if (const auto r = riders_.find(e.name); r != riders_.end()) {
+      e.p = r->second.p;
+      e.q = r->second.q;
+      if (const auto j = joints_.find(e.name); j != joints_.end()) e.joint = j->second;
+    }
     if (!looked_for(e.name)) {
       kept.push_back(e);
       continue;

@@ -394,7 +394,9 @@ TEST(RgbdE2E, RgbdEveryPublishesFramesAtEpisodeStartAndEveryNSteps) {
   std::printf("\n");
   sim.reset();
   const std::string log = read_file(env.runs / "logs/sim_worker.log");
-  EXPECT_NE(log.find("channel=0 3 RGB-D frames"), std::string::npos) << log;
+  // Every RGB-D camera of configs/cameras.yaml at steps 0, 5 and 10.
+  const auto cameras = sim::load_cameras_config(paths::config_dir() / "cameras.yaml").cameras.size();
+  EXPECT_NE(log.find("channel=0 " + std::to_string(3 * cameras) + " RGB-D frames"), std::string::npos) << log;
 }
 
 /// A recorded folder of `n` frames, 64 x 48: colour (r, c) = (4 c, 5 r, 50 k), depth 500 + 10 k + r mm.

@@ -164,7 +164,7 @@ TEST(PerceivedVerdictFilter, AConjunctionNeedsEveryTermAndAnEmptyGoalNeverHolds)
 }
 
 SceneEstimate frame(std::uint32_t step, std::array<double, 3> bowl) {
-  SceneEstimate e{"ep", step, {"bowl", "plate"}, {}};
+  SceneEstimate e{"ep", step, {"bowl", "plate"}, {}, {}};
   e.seen.push_back({"bowl", bowl, {0.065, 0.065, 0.025}, 0.9});
   e.seen.push_back({"plate", {0, 0.15, 0}, {0.09, 0.09, 0.006}, 0.9});
   return e;

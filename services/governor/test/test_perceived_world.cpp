@@ -10,7 +10,7 @@ using namespace dh;
 namespace {
 
 SceneEstimate estimate(std::uint32_t step, double bowl_confidence = 0.9, const std::string& episode = "ep") {
-  SceneEstimate e{episode, step, {"bowl", "plate"}, {}};
+  SceneEstimate e{episode, step, {"bowl", "plate"}, {}, {}};
   e.seen.push_back({"bowl", {0.01, -0.14, 0.002}, {0.066, 0.064, 0.026}, bowl_confidence});
   e.seen.push_back({"plate", {0.0, 0.15, 0.0}, {0.09, 0.09, 0.006}, 0.8});
   return e;
@@ -305,6 +305,44 @@ TEST(PerceivedWorld, AnotherEpisodesFrameStartsAfresh) {
   const auto why = w.view(obs, {"bowl"});
   ASSERT_TRUE(why) << "the bowl of the last episode is forgotten";
   EXPECT_NE(why->reason.find("has not seen 'bowl'"), std::string::npos) << why->reason;
+}
+
+TEST(PerceivedWorld, AFittedPartTakesItsJointValueAndCarriesItsRegionsTheCalibratedOnesStay) {
+  PerceivedWorld w{PerceptionLimits{}};
+  const auto observed = [] {
+    Observation o = test::scene_observation(20);
+    EntityState drawer = test::entity("unit_drawer", {-0.04, 0.3, 0.05}, {0.005, 0.035, 0.006});
+    drawer.joint = 0;  // the calibration's: shut
+    o.entities.push_back(drawer);
+    o.entities.push_back(test::entity("unit_drawer_region", {0.1, 0.3, 0.05}, {0.09, 0.1, 0.03}));
+    o.entities.push_back(test::entity("unit_top_side", {0.1, 0.3, 0.12}, {0.1, 0.12, 0.005}));
+    return o;
+  };
+  SceneEstimate e = estimate(20);
+  e.parts.push_back({"unit_drawer", 0.15, 0.8, {{"unit_drawer", {-0.19, 0.3, 0.05}, {1, 0, 0, 0}}, {"unit_drawer_region", {-0.05, 0.3, 0.05}, {1, 0, 0, 0}}}});
+  w.on_estimate(e);
+  Observation obs = observed();
+  ASSERT_FALSE(w.view(obs, {}));
+  EXPECT_NEAR(obs.entity("unit_drawer")->joint, 0.15, 1e-12);
+  expect_at(obs, "unit_drawer", {-0.19, 0.3, 0.05});
+  expect_at(obs, "unit_drawer_region", {-0.05, 0.3, 0.05});
+  expect_at(obs, "unit_top_side", {0.1, 0.3, 0.12});  // on the fixture's body: calibrated
+
+  // A fit below the confidence floor changes nothing: the last confident one stands.
+  SceneEstimate unsure = estimate(30);
+  unsure.parts.push_back({"unit_drawer", 0.02, 0.1, {{"unit_drawer", {-0.06, 0.3, 0.05}, {1, 0, 0, 0}}}});
+  w.on_estimate(unsure);
+  obs = observed();
+  obs.step = 30;
+  ASSERT_FALSE(w.view(obs, {}));
+  EXPECT_NEAR(obs.entity("unit_drawer")->joint, 0.15, 1e-12);
+
+  // Without any fit the observation's value stands.
+  PerceivedWorld no_parts{PerceptionLimits{}};
+  no_parts.on_estimate(estimate(20));
+  obs = observed();
+  ASSERT_FALSE(no_parts.view(obs, {}));
+  EXPECT_EQ(obs.entity("unit_drawer")->joint, 0);
 }
 
 }  // namespace

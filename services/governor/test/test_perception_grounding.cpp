@@ -15,7 +15,7 @@ using namespace std::chrono_literals;
 namespace {
 
 SceneEstimate estimate(std::uint32_t step, double bowl_confidence = 0.9) {
-  SceneEstimate e{"ep", step, {"bowl", "plate"}, {}};
+  SceneEstimate e{"ep", step, {"bowl", "plate"}, {}, {}};
   e.seen.push_back({"bowl", {0.01, -0.14, 0.002}, {0.066, 0.064, 0.026}, bowl_confidence});
   e.seen.push_back({"plate", {0.0, 0.15, 0.0}, {0.09, 0.09, 0.006}, 0.8});
   return e;
@@ -50,7 +50,7 @@ TEST_F(PerceptionMachine, AStepWaitsForTheFrameOfItsStepThenGroundsWithWhatPerce
   EXPECT_FALSE(fx.command) << "no estimate yet: grounding waits";
   EXPECT_FALSE(fx.plan_request);
   EXPECT_FALSE(m->on_tick(t0 + 4s).command) << "still within the wait";
-  EXPECT_FALSE(m->on_scene_estimate({"another-episode", 0, {"bowl"}, {}}, t0 + 4s).command);
+  EXPECT_FALSE(m->on_scene_estimate({"another-episode", 0, {"bowl"}, {}, {}}, t0 + 4s).command);
   fx = m->on_scene_estimate(estimate(0), t0 + 4s);
   ASSERT_TRUE(fx.command) << "the frame came: grounded";
   EXPECT_EQ(fx.command->args.at(0).second, "bowl");

@@ -5,8 +5,8 @@
 //         rt/dh/observation     (Observation)  when to look: step 0, then every --every-steps
 //         rt/dh/camera/rgbd     (Rgbd)         the frames it asked for
 // Writes  rt/dh/camera/rgbd/request (RgbdRequest)  one frame of the channel's current state
-//         rt/dh/perception/scene    (Observation)  one SceneEstimate per frame: looked for, seen, latency
-// Parameters: --camera (workcell), --every-steps (10), --backend colour|http, --segment-url,
+//         rt/dh/perception/scene    (Observation)  one SceneEstimate per look: looked for, seen, parts, latency
+// Parameters: --camera (workcell), --parts-camera (none: the fixtures' parts are not looked at), --every-steps (10), --backend colour|http, --segment-url,
 // --segment-timeout-s, --frame-timeout-ms (a request unanswered this long is asked again), --table-z
 // (the support surface's height, 0 in the workcell) or --search-support-plane.
 #include <CLI/CLI.hpp>
@@ -64,6 +64,9 @@ class PerceptionBinding {
   void options(CLI::App& app) {
     app.add_option("--camera", settings_.camera,
                    "camera to ask for (configs/cameras.yaml, or what frames_player plays as)");
+    app.add_option("--parts-camera", settings_.parts_camera,
+                   "camera whose depth the fixtures' articulated parts are fitted to (configs/cameras.yaml: front); "
+                   "none: the governor keeps the parts' values its observations carry");
     app.add_option("--every-steps", settings_.every_steps, "ask for a frame every N control steps (and at step 0)")
         ->check(CLI::PositiveNumber);
     app.add_option("--backend", backend_, "colour (from the scene description) | http (a SAM-style server)")
@@ -97,11 +100,15 @@ class PerceptionBinding {
         [this](const std::string& suite, std::uint32_t task) {
           return perception::free_objects(sim::load_nominal_scene(find_task(suites_, suite, task)));
         },
+        [this](const std::string& suite, std::uint32_t task) {
+          return perception::articulated_parts(sim::load_nominal_scene(find_task(suites_, suite, task)));
+        },
         *segmenter_, cloud);
   }
   void activate(Context& ctx) {
-    ctx.log.info("backend={} camera={} every {} steps; domain={} up", backend_, settings_.camera,
-                 settings_.every_steps, dds::domain_id());
+    ctx.log.info("backend={} camera={} parts camera={} every {} steps; domain={} up", backend_, settings_.camera,
+                 settings_.parts_camera.empty() ? "none" : settings_.parts_camera, settings_.every_steps,
+                 dds::domain_id());
   }
   void on(const Sample<port::EpisodeRequest>& s, Context& ctx) {
     const auto& r = s.msg;
@@ -158,10 +165,26 @@ class PerceptionBinding {
       out.seen().push_back(p);
     }
     out.looked_for(e.looked_for);
+    for (const perception::PartEstimate& x : e.parts) {
+      msg::PerceivedPart p;
+      p.entity(x.name);
+      p.joint(x.joint);
+      p.confidence(x.confidence);
+      p.points(static_cast<std::uint32_t>(x.support));
+      const Eigen::Quaterniond q(x.world_from_part.rotation());
+      for (const auto& [name, at] : x.riders) {
+        msg::RiderPose r;
+        r.entity(name);
+        r.p({at.x(), at.y(), at.z()});
+        r.q({q.w(), q.x(), q.y(), q.z()});
+        p.riders().push_back(r);
+      }
+      out.parts().push_back(p);
+    }
     out.latency_ms(e.latency_ms);
     ctx.write<port::SceneEstimate>(out);
-    ctx.log.debug("channel={} step={} seen {}/{} in {:.1f} ms", e.channel, e.step, out.seen().size(),
-                  out.looked_for().size(), out.latency_ms());
+    ctx.log.debug("channel={} step={} seen {}/{}, {} parts in {:.1f} ms", e.channel, e.step, out.seen().size(),
+                  out.looked_for().size(), out.parts().size(), out.latency_ms());
   }
 
   perception::CoreSettings settings_;

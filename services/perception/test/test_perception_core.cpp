@@ -57,7 +57,7 @@ struct PerceptionCoreTest : ::testing::Test {
           box.size = Eigen::Vector3d(0.06, 0.06, 0.06);
           return std::vector<LookFor>{box};
         },
-        segmenter, cloud);
+        [](const std::string&, std::uint32_t) { return std::vector<PartModel>{}; }, segmenter, cloud);
   }
   PerceptionEffects start(std::uint32_t channel, const std::string& episode,
                           const std::string& grounding = "perception") {
@@ -115,6 +115,49 @@ TEST_F(PerceptionCoreTest, AFrameBecomesAnEstimateOfWhatWasLookedForAndSeen) {
   EXPECT_GE(e.latency_ms, 0.0);
   EXPECT_TRUE(frame(ask, "ep", 0).notes.empty() && !frame(ask, "ep", 0).estimate)
       << "one frame answered twice";
+}
+
+TEST_F(PerceptionCoreTest, WithAPartsCameraALookIsTwoFramesAndOneEstimateWithTheParts) {
+  // A drawer in front of the fixture camera's view: its boxes where the rendered frame has nothing.
+  PartModel drawer;
+  drawer.name = "unit_drawer";
+  drawer.world_from_rest = Eigen::Isometry3d(Eigen::Translation3d(0.2, 0.3, 0.05));
+  drawer.axis = -Eigen::Vector3d::UnitX();
+  drawer.hi = 0.16;
+  drawer.boxes = {BodyBox{Eigen::Vector3d::Zero(), Eigen::Vector3d(0.1, 0.1, 0.03), 0}};
+  drawer.riders = {{"unit_drawer", Eigen::Vector3d(-0.1, 0, 0)}};
+  CoreSettings settings{"workcell", 10, 2000ms};
+  settings.parts_camera = "front";
+  std::vector<std::string> parts_asked;
+  PerceptionCore with_parts(
+      settings, [](const std::string&, std::uint32_t) { return std::vector<LookFor>{}; },
+      [&](const std::string& suite, std::uint32_t) {
+        parts_asked.push_back(suite);
+        return std::vector<PartModel>{drawer};
+      },
+      segmenter, CloudParams{});
+  with_parts.on_episode(0, "ep", "perception", "goal", 3, t0);
+  EXPECT_EQ(parts_asked, std::vector<std::string>{"goal"});
+  const auto asks = with_parts.on_observation(0, "ep", 0, t0).asks;
+  ASSERT_EQ(asks.size(), 2u);
+  EXPECT_EQ(asks[0].camera, "workcell");
+  EXPECT_EQ(asks[1].camera, "front");
+  const auto answer = [&](const FrameAsk& a, std::uint32_t step) {
+    return with_parts.on_frame({a.channel, a.request_id, "ep", a.camera, "", step, 1.5}, [this] { return rendered.frame; });
+  };
+  EXPECT_FALSE(answer(asks[1], 1).estimate) << "half a look";
+  EXPECT_TRUE(with_parts.on_observation(0, "ep", 10, t0).asks.empty()) << "asked again with a frame pending";
+  const auto fx = answer(asks[0], 0);
+  ASSERT_TRUE(fx.estimate);
+  EXPECT_EQ(fx.estimate->step, 0u) << "a look is as old as its older frame";
+  ASSERT_EQ(fx.estimate->parts.size(), 1u);
+  EXPECT_EQ(fx.estimate->parts[0].name, "unit_drawer");
+  EXPECT_EQ(fx.estimate->parts[0].confidence, 0) << "nothing of the drawer is in the frame";
+  ASSERT_EQ(fx.estimate->parts[0].riders.size(), 1u);
+  // Unanswered, a look's frames are asked again together.
+  const auto next = with_parts.on_observation(0, "ep", 10, t0).asks;
+  ASSERT_EQ(next.size(), 2u);
+  EXPECT_EQ(with_parts.on_tick(t0 + 2500ms).asks.size(), 2u);
 }
 
 TEST_F(PerceptionCoreTest, AFrameThatCannotBeMadeIsAnEstimateThatSeesNothingAndSaysWhy) {

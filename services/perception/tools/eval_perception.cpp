@@ -30,6 +30,7 @@
 #include "dh/sim/camera.hpp"
 #include "dh/sim/rgbd.hpp"
 #include "dh/sim/workcell_cache.hpp"
+#include "rendered_frame.hpp"
 
 namespace {
 
@@ -101,17 +102,7 @@ int main(int argc, char** argv) {
             rig = std::make_unique<sim::CameraRig>(*cell, std::vector<std::string>{"workcell"}, 640, 480);
           }
           cell->reset(seed, task.goal);
-          sim::Image img;
-          std::vector<std::uint16_t> depth;
-          rig->render(0, img, depth);
-          const auto K = sim::camera_pinhole(cell->model(), "workcell", 640, 480);
-          const auto pose = sim::camera_pose(cell->model(), cell->data(), "workcell");
-          perception::RgbdFrame frame;
-          frame.K = {K.fx, K.fy, K.cx, K.cy, K.width, K.height};
-          frame.world_from_camera = Eigen::Translation3d(pose.position[0], pose.position[1], pose.position[2]) *
-                                    Eigen::Quaterniond(pose.wxyz[0], pose.wxyz[1], pose.wxyz[2], pose.wxyz[3]);
-          frame.rgb = cv::Mat(480, 640, CV_8UC3, img.rgb.data()).clone();
-          frame.depth = cv::Mat(480, 640, CV_16UC1, depth.data()).clone();
+          const perception::RgbdFrame frame = perception::tools::rendered_frame(*rig, 0, cell->model(), cell->data());
           if (!save_dir.empty()) {
             std::filesystem::create_directories(save_dir);
             cv::Mat bgr;

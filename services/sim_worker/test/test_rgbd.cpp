@@ -160,18 +160,21 @@ TEST(RgbdDepth, TheDepthBufferIsTurnedTopRowFirst) {
 
 // ---- configs/cameras.yaml --------------------------------------------------------------------------------
 
-TEST(RgbdConfig, TheRepositorysWorkcellCamera) {
+TEST(RgbdConfig, TheRepositorysWorkcellAndFrontCameras) {
   const auto c = sim::load_cameras_config(paths::config_dir() / "cameras.yaml");
-  ASSERT_EQ(c.cameras.size(), 1u);
+  ASSERT_EQ(c.cameras.size(), 2u);
   EXPECT_TRUE(c.has(sim::kWorkcellRgbdCamera));
+  EXPECT_TRUE(c.has("front"));
   EXPECT_FALSE(c.has("agentview"));
   const auto cams = c.for_scene("kitchen_goal");
-  ASSERT_EQ(cams.size(), 1u);
+  ASSERT_EQ(cams.size(), 2u);
   EXPECT_EQ(cams[0].name, "workcell");
   EXPECT_EQ(cams[0].width, 640);
   EXPECT_EQ(cams[0].height, 480);
   EXPECT_GT(cams[0].fovy, 20);
   EXPECT_GT(cams[0].pos[2], 0.5) << "above the table";
+  EXPECT_EQ(cams[1].name, "front");
+  EXPECT_LT(cams[1].pos[0], -0.3) << "on the robot's side of the table: the fixtures face it";
 }
 
 TEST(RgbdConfig, PerSceneOverridesReplaceOnlyTheirKeys) {

@@ -1,8 +1,11 @@
 // The world as the perception service sees it, for arms that ground from perception (`grounding:
 // perception`): the governor grounds and the capabilities move in it instead of in the simulator's (or
 // the robot adapter's) object poses. Free objects the service looks for are placed where its frames saw
-// them; fixtures, their parts and regions stay where the cell's description puts them (a real cell
-// calibrates those once); the arm's own state is proprioception. Pure logic, no DDS.
+// them; fixtures and the table's regions stay where the cell's description puts them (a real cell
+// calibrates those once). An articulated part the service fits (a parts camera) takes the joint value of
+// its last confident fit, and its grip and the regions on it move with it; a part it does not fit, or has
+// not yet fitted with confidence, keeps the observation's value. The arm's own state is proprioception.
+// Pure logic, no DDS.
 #pragma once
 
 #include <array>
@@ -30,12 +33,26 @@ struct PerceivedEntity {
   std::string kind{}, category{}, colour{};
 };
 
-/// One frame's estimates from the perception service.
+/// An articulated part's joint value as fitted to depth, and where it puts what rides on the part.
+struct PerceivedPart {
+  std::string name;  ///< as observations name the part
+  double joint = 0;  ///< m or rad
+  double confidence = 0;
+  struct Rider {
+    std::string name;  ///< the part itself (its grip) or a region on it
+    std::array<double, 3> p{};
+    std::array<double, 4> q{1, 0, 0, 0};
+  };
+  std::vector<Rider> riders;
+};
+
+/// One look's estimates from the perception service.
 struct SceneEstimate {
   std::string episode_id;
   std::uint32_t step = 0;              ///< the control step of the frame
   std::vector<std::string> looked_for;  ///< every entity the service tried to find in the frame
   std::vector<PerceivedEntity> seen;    ///< those it found
+  std::vector<PerceivedPart> parts{};   ///< the parts looked at (none when the service looks at no parts)
 };
 
 struct PerceptionLimits {
@@ -79,7 +96,8 @@ class PerceivedWorld {
 
   /// Rewrites `obs` as perception sees it: each entity the service looks for takes its perceived place,
   /// size and yaw (upright: no tilt is estimated), or leaves the scene when no frame of the episode saw it;
-  /// one the observation lacks (a real cell's observation has no free objects) comes in as seen.
+  /// one the observation lacks (a real cell's observation has no free objects) comes in as seen. A fitted
+  /// part takes its perceived joint value and pose, and the regions on it theirs.
   /// Returns why it cannot — no estimate, a stale one, or an entity of `needed` never seen — or nullopt.
   std::optional<Unperceived> view(Observation& obs, const std::vector<std::string>& needed);
 
@@ -104,6 +122,8 @@ class PerceivedWorld {
   PerceptionLimits limits_;
   std::optional<SceneEstimate> latest_;
   std::map<std::string, Seen> seen_;
+  std::map<std::string, PerceivedPart::Rider> riders_;  ///< by name: the parts and regions fitted parts carry
+  std::map<std::string, double> joints_;                ///< by part: its last confident joint value
   std::optional<std::string> held_;          ///< the object moving with the tool
   std::array<double, 3> held_offset_{};      ///< its bottom centre relative to the tool
   std::optional<std::array<double, 3>> tool_;  ///< the tool's position at the latest observation tracked

@@ -1,11 +1,14 @@
 #include "dh/perception/core.hpp"
 
+#include <algorithm>
+
 namespace dh::perception {
 
-PerceptionCore::PerceptionCore(CoreSettings settings, ObjectsOf objects_of, Segmenter& segmenter,
+PerceptionCore::PerceptionCore(CoreSettings settings, ObjectsOf objects_of, PartsOf parts_of, Segmenter& segmenter,
                                CloudParams cloud)
     : settings_(std::move(settings)),
       objects_of_(std::move(objects_of)),
+      parts_of_(std::move(parts_of)),
       segmenter_(segmenter),
       cloud_(cloud) {}
 
@@ -17,7 +20,7 @@ const Ports& PerceptionCore::ports() {
       in_port<port::Observation>("when to look: step 0, then every N"),
       in_port<port::Rgbd>("the frames it asked for"),
       out_port<port::RgbdRequest>("one frame of a channel's state"),
-      out_port<port::SceneEstimate>("per frame: the entities looked for, those seen, the latency"),
+      out_port<port::SceneEstimate>("per look: the objects looked for, those seen, the parts' joint values, the latency"),
   };
   return p;
 }
@@ -36,6 +39,7 @@ PerceptionEffects PerceptionCore::on_episode(std::uint32_t channel, const std::s
   try {
     // What the scene names: an object cell's draws (size, shade, instance) are not known to perception.
     ch.objects = objects_of_(suite, task);
+    if (!settings_.parts_camera.empty()) ch.parts = parts_of_(suite, task);
   } catch (const std::exception& e) {
     channels_.erase(channel);
     fx.notes.push_back({Note::Level::Error, "channel=" + std::to_string(channel) + " episode=" + episode_id +
@@ -46,11 +50,10 @@ PerceptionEffects PerceptionCore::on_episode(std::uint32_t channel, const std::s
   ch.episode_id = episode_id;
   fx.notes.push_back({Note::Level::Info, "channel=" + std::to_string(channel) + " episode=" + episode_id +
                                              " looking for " + std::to_string(ch.looked_for.size()) +
-                                             " free objects"});
+                                             " free objects and " + std::to_string(ch.parts.size()) + " parts"});
   // The simulator's first observation can come before the request does.
   const auto last = last_seen_.find(channel);
-  if (last != last_seen_.end() && last->second.first == episode_id)
-    fx.asks.push_back(ask(channel, ch, last->second.second, now));
+  if (last != last_seen_.end() && last->second.first == episode_id) fx.asks = ask(channel, ch, last->second.second, now);
   return fx;
 }
 
@@ -67,16 +70,17 @@ PerceptionEffects PerceptionCore::on_observation(std::uint32_t channel, const st
   if (it == channels_.end() || it->second.episode_id != episode_id) return fx;
   Channel& ch = it->second;
   if (!ch.pending.empty() || (ch.last_step && step < *ch.last_step + settings_.every_steps)) return fx;
-  fx.asks.push_back(ask(channel, ch, step, now));
+  fx.asks = ask(channel, ch, step, now);
   return fx;
 }
 
 PerceptionEffects PerceptionCore::on_frame(const FrameMeta& meta, const std::function<RgbdFrame()>& pixels) {
   PerceptionEffects fx;
   const auto it = channels_.find(meta.channel);
-  if (it == channels_.end() || meta.request_id != it->second.pending)
-    return fx;  // not what this channel waits for
+  if (it == channels_.end()) return fx;
   Channel& ch = it->second;
+  const auto pending = ch.pending.find(meta.camera);
+  if (pending == ch.pending.end() || pending->second != meta.request_id) return fx;  // not what it waits for
   if (!meta.error.empty() || (!meta.episode_id.empty() && meta.episode_id != ch.episode_id)) {
     // Asked before the simulator started the episode, or it could not render: asked again after the timeout.
     fx.notes.push_back(
@@ -85,61 +89,84 @@ PerceptionEffects PerceptionCore::on_frame(const FrameMeta& meta, const std::fun
              (meta.error.empty() ? "shows episode '" + meta.episode_id + "', not this one" : meta.error)});
     return fx;
   }
-  ch.pending.clear();
-  fx.estimate = estimate(meta, ch, pixels, fx);
+  ch.pending.erase(pending);
+  estimate(meta, ch, pixels, fx);
+  if (ch.pending.empty()) {
+    fx.estimate = std::move(ch.look);
+    ch.look.reset();
+  }
   return fx;
 }
 
-SceneOut PerceptionCore::estimate(const FrameMeta& meta, Channel& ch,
-                                  const std::function<RgbdFrame()>& pixels, PerceptionEffects& fx) {
+void PerceptionCore::estimate(const FrameMeta& meta, Channel& ch, const std::function<RgbdFrame()>& pixels,
+                              PerceptionEffects& fx) {
   const auto t0 = Clock::now();
-  SceneOut out;
-  out.channel = meta.channel;
-  out.episode_id = ch.episode_id;
-  out.camera = meta.camera;
-  out.step = meta.step;
-  out.stamp_s = meta.stamp_s;
+  if (!ch.look) {
+    ch.look.emplace();
+    ch.look->channel = meta.channel;
+    ch.look->episode_id = ch.episode_id;
+    ch.look->camera = settings_.camera;
+    ch.look->step = meta.step;
+    ch.look->stamp_s = meta.stamp_s;
+    for (const auto& a : ch.looked_for) ch.look->looked_for.push_back(a.entity);
+    for (const auto& o : ch.objects) ch.look->identities[o.appearance.entity] = o.identity;
+  }
+  SceneOut& out = *ch.look;
+  // The look is as old as its older frame.
+  out.step = std::min(out.step, meta.step);
+  if (meta.camera == settings_.camera) out.stamp_s = meta.stamp_s;
   try {
     const RgbdFrame frame = pixels();
-    const auto candidates = segmenter_.segment(frame.rgb, ch.looked_for);
-    const auto estimates = estimate_objects(frame, candidates, ch.objects, cloud_);
-    for (std::size_t k = 0; k < estimates.size(); ++k) {
-      const EntityEstimate& e = estimates[k];
-      if (e.confidence <= 0) continue;
-      // Identical objects keep their identities as they move (estimates come in the objects' order).
-      if (e.entity == ch.objects[k].appearance.entity) ch.objects[k].prior_xy = e.centroid.head<2>();
-      out.seen.push_back(e);
+    if (meta.camera == settings_.camera) {
+      const auto candidates = segmenter_.segment(frame.rgb, ch.looked_for);
+      const auto estimates = estimate_objects(frame, candidates, ch.objects, cloud_);
+      for (std::size_t k = 0; k < estimates.size(); ++k) {
+        const EntityEstimate& e = estimates[k];
+        if (e.confidence <= 0) continue;
+        // Identical objects keep their identities as they move (estimates come in the objects' order).
+        if (e.entity == ch.objects[k].appearance.entity) ch.objects[k].prior_xy = e.centroid.head<2>();
+        out.seen.push_back(e);
+      }
     }
+    if (meta.camera == settings_.parts_camera) out.parts = fit_parts(frame, ch.parts, {}, cloud_);
   } catch (const std::exception& e) {
     fx.notes.push_back({Note::Level::Error, "channel=" + std::to_string(meta.channel) + " frame " +
                                                 meta.request_id + " not processed: " + e.what()});
   }
-  for (const auto& a : ch.looked_for) out.looked_for.push_back(a.entity);
-  for (const auto& o : ch.objects) out.identities[o.appearance.entity] = o.identity;
-  out.latency_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-  return out;
+  out.latency_ms += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
 
 PerceptionEffects PerceptionCore::on_tick(Clock::time_point now) {
   PerceptionEffects fx;
   for (auto& [id, ch] : channels_) {
+    std::vector<FrameAsk> asks;
     if (!ch.pending.empty() && now - ch.asked_at >= settings_.frame_timeout) {
-      fx.notes.push_back({Note::Level::Warn, "channel=" + std::to_string(id) + " frame " + ch.pending +
-                                                 " not answered in time; asking again"});
-      fx.asks.push_back(ask(id, ch, ch.last_step.value_or(0), now));
+      for (const auto& [camera, request] : ch.pending)
+        fx.notes.push_back({Note::Level::Warn, "channel=" + std::to_string(id) + " frame " + request + " of camera " +
+                                                   camera + " not answered in time; asking again"});
+      asks = ask(id, ch, ch.last_step.value_or(0), now);
     } else if (ch.pending.empty() && ch.last_step && now - ch.asked_at >= settings_.still_every) {
-      fx.asks.push_back(ask(id, ch, *ch.last_step, now));
+      asks = ask(id, ch, *ch.last_step, now);
     }
+    fx.asks.insert(fx.asks.end(), asks.begin(), asks.end());
   }
   return fx;
 }
 
-FrameAsk PerceptionCore::ask(std::uint32_t channel, Channel& ch, std::uint32_t step, Clock::time_point now) {
-  FrameAsk a{channel, settings_.camera, "perception-" + std::to_string(++requests_)};
-  ch.pending = a.request_id;
+std::vector<FrameAsk> PerceptionCore::ask(std::uint32_t channel, Channel& ch, std::uint32_t step,
+                                          Clock::time_point now) {
+  std::vector<FrameAsk> asks;
+  ch.pending.clear();
+  ch.look.reset();
+  std::vector<std::string> cameras{settings_.camera};
+  if (!ch.parts.empty() && settings_.parts_camera != settings_.camera) cameras.push_back(settings_.parts_camera);
+  for (const auto& camera : cameras) {
+    asks.push_back({channel, camera, "perception-" + std::to_string(++requests_)});
+    ch.pending[camera] = asks.back().request_id;
+  }
   ch.asked_at = now;
   ch.last_step = step;
-  return a;
+  return asks;
 }
 
 }  // namespace dh::perception

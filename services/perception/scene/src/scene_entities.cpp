@@ -37,6 +37,20 @@ Eigen::Vector3d asset_size(const sim::AssetSpec& asset) {
   return asset.geoms.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(hi - lo);
 }
 
+/// A geom as a box in its body's frame (a cylinder, disc or ring as its bounding box).
+BodyBox body_box(const sim::GeomSpec& g) {
+  BodyBox b;
+  b.centre = {g.pos[0], g.pos[1], g.pos[2]};
+  b.yaw = g.yaw;
+  if (g.type == sim::GeomSpec::Type::Box)
+    b.half = {g.size[0], g.size[1], g.size[2]};
+  else if (g.type == sim::GeomSpec::Type::Ring)
+    b.half = {g.size[0], g.size[0], g.size[2]};
+  else
+    b.half = {g.size[0], g.size[0], g.size[1]};
+  return b;
+}
+
 /// How far a box's extents are from the expected ones: horizontal extents compared largest with largest
 /// (an estimate's x axis follows the longer side), height with height; metres.
 double size_mismatch(const Eigen::Vector3d& estimated, const Eigen::Vector3d& expected) {
@@ -65,6 +79,44 @@ std::vector<LookFor> free_objects(const sim::SceneSpec& scene) {
         if (std::find(rgb.begin(), rgb.end(), c) == rgb.end()) rgb.push_back(c);
       }
     out.push_back(std::move(o));
+  }
+  return out;
+}
+
+std::vector<PartModel> articulated_parts(const sim::SceneSpec& scene) {
+  std::vector<PartModel> out;
+  // The table's top is at z = 0.
+  BodyBox table;
+  table.half = {scene.table_size[0] / 2, scene.table_size[1] / 2, scene.table_size[2] / 2};
+  table.centre = {0, 0, -table.half.z()};
+  for (const auto& e : scene.entities) {
+    if (!e.fixture() || e.asset.parts.empty()) continue;
+    const Eigen::Isometry3d world_from_fixture =
+        Eigen::Translation3d(e.nominal_xy[0], e.nominal_xy[1], 0) * Eigen::AngleAxisd(e.yaw, Eigen::Vector3d::UnitZ());
+    std::vector<BodyBox> still{table};
+    for (const auto& g : e.asset.geoms) {
+      // The body's boxes in the world: its turn and place applied to the box's centre and yaw.
+      BodyBox b = body_box(g);
+      b.centre = world_from_fixture * b.centre;
+      b.yaw += e.yaw;
+      still.push_back(b);
+    }
+    for (const auto& part : e.asset.parts) {
+      PartModel m;
+      m.name = sim::part_body(e.name, part.name);
+      m.kind = part.kind;
+      m.world_from_rest = world_from_fixture * Eigen::Translation3d(part.pos[0], part.pos[1], part.pos[2]);
+      m.joint = part.joint.type == sim::JointSpec::Type::Slide ? PartModel::Joint::Slide : PartModel::Joint::Hinge;
+      m.axis = Eigen::Vector3d(part.joint.axis[0], part.joint.axis[1], part.joint.axis[2]).normalized();
+      m.lo = part.joint.range[0];
+      m.hi = part.joint.range[1];
+      for (const auto& g : part.geoms) m.boxes.push_back(body_box(g));
+      m.still = still;
+      m.riders.push_back({m.name, Eigen::Vector3d(part.grip.pos[0], part.grip.pos[1], part.grip.pos[2])});
+      for (const auto& s : part.sites)
+        m.riders.push_back({e.name + "_" + s.name, Eigen::Vector3d(s.pos[0], s.pos[1], s.pos[2])});
+      out.push_back(std::move(m));
+    }
   }
   return out;
 }

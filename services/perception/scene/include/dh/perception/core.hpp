@@ -1,9 +1,11 @@
 // The perception service's core, DDS-free (DESIGN §11): which channels to look at, when to ask for a
 // frame, which frame answers which request, and the estimate made from it. An episode is looked at only
 // when its request grounds in perception (rendering costs the simulator time); its first observation (or
-// the request, when the observation came first) asks for a frame, then every `every_steps` steps, never
-// with one already pending; a request unanswered for `frame_timeout` is asked again. Each frame becomes
-// one estimate: the objects looked for, those seen, the time it took. The DDS shell
+// the request, when the observation came first) asks for a look, then every `every_steps` steps, never
+// with one already pending; a look unanswered for `frame_timeout` is asked again. A look is a frame of the
+// objects' camera and, when a parts camera is set and the scene's fixtures have articulated parts, one of
+// the parts camera (the same frame when both are one camera). Each look becomes one estimate: the objects
+// looked for and those seen, the parts' joint values, the time it took. The DDS shell
 // (node/perception_node.cpp) carries its events and effects.
 #pragma once
 
@@ -23,18 +25,24 @@ namespace dh::perception {
 using Clock = std::chrono::steady_clock;
 
 struct CoreSettings {
-  std::string camera = "workcell";  ///< the camera frames are asked of
+  std::string camera = "workcell";  ///< the camera objects are looked for in
   unsigned every_steps = 10;        ///< a frame every N control steps (and at step 0)
   std::chrono::milliseconds frame_timeout{2000};
   /// While the robot stands still (no step for this long since the last frame was asked), the camera keeps
   /// looking: another frame of the same step is asked. The verdict from perception needs frames after the
   /// hand has left the object.
   std::chrono::milliseconds still_every{250};
+  /// The camera the fixtures' articulated parts are fitted in (part_fit.hpp); empty: parts are not
+  /// looked at, and the governor keeps the values its observations carry.
+  std::string parts_camera{};
 };
 
 /// The objects an episode of `suite` task `task` is to look for (what its scene names); throws with the
 /// reason when there is no such task.
 using ObjectsOf = std::function<std::vector<LookFor>(const std::string& suite, std::uint32_t task)>;
+
+/// The articulated parts of the scene of `suite` task `task` (articulated_parts); throws as ObjectsOf.
+using PartsOf = std::function<std::vector<PartModel>(const std::string& suite, std::uint32_t task)>;
 
 struct FrameAsk {
   std::uint32_t channel = 0;
@@ -58,7 +66,8 @@ struct SceneOut {
   std::vector<EntityEstimate> seen;     ///< the estimates with a positive confidence
   std::vector<std::string> looked_for;  ///< every object looked for, seen or not
   std::map<std::string, ObjectIdentity> identities;  ///< what each object looked for is
-  double latency_ms = 0;                ///< segmentation and estimation of this frame
+  std::vector<PartEstimate> parts;      ///< every part looked at, in the scene's order (confidence 0: not seen)
+  double latency_ms = 0;                ///< segmentation and estimation of the look's frames
 };
 
 struct Note {
@@ -74,7 +83,9 @@ struct PerceptionEffects {
 
 class PerceptionCore {
  public:
-  PerceptionCore(CoreSettings settings, ObjectsOf objects_of, Segmenter& segmenter, CloudParams cloud);
+  /// `parts_of` is asked only with a parts camera set.
+  PerceptionCore(CoreSettings settings, ObjectsOf objects_of, PartsOf parts_of, Segmenter& segmenter,
+                 CloudParams cloud);
 
   /// What the service reads and writes (README.md lists them; a test checks the list).
   static const Ports& ports();
@@ -96,18 +107,22 @@ class PerceptionCore {
     std::string episode_id;
     std::vector<LookFor> objects;
     std::vector<EntityAppearance> looked_for;
-    std::optional<std::uint32_t> last_step;  ///< the step of the last frame asked for
-    std::string pending;                     ///< request id awaiting its frame
+    std::vector<PartModel> parts;
+    std::optional<std::uint32_t> last_step;  ///< the step of the last look asked for
+    std::map<std::string, std::string> pending;  ///< camera -> request id awaiting its frame
+    std::optional<SceneOut> look;                ///< the look's estimate, while a frame of it is pending
     Clock::time_point asked_at;
   };
-  FrameAsk ask(std::uint32_t channel, Channel& ch, std::uint32_t step, Clock::time_point now);
-  /// Nothing is seen when the frame cannot be made or processed (a note says why): the estimate still says
-  /// what was looked for.
-  SceneOut estimate(const FrameMeta& meta, Channel& ch, const std::function<RgbdFrame()>& pixels,
-                    PerceptionEffects& fx);
+  /// Asks every camera of a look.
+  std::vector<FrameAsk> ask(std::uint32_t channel, Channel& ch, std::uint32_t step, Clock::time_point now);
+  /// Adds a frame's estimates to the look's: the objects from the objects' camera, the parts from the parts
+  /// camera. Nothing is seen when the frame cannot be made or processed (a note says why): the estimate
+  /// still says what was looked for.
+  void estimate(const FrameMeta& meta, Channel& ch, const std::function<RgbdFrame()>& pixels, PerceptionEffects& fx);
 
   CoreSettings settings_;
   ObjectsOf objects_of_;
+  PartsOf parts_of_;
   Segmenter& segmenter_;
   CloudParams cloud_;
   std::map<std::uint32_t, Channel> channels_;

@@ -1,6 +1,7 @@
 // What the perception service looks for in a workcell, from its scene description (the embedded
-// default): the free objects and the colours of their visible parts. Fixtures, their parts and the
-// table regions are the cell's calibrated layout and are not looked for.
+// default): the free objects and the colours of their visible parts, and the fixtures' articulated parts
+// whose joint values depth tells (part_fit.hpp). Where fixtures stand and the table's regions are the
+// cell's calibrated layout and are not looked for.
 #pragma once
 
 #include <optional>
@@ -8,6 +9,7 @@
 #include <vector>
 
 #include "dh/perception/estimate.hpp"
+#include "dh/perception/part_fit.hpp"
 #include "dh/perception/segmenter.hpp"
 #include "dh/sim/scene.hpp"
 
@@ -35,6 +37,11 @@ struct LookFor {
 /// workcell view at 0.8 m or more; the prior is its nominal place.
 std::vector<LookFor> free_objects(const sim::SceneSpec& scene);
 std::vector<EntityAppearance> appearances(const std::vector<LookFor>& objects);
+
+/// One per articulated part of `scene`'s fixtures, standing where the scene puts them: its boxes (a
+/// cylinder, disc or ring as its bounding box), its joint, the regions on it and its grip; the fixture's
+/// own geoms and the table explain depth beside it.
+std::vector<PartModel> articulated_parts(const sim::SceneSpec& scene);
 
 /// How a candidate must look to be taken for an object.
 struct ObjectMatch {

@@ -1,0 +1,260 @@
+#include "dh/perception/part_fit.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace dh::perception {
+
+Eigen::Isometry3d PartModel::world_from_part(double q) const {
+  Eigen::Isometry3d t = world_from_rest;
+  if (joint == Joint::Slide)
+    t.translate(q * axis);
+  else
+    t.rotate(Eigen::AngleAxisd(q, axis));
+  return t;
+}
+
+namespace {
+
+/// A box in the frame the points are given in: the inverse of its placement.
+struct PlacedBox {
+  Eigen::Isometry3d box_from_frame;
+  Eigen::Vector3d half;
+};
+
+PlacedBox place(const BodyBox& b, const Eigen::Isometry3d& frame_from_body) {
+  Eigen::Isometry3d frame_from_box = frame_from_body;
+  frame_from_box.translate(b.centre);
+  frame_from_box.rotate(Eigen::AngleAxisd(b.yaw, Eigen::Vector3d::UnitZ()));
+  return {frame_from_box.inverse(), b.half};
+}
+
+/// The point is on the box's faces (within `tol` outside or inside it) or deeper inside.
+enum class Where { Away, Surface, Deep };
+Where where(const PlacedBox& b, const Eigen::Vector3d& p, double tol) {
+  const Eigen::Vector3d d = (b.box_from_frame * p).cwiseAbs() - b.half;
+  const double outside = d.cwiseMax(0.0).norm();
+  if (outside > tol) return Where::Away;
+  if (outside > 0) return Where::Surface;
+  return -d.maxCoeff() <= tol ? Where::Surface : Where::Deep;
+}
+
+/// The segment from `c` to `p` enters the box more than `tol` before it ends.
+bool crosses(const PlacedBox& b, const Eigen::Vector3d& c, const Eigen::Vector3d& p, double tol) {
+  const Eigen::Vector3d o = b.box_from_frame * c, e = b.box_from_frame * p, d = e - o;
+  double t0 = 0, t1 = 1;
+  for (int i = 0; i < 3; ++i) {
+    if (std::abs(d[i]) < 1e-12) {
+      if (std::abs(o[i]) > b.half[i]) return false;
+      continue;
+    }
+    double a = (-b.half[i] - o[i]) / d[i], z = (b.half[i] - o[i]) / d[i];
+    if (a > z) std::swap(a, z);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, z);
+    if (t0 > t1) return false;
+  }
+  return (1 - t0) * d.norm() > tol;
+}
+
+struct Aabb {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  Eigen::Vector3d hi = -Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
+  void add(const Eigen::Vector3d& p) {
+    lo = lo.cwiseMin(p);
+    hi = hi.cwiseMax(p);
+  }
+  /// The segment from c to p passes through it.
+  bool crossed_by(const Eigen::Vector3d& c, const Eigen::Vector3d& p) const {
+    const Eigen::Vector3d d = p - c;
+    double t0 = 0, t1 = 1;
+    for (int i = 0; i < 3; ++i) {
+      if (std::abs(d[i]) < 1e-12) {
+        if (c[i] < lo[i] || c[i] > hi[i]) return false;
+        continue;
+      }
+      double a = (lo[i] - c[i]) / d[i], z = (hi[i] - c[i]) / d[i];
+      if (a > z) std::swap(a, z);
+      t0 = std::max(t0, a);
+      t1 = std::min(t1, z);
+      if (t0 > t1) return false;
+    }
+    return true;
+  }
+};
+
+std::vector<double> grid(double lo, double hi, double step) {
+  std::vector<double> g;
+  const int n = std::max(1, static_cast<int>(std::ceil((hi - lo) / step - 1e-9)));
+  for (int i = 0; i <= n; ++i) g.push_back(lo + (hi - lo) * i / n);
+  return g;
+}
+
+struct Count {
+  std::size_t support = 0, through = 0;
+  double score(double w) const { return static_cast<double>(support) - w * static_cast<double>(through); }
+};
+
+/// The volume `model` sweeps over its range (its boxes at every value of `values`), grown by `margin`.
+Aabb swept_box(const PartModel& model, const std::vector<double>& values, double margin) {
+  Aabb swept;
+  for (double q : values) {
+    const Eigen::Isometry3d w = model.world_from_part(q);
+    for (const auto& b : model.boxes)
+      for (int k = 0; k < 8; ++k) {
+        const Eigen::Vector3d corner(k & 1 ? b.half.x() : -b.half.x(), k & 2 ? b.half.y() : -b.half.y(),
+                                     k & 4 ? b.half.z() : -b.half.z());
+        swept.add(w * (b.centre + Eigen::AngleAxisd(b.yaw, Eigen::Vector3d::UnitZ()) * corner));
+      }
+  }
+  swept.lo.array() -= margin;
+  swept.hi.array() += margin;
+  return swept;
+}
+
+double step_of(const PartModel& model, const PartFitParams& params) {
+  return model.joint == PartModel::Joint::Slide ? params.slide_step_m : params.hinge_step_rad;
+}
+
+}  // namespace
+
+PartEstimate fit_part(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& camera,
+                      const PartModel& model, const PartFitParams& params) {
+  PartEstimate out;
+  out.name = model.name;
+  out.world_from_part = model.world_from_part(0);
+  const auto place_riders = [&] {
+    out.riders.clear();
+    for (const auto& r : model.riders) out.riders.emplace_back(r.name, out.world_from_part * r.pos);
+  };
+  place_riders();
+  if (model.boxes.empty() || !(model.hi > model.lo)) return out;
+  const double step = step_of(model, params);
+  const std::vector<double> coarse = grid(model.lo, model.hi, step);
+
+  // Only rays through the volume the part sweeps can say anything about it.
+  const Aabb swept = swept_box(model, coarse, params.margin_m);
+  std::vector<PlacedBox> still;
+  for (const auto& b : model.still) still.push_back(place(b, Eigen::Isometry3d::Identity()));
+  struct Ray {
+    Eigen::Vector3d p;
+    bool explained;  ///< on or in the fixture's body or the table: supports no joint value
+  };
+  std::vector<Ray> rays;
+  for (const auto& p : points) {
+    if (!swept.crossed_by(camera, p)) continue;
+    const bool explained = std::any_of(still.begin(), still.end(), [&](const PlacedBox& b) {
+      return where(b, p, params.surface_m) != Where::Away;
+    });
+    rays.push_back({p, explained});
+  }
+
+  const auto count = [&](double q) {
+    std::vector<PlacedBox> boxes;
+    for (const auto& b : model.boxes) boxes.push_back(place(b, model.world_from_part(q)));
+    Count c;
+    for (const auto& r : rays) {
+      bool on = false, deep = false;
+      for (const auto& b : boxes) {
+        const Where w = where(b, r.p, params.surface_m);
+        on |= w == Where::Surface;
+        deep |= w == Where::Deep;
+      }
+      if (on && !deep) {
+        if (!r.explained) ++c.support;
+      } else if (deep || std::any_of(boxes.begin(), boxes.end(),
+                                     [&](const PlacedBox& b) { return crosses(b, camera, r.p, params.surface_m); })) {
+        ++c.through;
+      }
+    }
+    return c;
+  };
+
+  std::vector<Count> counts;
+  std::size_t best = 0;
+  for (std::size_t i = 0; i < coarse.size(); ++i) {
+    counts.push_back(count(coarse[i]));
+    if (counts[i].score(params.through_weight) > counts[best].score(params.through_weight)) best = i;
+  }
+  const double best_score = counts[best].score(params.through_weight);
+  double spread_lo = coarse[best], spread_hi = coarse[best];
+  if (best_score > 0)
+    for (std::size_t i = 0; i < coarse.size(); ++i)
+      if (counts[i].score(params.through_weight) >= params.near_best * best_score) {
+        spread_lo = std::min(spread_lo, coarse[i]);
+        spread_hi = std::max(spread_hi, coarse[i]);
+      }
+  double q_best = coarse[best];
+  Count c_best = counts[best];
+  for (double q = std::max(model.lo, q_best - step); q <= std::min(model.hi, q_best + step) + 1e-12; q += step / 4) {
+    const Count c = count(q);
+    if (c.score(params.through_weight) > c_best.score(params.through_weight)) {
+      c_best = c;
+      q_best = q;
+    }
+  }
+  out.joint = q_best;
+  out.support = c_best.support;
+  out.through = c_best.through;
+  out.spread = spread_hi - spread_lo;
+  out.world_from_part = model.world_from_part(q_best);
+  place_riders();
+  if (out.support >= params.min_support) {
+    const double clean = static_cast<double>(out.support) / static_cast<double>(out.support + out.through);
+    const double sharp = std::max(0.0, 1.0 - out.spread / (0.25 * (model.hi - model.lo)));
+    out.confidence = clean * sharp;
+  }
+  return out;
+}
+
+std::vector<PartEstimate> fit_parts(const RgbdFrame& frame, const std::vector<PartModel>& models,
+                                    const PartFitParams& params, const CloudParams& cloud) {
+  validate(frame);
+  std::vector<PartEstimate> out;
+  const Eigen::Isometry3d camera_from_world = frame.world_from_camera.inverse();
+  const Eigen::Vector3d camera = frame.world_from_camera.translation();
+  const double min_mm = cloud.min_depth_m * 1000.0, max_mm = cloud.max_depth_m * 1000.0;
+  for (const auto& m : models) {
+    // The pixels whose rays can cross the part's swept volume: its corners' image, back-projected at a
+    // stride that keeps about max_points of them.
+    const Aabb swept = swept_box(m, grid(m.lo, m.hi, step_of(m, params)), params.margin_m);
+    double u0 = frame.K.width, u1 = -1, v0 = frame.K.height, v1 = -1;
+    bool behind = false;
+    for (int k = 0; k < 8; ++k) {
+      const Eigen::Vector3d c = camera_from_world * Eigen::Vector3d(k & 1 ? swept.hi.x() : swept.lo.x(),
+                                                                    k & 2 ? swept.hi.y() : swept.lo.y(),
+                                                                    k & 4 ? swept.hi.z() : swept.lo.z());
+      if (c.z() <= 1e-6) {
+        behind = true;
+        break;
+      }
+      const double u = frame.K.fx * c.x() / c.z() + frame.K.cx, v = frame.K.fy * c.y() / c.z() + frame.K.cy;
+      u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
+    }
+    int ua = 0, ub = frame.K.width - 1, va = 0, vb = frame.K.height - 1;
+    if (!behind) {
+      ua = std::max(0, static_cast<int>(std::floor(u0))), ub = std::min(frame.K.width - 1, static_cast<int>(std::ceil(u1)));
+      va = std::max(0, static_cast<int>(std::floor(v0))), vb = std::min(frame.K.height - 1, static_cast<int>(std::ceil(v1)));
+    }
+    std::vector<Eigen::Vector3d> points;
+    if (ua <= ub && va <= vb) {
+      const double area = static_cast<double>(ub - ua + 1) * (vb - va + 1);
+      const int stride = std::max(1, static_cast<int>(std::floor(std::sqrt(area / static_cast<double>(params.max_points)))));
+      for (int v = va; v <= vb; v += stride) {
+        const auto* row = frame.depth.ptr<std::uint16_t>(v);
+        for (int u = ua; u <= ub; u += stride) {
+          const double mm = row[u];
+          if (mm < min_mm || mm > max_mm) continue;
+          const double z = mm / 1000.0;
+          points.push_back(frame.world_from_camera *
+                           Eigen::Vector3d((u - frame.K.cx) * z / frame.K.fx, (v - frame.K.cy) * z / frame.K.fy, z));
+        }
+      }
+    }
+    out.push_back(fit_part(points, camera, m, params));
+  }
+  return out;
+}
+
+}  // namespace dh::perception
