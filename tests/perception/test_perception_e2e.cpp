@@ -1,6 +1,8 @@
 // The perception service over DDS: it asks sim_worker for workcell frames, publishes scene estimates
-// close to the simulator's truth, and an episode of the full-perception arm grounds from them.
+// close to the simulator's truth, and an episode of the full-perception arm grounds from them; with a parts
+// camera its estimates carry the fixtures' parts.
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 
 #include "../integration/harness.hpp"
@@ -99,6 +101,57 @@ TEST(PerceptionE2E, TheVerdictFromPerceptionEndsTheEpisodeAndTheOraclesIsRecorde
   EXPECT_EQ(r["outcome"], "rejected") << r.dump();
   EXPECT_NE(r["reason"].get<std::string>().find("verifier perception needs an arm that grounds from perception"),
             std::string::npos) << r.dump();
+}
+
+// Parts from sensing: with a parts camera the service fits the drawer's travel to the front camera's depth,
+// the fits follow the simulator's joint through the episode, and the perceived verdict that ends it reads
+// the ring inside the drawer's region where the fitted travel put it.
+TEST(PerceptionE2E, TheDrawersTravelFittedToTheFrontCameraFollowsTheSimulator) {
+  itest::IsolatedEnv env;
+  cli::Deployment d({itest::service("sim_worker"), itest::service("governor"), itest::service("planner", {"--backend", "rules"}),
+                     itest::service("cap_pick_place"), itest::service("cap_slide_drawer"),
+                     itest::service("perception", {"--parts-camera", "front"})},
+                    paths::bin_dir(), env.runs / "logs");
+  dds::Participant p("itest");
+  std::mutex m;
+  std::map<std::uint32_t, double> joint_at;  // the simulator's drawer travel by step
+  std::vector<std::pair<std::uint32_t, msg::PerceivedPart>> fits;
+  constexpr const char* kDrawer = "drawer_unit_drawer";
+  dds::Reader<msg::ObservationPubSubType> obs(p, topics::kObservation, dds::Qos::Observation,
+      {[&](const msg::Observation& o, const auto&) {
+         for (const auto& e : o.entities())
+           if (e.name() == kDrawer) {
+             std::lock_guard l(m);
+             joint_at[o.step()] = e.joint();
+           }
+       }, {}, {}});
+  dds::Reader<msg::SceneEstimatePubSubType> scene(p, topics::kSceneEstimate, dds::Qos::Observation,
+      {[&](const msg::SceneEstimate& e, const auto&) {
+         std::lock_guard l(m);
+         for (const auto& part : e.parts()) fits.emplace_back(e.step(), part);
+       }, {}, {}});
+  const std::string dh = (paths::bin_dir() / "dh").string();
+  auto [out, status] = itest::run_command(
+      dh + " run --suite hw --task 3 --seed 4 --arm full-perception --verifier perception --json --ready-timeout-ms 20000");
+  ASSERT_EQ(status, 0) << out;
+  const auto j = nlohmann::json::parse(out);
+  EXPECT_TRUE(j["success"].get<bool>()) << j.dump();
+
+  std::lock_guard l(m);
+  ASSERT_FALSE(fits.empty()) << "no part in any estimate";
+  std::size_t compared = 0, open = 0;
+  for (const auto& [step, part] : fits) {
+    ASSERT_EQ(part.entity(), kDrawer);
+    const auto truth = joint_at.find(step);
+    if (part.confidence() < 0.3 || truth == joint_at.end()) continue;
+    ++compared;
+    open += part.joint() > 0.14;
+    // A frame is of the step it is stamped with or a little later (rendered after the step's observation).
+    EXPECT_NEAR(part.joint(), truth->second, 0.01) << "step " << step;
+    ASSERT_EQ(part.riders().size(), 2u) << "the drawer's handle and its inside ride on it";
+  }
+  EXPECT_GT(compared, fits.size() / 2) << "most frames fit the drawer with confidence";
+  EXPECT_GT(open, 0u) << "no frame saw the drawer open";
 }
 
 }  // namespace dh

@@ -1,6 +1,9 @@
 // Launch files with hosts, and the DDS profile each host gets: parsed, refused with reasons, and loaded
 // by Fast DDS itself.
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <set>
 #include <signal.h>
 #include <unistd.h>
 
@@ -88,6 +91,26 @@ TEST_F(LaunchFileTest, TheShippedMultiHostFileGivesEachHostItsShare) {
   EXPECT_EQ(control.size(), l.services.size() - 2);
   for (const auto& s : control) EXPECT_NE(s.exec, "sim_worker");
   EXPECT_TRUE(contains(error_of([&] { l.services_on("sim3", dir); }), "no host 'sim3' (hosts: control, sim1, sim2)"));
+}
+
+TEST_F(LaunchFileTest, TheShippedCellFileDrivesTheArmThroughTheAdapterAndLooksAtTheParts) {
+  const LaunchFile l = load_launch(paths::home() / "deploy" / "cell" / "cell.yaml");
+  const auto robot = l.services_on("robot", dir), control = l.services_on("control", dir);
+  ASSERT_EQ(robot.size(), 1u);
+  EXPECT_EQ(robot[0].exec, "robot_adapter");
+  for (const auto& s : l.services) EXPECT_NE(s.exec, "sim_worker") << s.name << ": nothing simulated on a cell";
+  const auto perception = std::find_if(control.begin(), control.end(), [](const auto& s) { return s.exec == "perception"; });
+  ASSERT_NE(perception, control.end());
+  const auto& a = perception->args;
+  const auto parts = std::find(a.begin(), a.end(), "--parts-camera");
+  ASSERT_NE(parts, a.end());
+  ASSERT_NE(parts + 1, a.end());
+  // Each camera perception asks has a source on the camera host.
+  std::set<std::string> played;
+  for (const auto& s : l.services_on("camera", dir))
+    if (const auto c = std::find(s.args.begin(), s.args.end(), "--camera"); c != s.args.end() && c + 1 != s.args.end())
+      played.insert(*(c + 1));
+  EXPECT_EQ(played, (std::set<std::string>{"workcell", *(parts + 1)}));
 }
 
 TEST_F(LaunchFileTest, ADiscoveryServerIsStartedFirstOnItsHost) {

@@ -185,15 +185,26 @@ PartEstimate fit_part(const std::vector<Eigen::Vector3d>& points, const Eigen::V
         spread_lo = std::min(spread_lo, coarse[i]);
         spread_hi = std::max(spread_hi, coarse[i]);
       }
-  double q_best = coarse[best];
-  Count c_best = counts[best];
-  for (double q = std::max(model.lo, q_best - step); q <= std::min(model.hi, q_best + step) + 1e-12; q += step / 4) {
-    const Count c = count(q);
-    if (c.score(params.through_weight) > c_best.score(params.through_weight)) {
-      c_best = c;
-      q_best = q;
-    }
+  // Depth cannot tell apart values whose placements differ by less than its tolerance: of a run of equal
+  // best scores, the middle is taken (the first would bias every fit towards the range's low end).
+  const auto middle_of_run = [&](const std::vector<double>& values, const std::vector<Count>& c, std::size_t first) {
+    const double top = c[first].score(params.through_weight);
+    std::size_t last = first;
+    while (last + 1 < values.size() && c[last + 1].score(params.through_weight) == top) ++last;
+    return (values[first] + values[last]) / 2;
+  };
+  const double q_coarse = middle_of_run(coarse, counts, best);
+  std::vector<double> fine;
+  for (double q = std::max(model.lo, q_coarse - step); q <= std::min(model.hi, q_coarse + step) + 1e-12; q += step / 4)
+    fine.push_back(q);
+  std::vector<Count> fine_counts;
+  std::size_t fine_best = 0;
+  for (std::size_t i = 0; i < fine.size(); ++i) {
+    fine_counts.push_back(count(fine[i]));
+    if (fine_counts[i].score(params.through_weight) > fine_counts[fine_best].score(params.through_weight)) fine_best = i;
   }
+  const double q_best = middle_of_run(fine, fine_counts, fine_best);
+  const Count c_best = count(q_best);
   out.joint = q_best;
   out.support = c_best.support;
   out.through = c_best.through;

@@ -4,6 +4,7 @@
 // every build: a generator seeded by the seed), the arm at its ready pose; the RGB-D camera `--camera` of
 // configs/cameras.yaml renders the state, and each part's joint value is fitted from the depth image.
 //   eval_parts [--cells goal,goal-swap,long,long-swap,hw] [--seeds 1-10] [--draws 4] [--camera front]
+//              [--csv FILE] [--save-frames DIR]
 // Prints per part kind: how often it was seen (confidence at least --min-confidence), the joint error's
 // median and 95th percentile, and how often a named state (open, closed, on, off) read from the fitted
 // value differs from the one the true value is in: a false state (the fit says open, truth does not)
@@ -15,6 +16,7 @@
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
@@ -60,6 +62,8 @@ int main(int argc, char** argv) {
   app.add_option("--draws", draws, "joint values per part and seed: the initial one, then uniform draws")->check(CLI::Range(1u, 100u));
   app.add_option("--camera", camera, "the RGB-D camera of configs/cameras.yaml that looks");
   app.add_option("--min-confidence", min_confidence, "a fit below this counts as not seen (the governor's perception.min_confidence)");
+  std::string csv_path;
+  app.add_option("--csv", csv_path, "write one row per part and frame (scene, seed, draw, part, kind, truth, fit, confidence, support, through, spread) to this file");
   app.add_option("--save-frames", save_dir, "write each frame's colour image as <scene>_s<seed>_d<draw>.png into this folder");
   CLI11_PARSE(app, argc, argv);
   try {
@@ -72,6 +76,12 @@ int main(int argc, char** argv) {
     std::map<std::string, KindStats> by_kind;
     std::vector<double> fit_ms;
     std::set<std::string> done;
+    std::ofstream csv;
+    if (!csv_path.empty()) {
+      csv.open(csv_path);
+      if (!csv) throw std::runtime_error("--csv " + csv_path + ": cannot write it (does its folder exist?)");
+      csv << "scene,seed,draw,part,kind,truth,fit,confidence,support,through,spread\n";
+    }
     sim::WorkcellCache cache([&](sim::SceneSpec& s) { s.cameras = cameras.for_scene(s.name); });
     for (const auto& cell_name : campaign::parse_list(cells, "--cells")) {
       const auto suite = suites.find(cell_name);
@@ -111,6 +121,10 @@ int main(int argc, char** argv) {
             const auto fits = perception::fit_parts(frame, models);
             fit_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
             for (std::size_t i = 0; i < models.size(); ++i) {
+              if (csv.is_open())
+                csv << spec.name << ',' << seed << ',' << k << ',' << models[i].name << ',' << models[i].kind << ','
+                    << truth[models[i].name] << ',' << fits[i].joint << ',' << fits[i].confidence << ','
+                    << fits[i].support << ',' << fits[i].through << ',' << fits[i].spread << '\n';
               KindStats& s = by_kind[models[i].kind];
               ++s.frames;
               s.slide = models[i].joint == perception::PartModel::Joint::Slide;

@@ -22,6 +22,7 @@
 #include <chrono>
 #include <optional>
 
+#include "dh/common/config.hpp"
 #include "dh/common/convert.hpp"
 #include "dh/common/dds_shell.hpp"
 #include "dh/common/topics.hpp"
@@ -58,9 +59,10 @@ class AdapterBinding {
     app.add_option("--host", cell_.host, "the controller's address");
     app.add_option("--rtde-port", cell_.rtde_port, "RTDE (30004 on a UR controller)");
     app.add_option("--script-port", cell_.script_port, "the secondary interface (30002 on a UR controller)");
-    app.add_option("--base", base_, "the arm's base in the world: x,y,z (m),yaw (rad)")
-        ->delimiter(',')
-        ->expected(4);
+    base_option_ = app.add_option("--base", base_,
+                                  "the arm's base in the world: x,y,z (m),yaw (rad) (or the --entities file's base)")
+                        ->delimiter(',')
+                        ->expected(4);
     app.add_option("--workspace-min", ws_min_, "the workspace box's low corner (world, m)")
         ->delimiter(',')
         ->expected(3);
@@ -108,7 +110,17 @@ class AdapterBinding {
   }
 
   void configure(Context& ctx) {
-    if (!entities_.empty()) cell_.entities = rtde::load_cell_entities(entities_);
+    if (!entities_.empty()) {
+      cell_.entities = rtde::load_cell_entities(entities_);
+      // The calibration file's base; a --base that says otherwise is refused (which one is meant is unclear).
+      if (const auto base = rtde::load_cell_base(entities_)) {
+        const std::vector<double> file(base->begin(), base->end());
+        if (base_option_->count() && base_ != file)
+          throw ConfigError("--base and " + entities_ + "'s base differ: give one of them");
+        cell_.base_xyz = {file[0], file[1], file[2]};
+        cell_.base_yaw = file[3];
+      }
+    }
     core_.emplace(channel_, sim::SeamSettings{
                                 std::chrono::milliseconds(grace_ms_), std::chrono::seconds(abandon_after_s_),
                                 std::chrono::milliseconds(static_cast<int>(dds::kLeaseDeadlineSec * 1000))});
@@ -219,6 +231,7 @@ class AdapterBinding {
   std::uint32_t channel_ = 0;
   std::string name_ = "robot_adapter", entities_, gripper_interface_ = "digital-output";
   rtde::RtdeCellConfig cell_;
+  CLI::Option* base_option_ = nullptr;
   std::vector<double> base_{0, 0, 0, 0}, ws_min_{-1, -1, -1}, ws_max_{1, 1, 1};
   std::vector<double> gripper_;  ///< --gripper; empty: RtdeCellConfig's (the 2F-85's)
   unsigned grace_ms_ = 1000, abandon_after_s_ = 60;

@@ -162,7 +162,8 @@ int run(int argc, char** argv) {
       cameras = scene.cameras;
       if (!entities_out.empty()) {
         std::ofstream out(entities_out);
-        out << rtde::cell_entities_yaml(static_entities(scene, seed));
+        out << rtde::cell_entities_yaml(static_entities(scene, seed),
+                                        rtde::ArmBase{scene.robot_base[0], scene.robot_base[1], scene.robot_base[2], 0});
         if (!out) throw std::runtime_error("cannot write " + entities_out);
         log->info("the scene's fixtures, parts and regions written to {}", entities_out);
       }

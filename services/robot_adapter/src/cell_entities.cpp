@@ -41,15 +41,26 @@ std::vector<EntityState> load_cell_entities(const std::filesystem::path& file) {
   return out;
 }
 
-std::string cell_entities_yaml(const std::vector<EntityState>& entities) {
+std::optional<ArmBase> load_cell_base(const std::filesystem::path& file) {
+  const ConfigNode root = ConfigNode::load_file(file);
+  if (!root.has("base")) return std::nullopt;
+  return sim::get_array<4>(root, "base");
+}
+
+std::string cell_entities_yaml(const std::vector<EntityState>& entities, const std::optional<ArmBase>& base) {
   YAML::Emitter y;
   y.SetDoublePrecision(10);
-  y << YAML::BeginMap << YAML::Key << "entities" << YAML::Value << YAML::BeginSeq;
   const auto seq = [&](const auto& values) {
     y << YAML::Flow << YAML::BeginSeq;
     for (double v : values) y << v;
     y << YAML::EndSeq;
   };
+  y << YAML::BeginMap;
+  if (base) {
+    y << YAML::Key << "base" << YAML::Value;
+    seq(*base);
+  }
+  y << YAML::Key << "entities" << YAML::Value << YAML::BeginSeq;
   for (const EntityState& e : entities) {
     y << YAML::Flow << YAML::BeginMap << YAML::Key << "name" << YAML::Value << e.name << YAML::Key << "kind"
       << YAML::Value << e.kind << YAML::Key << "p" << YAML::Value;

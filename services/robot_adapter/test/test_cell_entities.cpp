@@ -58,7 +58,10 @@ TEST(CellEntities, WrittenAreReadBackAsTheyWere) {
   EntityState region{"plate_region", "region", {-0.2, 0.22, 0}, {1, 0, 0, 0}, {0.06, 0.06, 0.02}, 0, "", "", "plate",
                      "on"};
   const std::vector<EntityState> written{cabinet, drawer, region};
-  const auto read = load_cell_entities(write("round_trip.yaml", cell_entities_yaml(written)));
+  const auto file = write("round_trip.yaml", cell_entities_yaml(written, ArmBase{-0.56, 0.01, 0, 0.25}));
+  EXPECT_EQ(load_cell_base(file), (ArmBase{-0.56, 0.01, 0, 0.25}));
+  EXPECT_FALSE(load_cell_base(write("no_base.yaml", cell_entities_yaml(written)))) << "the base is optional";
+  const auto read = load_cell_entities(file);
   ASSERT_EQ(read.size(), written.size());
   for (std::size_t i = 0; i < read.size(); ++i) {
     SCOPED_TRACE(written[i].name);
@@ -78,6 +81,12 @@ TEST(CellEntities, WrittenAreReadBackAsTheyWere) {
 }
 
 TEST(CellEntities, BadFilesAreNamedWithTheirKey) {
+  try {
+    load_cell_base(write("bad.yaml", "base: [-0.56, 0, 0]\nentities: []\n"));
+    ADD_FAILURE() << "a base of 3 numbers was read";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("bad.yaml: key 'base': expected a list of 4 numbers"), std::string::npos) << e.what();
+  }
   EXPECT_NE(error_of("entities:\n  - {name: a, kind: cabinet, p: [0, 0], half_extents: [1, 1, 1]}\n")
                 .find("bad.yaml: key 'entities[0].p': expected a list of 3 numbers"),
             std::string::npos)
