@@ -147,7 +147,7 @@ void overview(const json& s, Document& doc) {
                             "verdict's bands say what perception said: they disagree with the simulator's "
                             "contacts), perception (on those poses the bands agree with the simulator: the "
                             "perceived poses were wrong, or there was no view at the end), unknown (the evidence "
-                            "does not say). Articulated parts' joints are the cell's reported values, not perceived."});
+                            "does not say). Articulated parts' joints are perceived when the perception service ran with a parts camera (--parts-camera), else the values the cell reported."});
     doc.push_back(std::move(agreement));
   }
   const json& e = s["evidence"];

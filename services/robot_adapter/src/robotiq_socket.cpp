@@ -36,6 +36,23 @@ std::optional<int> integer(const std::string& s) {
 
 }  // namespace
 
+std::string robotiq_fault_text(int code) {
+  switch (code) {
+    case 0x00: return "no fault";
+    case 0x05: return "action delayed: the activation must complete first (priority fault)";
+    case 0x07: return "the activation bit must be set before an action (priority fault)";
+    case 0x08: return "over its operating temperature (minor fault: let it cool)";
+    case 0x09: return "no communication for at least 1 s (minor fault)";
+    case 0x0A: return "under its minimum operating voltage (major fault: reset needed)";
+    case 0x0B: return "automatic release in progress (major fault: reset needed)";
+    case 0x0C: return "internal fault (major fault: reset needed)";
+    case 0x0D: return "activation fault (major fault: reset needed)";
+    case 0x0E: return "overcurrent (major fault: reset needed)";
+    case 0x0F: return "automatic release completed (major fault: reset needed)";
+    default: return "unknown fault code";
+  }
+}
+
 double robotiq_gap(int position, const RobotiqRange& range, double stroke_m) {
   const double share = static_cast<double>(range.closed - position) / (range.closed - range.open);
   return std::clamp(share, 0.0, 1.0) * stroke_m;

@@ -138,11 +138,18 @@ void RtdeCell::connect() {
   } catch (const GripperError& e) {
     stop();
     client_.close();
+    gripper_.close();
     throw CellStopped(std::string(e.what()) + "; the arm is stopped");
   }
 }
 
 void RtdeCell::read_gripper() {
+  // A gripper in fault does not do what it is told: the step (or the connect) ends with the arm stopped.
+  if (const int fault = gripper_.get("FLT", config_.timeout); fault != 0) {
+    char code[8];
+    std::snprintf(code, sizeof code, "0x%02X", fault);
+    throw GripperError("gripper: fault " + std::string(code) + ", " + robotiq_fault_text(fault));
+  }
   state_.gripper_position = gripper_.get("POS", config_.timeout);
   state_.gripper_object = gripper_.get("OBJ", config_.timeout);
 }
@@ -240,6 +247,7 @@ std::vector<sim::StepEvent> RtdeCell::step(const std::array<double, 7>& action) 
     if (robotiq) read_gripper();
   } catch (const GripperError& e) {
     stop();
+    gripper_.close();  // the next session connects to it again
     throw CellStopped(std::string(e.what()) + "; the arm is stopped");
   } catch (const ClientError& e) {
     throw CellStopped(std::string("the link to the controller was lost (") + e.what() +

@@ -178,6 +178,7 @@ std::optional<int> SimulatedUr::robotiq_get(const std::string& var) const {
   if (var == "GTO") return robotiq_go_ ? 1 : 0;
   if (var == "STA") return robotiq_active_ ? 3 : 0;
   if (var == "OBJ") return static_cast<int>(robotiq_object_);
+  if (var == "FLT") return robotiq_fault_;
   return std::nullopt;
 }
 

@@ -151,5 +151,39 @@ TEST_F(RobotiqCell, AGripperThatCannotBeReachedStopsTheConnectNamingIt) {
   }
 }
 
+// A gripper in fault (FLT nonzero) ends the step, or the connect, naming the code; the arm is stopped.
+TEST_F(RobotiqCell, AGrippersFaultEndsTheStepNamingItsCode) {
+  {
+    RtdeCell cell(config());
+    cell.connect();
+    cell.step({0, 0, 0, 0, 0, 0, -1});
+    controller.with_arm([](SimulatedUr& a) { a.robotiq_fault(0x0E); });
+    try {
+      cell.step({0.5, 0, 0, 0, 0, 0, 1});
+      FAIL() << "stepped with the gripper in fault";
+    } catch (const CellStopped& e) {
+      EXPECT_NE(std::string(e.what()).find("gripper: fault 0x0E, overcurrent"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("the arm is stopped"), std::string::npos) << e.what();
+    }
+  }
+  RtdeCell again(config());
+  try {
+    again.connect();
+    FAIL() << "connected to a gripper in fault";
+  } catch (const CellStopped& e) {
+    EXPECT_NE(std::string(e.what()).find("fault 0x0E"), std::string::npos) << e.what();
+  }
+  controller.with_arm([](SimulatedUr& a) { a.robotiq_fault(0); });
+  RtdeCell cleared(config());
+  EXPECT_NO_THROW(cleared.connect()) << "the fault cleared";
+}
+
+TEST(RobotiqFault, CodesAreNamedAndAnUnknownOneSaysSo) {
+  EXPECT_EQ(robotiq_fault_text(0), "no fault");
+  EXPECT_NE(robotiq_fault_text(0x0A).find("under its minimum operating voltage"), std::string::npos);
+  EXPECT_NE(robotiq_fault_text(0x08).find("minor fault"), std::string::npos);
+  EXPECT_EQ(robotiq_fault_text(0x42), "unknown fault code");
+}
+
 }  // namespace
 }  // namespace dh::rtde

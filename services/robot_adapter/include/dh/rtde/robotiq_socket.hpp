@@ -6,9 +6,10 @@
 //
 // Variables used here: ACT (1 activates), GTO (1: go to the requested position), POS (set: the requested
 // position, 0 open to 255 closed; get: the fingers' measured position), SPE and FOR (speed and force,
-// 0..255), STA (0 reset, 1 activating, 3 active) and OBJ (0 moving, 1 stopped by an object while
-// opening, 2 stopped by an object while closing, 3 at the requested position). After activation the
-// fingers' measured position runs from about 3 (open) to about 230 (touching), not 0 to 255.
+// 0..255), STA (0 reset, 1 activating, 3 active), OBJ (0 moving, 1 stopped by an object while
+// opening, 2 stopped by an object while closing, 3 at the requested position) and FLT (the fault code, 0
+// none; robotiq_fault_text). After activation the fingers' measured position runs from about 3 (open) to
+// about 230 (touching), not 0 to 255.
 #pragma once
 
 #include <chrono>
@@ -30,6 +31,11 @@ struct GripperError : std::runtime_error {
 
 /// What GET OBJ answers.
 enum class GripperObject : int { Moving = 0, StoppedOpening = 1, StoppedClosing = 2, AtRequest = 3 };
+
+/// What a fault code of FLT means: "no fault" for 0, "unknown fault code" for one not listed. The codes and
+/// their classes (priority, minor, major: a major one needs the gripper reset) as SDU Robotics' ur_rtde
+/// lists them (`include/ur_rtde/robotiq_gripper.h`, eFaultCode; docs/ur-rtde.md).
+std::string robotiq_fault_text(int code);
 
 /// The measured positions of an activated 2F gripper's open and touching fingers (its encoder's range).
 struct RobotiqRange {

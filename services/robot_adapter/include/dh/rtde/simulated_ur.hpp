@@ -58,11 +58,13 @@ class SimulatedUr {
   Value output(const std::string& name) const;
 
   /// The Robotiq URCap's variables (robotiq_socket.hpp) for the arm's 2F-85-sized jaw: ACT, GTO, POS, SPE
-  /// and FOR are set (false for another), POS, PRE, STA, OBJ, ACT and GTO read (nullopt for another).
+  /// and FOR are set (false for another), POS, PRE, STA, OBJ, FLT, ACT and GTO read (nullopt for another).
   /// Once active with GTO 1 the jaw goes to the requested position, no longer following the tool's
   /// digital output.
   bool robotiq_set(const std::string& var, int value);
   std::optional<int> robotiq_get(const std::string& var) const;
+  /// The gripper reports fault `code` in FLT from now on (0 clears it), as a test injects one.
+  void robotiq_fault(int code) { robotiq_fault_ = code; }
 
   /// A protective stop: the arm halts, the program stops, the safety bits say so.
   void protective_stop();
@@ -107,6 +109,7 @@ class SimulatedUr {
   bool gripper_closed_ = false;
   bool robotiq_active_ = false, robotiq_go_ = false;
   int robotiq_request_ = 0;
+  int robotiq_fault_ = 0;
   /// OBJ as a gripper reports it: once the fingers stop, the status they stopped with, kept while they stay
   /// within 3 counts of where they stopped (a held object that slips lets them move on: moving again).
   GripperObject robotiq_object_ = GripperObject::AtRequest;
