@@ -50,7 +50,8 @@ PerceptionEffects PerceptionCore::on_episode(std::uint32_t channel, const std::s
   ch.episode_id = episode_id;
   fx.notes.push_back({Note::Level::Info, "channel=" + std::to_string(channel) + " episode=" + episode_id +
                                              " looking for " + std::to_string(ch.looked_for.size()) +
-                                             " free objects and " + std::to_string(ch.parts.size()) + " parts"});
+                                             " free objects and " + std::to_string(ch.parts.size()) +
+                                             (ch.parts.size() == 1 ? " part" : " parts")});
   // The simulator's first observation can come before the request does.
   const auto last = last_seen_.find(channel);
   if (last != last_seen_.end() && last->second.first == episode_id) fx.asks = ask(channel, ch, last->second.second, now);
