@@ -38,7 +38,17 @@ bool tool_over(const std::array<double, 3>& tool, const PerceivedEntity& e, doub
 }  // namespace
 
 void PerceivedWorld::on_estimate(const SceneEstimate& e) {
-  if (latest_ && latest_->episode_id != e.episode_id) *this = PerceivedWorld(limits_);
+  if (!episode_.empty() && episode_ != e.episode_id) *this = PerceivedWorld(limits_);
+  episode_ = e.episode_id;
+  if (!e.parts.empty() && (!parts_step_ || e.step >= *parts_step_)) {
+    parts_step_ = e.step;
+    for (const auto& part : e.parts) {
+      if (part.confidence < limits_.min_confidence) continue;
+      joints_[part.name] = part.joint;
+      for (const auto& r : part.riders) riders_[r.name] = r;
+    }
+  }
+  if (e.looked_for.empty()) return;  // a parts camera's frame: no objects in it
   if (latest_ && e.step < latest_->step) return;
   latest_ = e;
   // Where every other object is for the resting test: as this frame sees it, else as kept.
@@ -47,11 +57,6 @@ void PerceivedWorld::on_estimate(const SceneEstimate& e) {
   for (const auto& s : e.seen)
     if (s.confidence >= limits_.min_confidence) bottoms[s.name] = s.p;
   if (held_) bottoms.erase(*held_);
-  for (const auto& part : e.parts) {
-    if (part.confidence < limits_.min_confidence) continue;
-    joints_[part.name] = part.joint;
-    for (const auto& r : part.riders) riders_[r.name] = r;
-  }
   for (const auto& s : e.seen) {
     if (s.confidence < limits_.min_confidence || held_ == s.name) continue;
     auto it = seen_.find(s.name);

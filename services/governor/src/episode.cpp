@@ -98,7 +98,9 @@ Effects EpisodeMachine::on_scene_estimate(const SceneEstimate& estimate, Clock::
   arrived_ = std::chrono::steady_clock::now();
   if (!world_ || estimate.episode_id != spec_.episode_id || phase_ == Phase::Ended) return {};
   world_->on_estimate(estimate);
-  if (perceived_ && have_obs_ && world_->latest() && world_->latest()->step == estimate.step) {
+  // The verdict counts frames of the objects; a parts camera's frame only updates the parts it reads.
+  if (perceived_ && have_obs_ && !estimate.looked_for.empty() && world_->latest() &&
+      world_->latest()->step == estimate.step) {
     Observation seen = last_obs_;
     world_->view(seen, {});
     if (const auto change = perceived_->on_frame(estimate.step, seen)) {

@@ -337,6 +337,22 @@ TEST(PerceivedWorld, AFittedPartTakesItsJointValueAndCarriesItsRegionsTheCalibra
   ASSERT_FALSE(w.view(obs, {}));
   EXPECT_NEAR(obs.entity("unit_drawer")->joint, 0.15, 1e-12);
 
+  // A parts camera's own frame moves the parts and leaves the objects' latest frame as it was.
+  SceneEstimate parts_only{"ep", 40, {}, {}, {}};
+  parts_only.parts.push_back({"unit_drawer", 0.1, 0.8, {{"unit_drawer", {-0.14, 0.3, 0.05}, {1, 0, 0, 0}}}});
+  w.on_estimate(parts_only);
+  EXPECT_EQ(w.latest()->step, 30u) << "a parts frame is not a frame of the objects";
+  obs = observed();
+  obs.step = 40;
+  ASSERT_FALSE(w.view(obs, {}));
+  EXPECT_NEAR(obs.entity("unit_drawer")->joint, 0.1, 1e-12);
+  expect_at(obs, "unit_drawer", {-0.14, 0.3, 0.05});
+  // Another episode's parts frame starts afresh.
+  parts_only.episode_id = "ep2";
+  w.on_estimate(parts_only);
+  EXPECT_EQ(w.episode(), "ep2");
+  EXPECT_FALSE(w.latest()) << "the last episode's objects are forgotten";
+
   // Without any fit the observation's value stands.
   PerceivedWorld no_parts{PerceptionLimits{}};
   no_parts.on_estimate(estimate(20));

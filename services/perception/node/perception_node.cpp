@@ -5,7 +5,7 @@
 //         rt/dh/observation     (Observation)  when to look: step 0, then every --every-steps
 //         rt/dh/camera/rgbd     (Rgbd)         the frames it asked for
 // Writes  rt/dh/camera/rgbd/request (RgbdRequest)  one frame of the channel's current state
-//         rt/dh/perception/scene    (Observation)  one SceneEstimate per look: looked for, seen, parts, latency
+//         rt/dh/perception/scene    (Observation)  one SceneEstimate per frame: looked for, seen, parts, latency
 // Parameters: --camera (workcell), --parts-camera (none: the fixtures' parts are not looked at), --every-steps (10), --backend colour|http, --segment-url,
 // --segment-timeout-s, --frame-timeout-ms (a request unanswered this long is asked again), --table-z
 // (the support surface's height, 0 in the workcell) or --search-support-plane.

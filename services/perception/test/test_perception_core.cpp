@@ -117,7 +117,7 @@ TEST_F(PerceptionCoreTest, AFrameBecomesAnEstimateOfWhatWasLookedForAndSeen) {
       << "one frame answered twice";
 }
 
-TEST_F(PerceptionCoreTest, WithAPartsCameraALookIsTwoFramesAndOneEstimateWithTheParts) {
+TEST_F(PerceptionCoreTest, WithAPartsCameraEachLookAsksItTooAndItsFrameIsAnEstimateOfTheParts) {
   // A drawer in front of the fixture camera's view: its boxes where the rendered frame has nothing.
   PartModel drawer;
   drawer.name = "unit_drawer";
@@ -145,19 +145,25 @@ TEST_F(PerceptionCoreTest, WithAPartsCameraALookIsTwoFramesAndOneEstimateWithThe
   const auto answer = [&](const FrameAsk& a, std::uint32_t step) {
     return with_parts.on_frame({a.channel, a.request_id, "ep", a.camera, "", step, 1.5}, [this] { return rendered.frame; });
   };
-  EXPECT_FALSE(answer(asks[1], 1).estimate) << "half a look";
-  EXPECT_TRUE(with_parts.on_observation(0, "ep", 10, t0).asks.empty()) << "asked again with a frame pending";
-  const auto fx = answer(asks[0], 0);
-  ASSERT_TRUE(fx.estimate);
-  EXPECT_EQ(fx.estimate->step, 0u) << "a look is as old as its older frame";
-  ASSERT_EQ(fx.estimate->parts.size(), 1u);
-  EXPECT_EQ(fx.estimate->parts[0].name, "unit_drawer");
-  EXPECT_EQ(fx.estimate->parts[0].confidence, 0) << "nothing of the drawer is in the frame";
-  ASSERT_EQ(fx.estimate->parts[0].riders.size(), 1u);
-  // Unanswered, a look's frames are asked again together.
+  const auto objects = answer(asks[0], 0);
+  ASSERT_TRUE(objects.estimate) << "the objects do not wait for the parts";
+  EXPECT_TRUE(objects.estimate->parts.empty());
+  // The next look: the parts frame is still pending, so only the objects camera is asked.
   const auto next = with_parts.on_observation(0, "ep", 10, t0).asks;
-  ASSERT_EQ(next.size(), 2u);
-  EXPECT_EQ(with_parts.on_tick(t0 + 2500ms).asks.size(), 2u);
+  ASSERT_EQ(next.size(), 1u);
+  EXPECT_EQ(next[0].camera, "workcell");
+  const auto parts = answer(asks[1], 1);
+  ASSERT_TRUE(parts.estimate);
+  EXPECT_EQ(parts.estimate->camera, "front");
+  EXPECT_TRUE(parts.estimate->looked_for.empty()) << "a parts frame looks for no objects";
+  ASSERT_EQ(parts.estimate->parts.size(), 1u);
+  EXPECT_EQ(parts.estimate->parts[0].name, "unit_drawer");
+  EXPECT_EQ(parts.estimate->parts[0].confidence, 0) << "nothing of the drawer is in the frame";
+  ASSERT_EQ(parts.estimate->parts[0].riders.size(), 1u);
+  // Unanswered, a frame is asked again by itself.
+  const auto again = with_parts.on_tick(t0 + 2500ms).asks;
+  ASSERT_EQ(again.size(), 1u);
+  EXPECT_EQ(again[0].camera, "workcell");
 }
 
 TEST_F(PerceptionCoreTest, AFrameThatCannotBeMadeIsAnEstimateThatSeesNothingAndSaysWhy) {

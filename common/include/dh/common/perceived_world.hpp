@@ -83,10 +83,13 @@ class PerceivedWorld {
   /// The episode's limits, from its commands; frames already taken in keep the confidence filter they had.
   void set_limits(PerceptionLimits limits) { limits_ = limits; }
 
-  /// A frame's estimates; an older frame than the latest is ignored.
+  /// A frame's estimates; an older frame than the latest of its kind (objects, parts) is ignored. Another
+  /// episode's frame starts the world afresh.
   void on_estimate(const SceneEstimate& e);
-  /// The latest frame's estimates, if any came.
+  /// The latest frame's estimates of the objects, if any came (a parts camera's frames are not counted).
   const std::optional<SceneEstimate>& latest() const { return latest_; }
+  /// The episode of the frames taken in; empty before the first.
+  const std::string& episode() const { return episode_; }
 
   /// The hand at one control step: the object the closed jaw takes moves with the tool from that step,
   /// and what it lets go stays where it was let go. Call it with every observation: the hand is tracked
@@ -122,8 +125,10 @@ class PerceivedWorld {
   PerceptionLimits limits_;
   std::optional<SceneEstimate> latest_;
   std::map<std::string, Seen> seen_;
+  std::string episode_;
   std::map<std::string, PerceivedPart::Rider> riders_;  ///< by name: the parts and regions fitted parts carry
   std::map<std::string, double> joints_;                ///< by part: its last confident joint value
+  std::optional<std::uint32_t> parts_step_;             ///< the step of the latest frame with parts
   std::optional<std::string> held_;          ///< the object moving with the tool
   std::array<double, 3> held_offset_{};      ///< its bottom centre relative to the tool
   std::optional<std::array<double, 3>> tool_;  ///< the tool's position at the latest observation tracked

@@ -63,7 +63,7 @@ const ServedCapability* HostCore::serving(const std::string& capability) const {
 
 PerceivedWorld* HostCore::world_for(const Observation& obs) {
   const auto w = worlds_.find(obs.channel);
-  return w != worlds_.end() && w->second.latest()->episode_id == obs.episode_id ? &w->second : nullptr;
+  return w != worlds_.end() && w->second.episode() == obs.episode_id ? &w->second : nullptr;
 }
 
 StatusReport HostCore::cancel(RunningMap::iterator it, std::string why) {
@@ -112,8 +112,7 @@ HostEffects HostCore::on_scene_estimate(std::uint32_t channel, const SceneEstima
                                         Clock::time_point now) {
   // A new episode's world starts from the default limits, until its first command brings the episode's.
   auto [w, fresh] = worlds_.try_emplace(channel, PerceptionLimits{});
-  if (!fresh && w->second.latest() && w->second.latest()->episode_id != e.episode_id)
-    w->second = PerceivedWorld(PerceptionLimits{});
+  if (!fresh && w->second.episode() != e.episode_id) w->second = PerceivedWorld(PerceptionLimits{});
   w->second.on_estimate(e);
   return retry_awaiting(channel, now);
 }

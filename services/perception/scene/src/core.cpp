@@ -1,7 +1,5 @@
 #include "dh/perception/core.hpp"
 
-#include <algorithm>
-
 namespace dh::perception {
 
 PerceptionCore::PerceptionCore(CoreSettings settings, ObjectsOf objects_of, PartsOf parts_of, Segmenter& segmenter,
@@ -20,7 +18,7 @@ const Ports& PerceptionCore::ports() {
       in_port<port::Observation>("when to look: step 0, then every N"),
       in_port<port::Rgbd>("the frames it asked for"),
       out_port<port::RgbdRequest>("one frame of a channel's state"),
-      out_port<port::SceneEstimate>("per look: the objects looked for, those seen, the parts' joint values, the latency"),
+      out_port<port::SceneEstimate>("per frame: the objects looked for and those seen, or the parts' joint values; the latency"),
   };
   return p;
 }
@@ -70,7 +68,7 @@ PerceptionEffects PerceptionCore::on_observation(std::uint32_t channel, const st
   const auto it = channels_.find(channel);
   if (it == channels_.end() || it->second.episode_id != episode_id) return fx;
   Channel& ch = it->second;
-  if (!ch.pending.empty() || (ch.last_step && step < *ch.last_step + settings_.every_steps)) return fx;
+  if (ch.pending.count(settings_.camera) || (ch.last_step && step < *ch.last_step + settings_.every_steps)) return fx;
   fx.asks = ask(channel, ch, step, now);
   return fx;
 }
@@ -81,7 +79,8 @@ PerceptionEffects PerceptionCore::on_frame(const FrameMeta& meta, const std::fun
   if (it == channels_.end()) return fx;
   Channel& ch = it->second;
   const auto pending = ch.pending.find(meta.camera);
-  if (pending == ch.pending.end() || pending->second != meta.request_id) return fx;  // not what it waits for
+  if (pending == ch.pending.end() || pending->second.request_id != meta.request_id)
+    return fx;  // not what this channel waits for
   if (!meta.error.empty() || (!meta.episode_id.empty() && meta.episode_id != ch.episode_id)) {
     // Asked before the simulator started the episode, or it could not render: asked again after the timeout.
     fx.notes.push_back(
@@ -91,34 +90,23 @@ PerceptionEffects PerceptionCore::on_frame(const FrameMeta& meta, const std::fun
     return fx;
   }
   ch.pending.erase(pending);
-  estimate(meta, ch, pixels, fx);
-  if (ch.pending.empty()) {
-    fx.estimate = std::move(ch.look);
-    ch.look.reset();
-  }
+  fx.estimate = estimate(meta, ch, pixels, fx);
   return fx;
 }
 
-void PerceptionCore::estimate(const FrameMeta& meta, Channel& ch, const std::function<RgbdFrame()>& pixels,
-                              PerceptionEffects& fx) {
+SceneOut PerceptionCore::estimate(const FrameMeta& meta, Channel& ch, const std::function<RgbdFrame()>& pixels,
+                                  PerceptionEffects& fx) {
   const auto t0 = Clock::now();
-  if (!ch.look) {
-    ch.look.emplace();
-    ch.look->channel = meta.channel;
-    ch.look->episode_id = ch.episode_id;
-    ch.look->camera = settings_.camera;
-    ch.look->step = meta.step;
-    ch.look->stamp_s = meta.stamp_s;
-    for (const auto& a : ch.looked_for) ch.look->looked_for.push_back(a.entity);
-    for (const auto& o : ch.objects) ch.look->identities[o.appearance.entity] = o.identity;
-  }
-  SceneOut& out = *ch.look;
-  // The look is as old as its older frame.
-  out.step = std::min(out.step, meta.step);
-  if (meta.camera == settings_.camera) out.stamp_s = meta.stamp_s;
+  SceneOut out;
+  out.channel = meta.channel;
+  out.episode_id = ch.episode_id;
+  out.camera = meta.camera;
+  out.step = meta.step;
+  out.stamp_s = meta.stamp_s;
+  const bool objects = meta.camera == settings_.camera;
   try {
     const RgbdFrame frame = pixels();
-    if (meta.camera == settings_.camera) {
+    if (objects) {
       const auto candidates = segmenter_.segment(frame.rgb, ch.looked_for);
       const auto estimates = estimate_objects(frame, candidates, ch.objects, cloud_);
       for (std::size_t k = 0; k < estimates.size(); ++k) {
@@ -134,37 +122,47 @@ void PerceptionCore::estimate(const FrameMeta& meta, Channel& ch, const std::fun
     fx.notes.push_back({Note::Level::Error, "channel=" + std::to_string(meta.channel) + " frame " +
                                                 meta.request_id + " not processed: " + e.what()});
   }
-  out.latency_ms += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  if (objects) {
+    for (const auto& a : ch.looked_for) out.looked_for.push_back(a.entity);
+    for (const auto& o : ch.objects) out.identities[o.appearance.entity] = o.identity;
+  }
+  out.latency_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  return out;
 }
 
 PerceptionEffects PerceptionCore::on_tick(Clock::time_point now) {
   PerceptionEffects fx;
   for (auto& [id, ch] : channels_) {
-    std::vector<FrameAsk> asks;
-    if (!ch.pending.empty() && now - ch.asked_at >= settings_.frame_timeout) {
-      for (const auto& [camera, request] : ch.pending)
-        fx.notes.push_back({Note::Level::Warn, "channel=" + std::to_string(id) + " frame " + request + " of camera " +
-                                                   camera + " not answered in time; asking again"});
-      asks = ask(id, ch, ch.last_step.value_or(0), now);
-    } else if (ch.pending.empty() && ch.last_step && now - ch.asked_at >= settings_.still_every) {
-      asks = ask(id, ch, *ch.last_step, now);
+    std::vector<std::string> late;
+    for (const auto& [camera, p] : ch.pending)
+      if (now - p.asked_at >= settings_.frame_timeout) late.push_back(camera);
+    for (const auto& camera : late) {
+      fx.notes.push_back({Note::Level::Warn, "channel=" + std::to_string(id) + " frame " +
+                                                 ch.pending[camera].request_id + " of camera " + camera +
+                                                 " not answered in time; asking again"});
+      fx.asks.push_back(ask_camera(id, ch, camera, now));
     }
-    fx.asks.insert(fx.asks.end(), asks.begin(), asks.end());
+    if (!ch.pending.count(settings_.camera) && ch.last_step && now - ch.asked_at >= settings_.still_every) {
+      const auto asks = ask(id, ch, *ch.last_step, now);
+      fx.asks.insert(fx.asks.end(), asks.begin(), asks.end());
+    }
   }
   return fx;
 }
 
+FrameAsk PerceptionCore::ask_camera(std::uint32_t channel, Channel& ch, const std::string& camera,
+                                    Clock::time_point now) {
+  FrameAsk a{channel, camera, "perception-" + std::to_string(++requests_)};
+  ch.pending[camera] = {a.request_id, now};
+  return a;
+}
+
 std::vector<FrameAsk> PerceptionCore::ask(std::uint32_t channel, Channel& ch, std::uint32_t step,
                                           Clock::time_point now) {
-  std::vector<FrameAsk> asks;
-  ch.pending.clear();
-  ch.look.reset();
-  std::vector<std::string> cameras{settings_.camera};
-  if (!ch.parts.empty() && settings_.parts_camera != settings_.camera) cameras.push_back(settings_.parts_camera);
-  for (const auto& camera : cameras) {
-    asks.push_back({channel, camera, "perception-" + std::to_string(++requests_)});
-    ch.pending[camera] = asks.back().request_id;
-  }
+  std::vector<FrameAsk> asks{ask_camera(channel, ch, settings_.camera, now)};
+  const std::string& parts = settings_.parts_camera;
+  if (!ch.parts.empty() && parts != settings_.camera && !ch.pending.count(parts))
+    asks.push_back(ask_camera(channel, ch, parts, now));
   ch.asked_at = now;
   ch.last_step = step;
   return asks;

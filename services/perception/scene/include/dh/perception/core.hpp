@@ -1,12 +1,13 @@
 // The perception service's core, DDS-free (DESIGN §11): which channels to look at, when to ask for a
 // frame, which frame answers which request, and the estimate made from it. An episode is looked at only
 // when its request grounds in perception (rendering costs the simulator time); its first observation (or
-// the request, when the observation came first) asks for a look, then every `every_steps` steps, never
-// with one already pending; a look unanswered for `frame_timeout` is asked again. A look is a frame of the
-// objects' camera and, when a parts camera is set and the scene's fixtures have articulated parts, one of
-// the parts camera (the same frame when both are one camera). Each look becomes one estimate: the objects
-// looked for and those seen, the parts' joint values, the time it took. The DDS shell
-// (node/perception_node.cpp) carries its events and effects.
+// the request, when the observation came first) asks for a frame, then every `every_steps` steps, never
+// with one already pending; a frame unanswered for `frame_timeout` is asked again. With a parts camera set
+// and articulated parts in the scene, each look also asks the parts camera for a frame, unless one of it
+// is still pending (a slow parts frame never holds the objects back). Each frame becomes one estimate: the
+// objects camera's of the objects looked for and those seen, the parts camera's of the parts' joint
+// values (one frame and one estimate with both when the two are one camera), and the time it took. The
+// DDS shell (node/perception_node.cpp) carries its events and effects.
 #pragma once
 
 #include <chrono>
@@ -64,10 +65,10 @@ struct SceneOut {
   std::uint32_t step = 0;
   double stamp_s = 0;
   std::vector<EntityEstimate> seen;     ///< the estimates with a positive confidence
-  std::vector<std::string> looked_for;  ///< every object looked for, seen or not
+  std::vector<std::string> looked_for;  ///< every object looked for, seen or not (none in a parts frame)
   std::map<std::string, ObjectIdentity> identities;  ///< what each object looked for is
   std::vector<PartEstimate> parts;      ///< every part looked at, in the scene's order (confidence 0: not seen)
-  double latency_ms = 0;                ///< segmentation and estimation of the look's frames
+  double latency_ms = 0;                ///< segmentation and estimation, or the parts' fit, of this frame
 };
 
 struct Note {
@@ -109,16 +110,21 @@ class PerceptionCore {
     std::vector<EntityAppearance> looked_for;
     std::vector<PartModel> parts;
     std::optional<std::uint32_t> last_step;  ///< the step of the last look asked for
-    std::map<std::string, std::string> pending;  ///< camera -> request id awaiting its frame
-    std::optional<SceneOut> look;                ///< the look's estimate, while a frame of it is pending
-    Clock::time_point asked_at;
+    struct Pending {
+      std::string request_id;
+      Clock::time_point asked_at;
+    };
+    std::map<std::string, Pending> pending;  ///< by camera: the frame awaited
+    Clock::time_point asked_at;              ///< when the last look was asked
   };
-  /// Asks every camera of a look.
+  /// A look: a frame of the objects camera, and of the parts camera unless one of it is pending.
   std::vector<FrameAsk> ask(std::uint32_t channel, Channel& ch, std::uint32_t step, Clock::time_point now);
-  /// Adds a frame's estimates to the look's: the objects from the objects' camera, the parts from the parts
-  /// camera. Nothing is seen when the frame cannot be made or processed (a note says why): the estimate
-  /// still says what was looked for.
-  void estimate(const FrameMeta& meta, Channel& ch, const std::function<RgbdFrame()>& pixels, PerceptionEffects& fx);
+  FrameAsk ask_camera(std::uint32_t channel, Channel& ch, const std::string& camera, Clock::time_point now);
+  /// A frame's estimate: the objects from the objects camera, the parts from the parts camera. Nothing is
+  /// seen when the frame cannot be made or processed (a note says why): the estimate still says what was
+  /// looked for.
+  SceneOut estimate(const FrameMeta& meta, Channel& ch, const std::function<RgbdFrame()>& pixels,
+                    PerceptionEffects& fx);
 
   CoreSettings settings_;
   ObjectsOf objects_of_;
