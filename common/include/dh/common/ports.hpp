@@ -26,7 +26,7 @@ enum class Qos {
                   ///< asserts it): a dead or cut-off simulator worker is noticed by campaigns
   Camera,         ///< reliable, transient-local, keep-last 1 per channel and camera (150 KB samples)
   Rgbd,           ///< RGB-D frames (~1.5 MB): see qos_for for the choice and its measurement
-  RgbdRequest,    ///< reliable, volatile, keep-last 8 (asks for one RGB-D frame)
+  RgbdRequest,    ///< reliable, volatile, keep-last 64 (asks for one RGB-D frame)
 };
 
 /// The role's name as the services' READMEs list it ("Command", "Observation", ...).
