@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 namespace dh::perception {
 
@@ -40,22 +41,30 @@ Where where(const PlacedBox& b, const Eigen::Vector3d& p, double tol) {
   return -d.maxCoeff() <= tol ? Where::Surface : Where::Deep;
 }
 
-/// The segment from `c` to `p` enters the box more than `tol` before it ends.
-bool crosses(const PlacedBox& b, const Eigen::Vector3d& c, const Eigen::Vector3d& p, double tol) {
-  const Eigen::Vector3d o = b.box_from_frame * c, e = b.box_from_frame * p, d = e - o;
+/// Where the segment from `o` to `o + d` enters the axis-aligned box [lo, hi], as a share of its length
+/// (0 when it starts inside); nullopt when it misses the box (the slab test).
+std::optional<double> entry(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vector3d& lo,
+                            const Eigen::Vector3d& hi) {
   double t0 = 0, t1 = 1;
   for (int i = 0; i < 3; ++i) {
     if (std::abs(d[i]) < 1e-12) {
-      if (std::abs(o[i]) > b.half[i]) return false;
+      if (o[i] < lo[i] || o[i] > hi[i]) return std::nullopt;
       continue;
     }
-    double a = (-b.half[i] - o[i]) / d[i], z = (b.half[i] - o[i]) / d[i];
+    double a = (lo[i] - o[i]) / d[i], z = (hi[i] - o[i]) / d[i];
     if (a > z) std::swap(a, z);
     t0 = std::max(t0, a);
     t1 = std::min(t1, z);
-    if (t0 > t1) return false;
+    if (t0 > t1) return std::nullopt;
   }
-  return (1 - t0) * d.norm() > tol;
+  return t0;
+}
+
+/// The segment from `c` to `p` enters the box more than `tol` before it ends.
+bool crosses(const PlacedBox& b, const Eigen::Vector3d& c, const Eigen::Vector3d& p, double tol) {
+  const Eigen::Vector3d o = b.box_from_frame * c, d = b.box_from_frame * p - o;
+  const auto t0 = entry(o, d, -b.half, b.half);
+  return t0 && (1 - *t0) * d.norm() > tol;
 }
 
 struct Aabb {
@@ -67,20 +76,7 @@ struct Aabb {
   }
   /// The segment from c to p passes through it.
   bool crossed_by(const Eigen::Vector3d& c, const Eigen::Vector3d& p) const {
-    const Eigen::Vector3d d = p - c;
-    double t0 = 0, t1 = 1;
-    for (int i = 0; i < 3; ++i) {
-      if (std::abs(d[i]) < 1e-12) {
-        if (c[i] < lo[i] || c[i] > hi[i]) return false;
-        continue;
-      }
-      double a = (lo[i] - c[i]) / d[i], z = (hi[i] - c[i]) / d[i];
-      if (a > z) std::swap(a, z);
-      t0 = std::max(t0, a);
-      t1 = std::min(t1, z);
-      if (t0 > t1) return false;
-    }
-    return true;
+    return entry(c, p - c, lo, hi).has_value();
   }
 };
 
@@ -144,14 +140,18 @@ PartEstimate fit_part(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   const double step = step_of(model, params);
   const std::vector<double> coarse = grid(model.lo, model.hi, step);
 
-  // Only rays through the volume the part sweeps can say anything about it.
-  const Aabb swept = swept_box(model, coarse, params.margin_m);
+  // Only rays through the volume the part sweeps can say anything about it, and a ray that misses the
+  // volume one box sweeps is neither on that box nor through it at any value: each ray keeps the boxes it
+  // can meet (an exact cut: the same fits in about half the time).
+  std::vector<Aabb> box_swept;
+  Aabb swept;
+  for (const auto& b : model.boxes) {
+    box_swept.push_back(swept_box(model, b, coarse, params.margin_m));
+    swept.add(box_swept.back().lo);
+    swept.add(box_swept.back().hi);
+  }
   std::vector<PlacedBox> still;
   for (const auto& b : model.still) still.push_back(place(b, Eigen::Isometry3d::Identity()));
-  // A ray that misses the volume one box sweeps is neither on that box nor through it at any value: each
-  // ray keeps the boxes it can meet (an exact cut: the same fits in about half the time).
-  std::vector<Aabb> box_swept;
-  for (const auto& b : model.boxes) box_swept.push_back(swept_box(model, b, coarse, params.margin_m));
   struct Ray {
     Eigen::Vector3d p;
     bool explained;  ///< on or in the fixture's body or the table: supports no joint value
@@ -192,12 +192,17 @@ PartEstimate fit_part(const std::vector<Eigen::Vector3d>& points, const Eigen::V
     return c;
   };
 
+  // Every value's count, and the first of the best.
+  const auto score_all = [&](const std::vector<double>& values, std::vector<Count>& c) {
+    std::size_t first_best = 0;
+    for (std::size_t i = 0; i < values.size(); ++i) {
+      c.push_back(count(values[i]));
+      if (c[i].score(params.through_weight) > c[first_best].score(params.through_weight)) first_best = i;
+    }
+    return first_best;
+  };
   std::vector<Count> counts;
-  std::size_t best = 0;
-  for (std::size_t i = 0; i < coarse.size(); ++i) {
-    counts.push_back(count(coarse[i]));
-    if (counts[i].score(params.through_weight) > counts[best].score(params.through_weight)) best = i;
-  }
+  const std::size_t best = score_all(coarse, counts);
   const double best_score = counts[best].score(params.through_weight);
   double spread_lo = coarse[best], spread_hi = coarse[best];
   if (best_score > 0)
@@ -219,12 +224,7 @@ PartEstimate fit_part(const std::vector<Eigen::Vector3d>& points, const Eigen::V
   for (double q = std::max(model.lo, q_coarse - step); q <= std::min(model.hi, q_coarse + step) + 1e-12; q += step / 4)
     fine.push_back(q);
   std::vector<Count> fine_counts;
-  std::size_t fine_best = 0;
-  for (std::size_t i = 0; i < fine.size(); ++i) {
-    fine_counts.push_back(count(fine[i]));
-    if (fine_counts[i].score(params.through_weight) > fine_counts[fine_best].score(params.through_weight)) fine_best = i;
-  }
-  const double q_best = middle_of_run(fine, fine_counts, fine_best);
+  const double q_best = middle_of_run(fine, fine_counts, score_all(fine, fine_counts));
   const Count c_best = count(q_best);
   out.joint = q_best;
   out.support = c_best.support;

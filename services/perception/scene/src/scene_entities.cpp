@@ -16,27 +16,6 @@ cv::Vec3b to_rgb8(const std::array<double, 4>& rgba) {
   return {c(rgba[0]), c(rgba[1]), c(rgba[2])};
 }
 
-/// The upright bounding box of an asset's geoms in its body frame (full extents).
-Eigen::Vector3d asset_size(const sim::AssetSpec& asset) {
-  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = Eigen::Vector3d::Constant(-1e9);
-  for (const auto& g : asset.geoms) {
-    Eigen::Vector3d half;
-    if (g.type == sim::GeomSpec::Type::Box) {
-      // A box turned about z covers its turned corners.
-      const double c = std::abs(std::cos(g.yaw)), s = std::abs(std::sin(g.yaw));
-      half = {c * g.size[0] + s * g.size[1], s * g.size[0] + c * g.size[1], g.size[2]};
-    } else if (g.type == sim::GeomSpec::Type::Ring) {
-      half = {g.size[0], g.size[0], g.size[2]};
-    } else {  // cylinder, disc: radius, half height
-      half = {g.size[0], g.size[0], g.size[1]};
-    }
-    const Eigen::Vector3d centre(g.pos[0], g.pos[1], g.pos[2]);
-    lo = lo.cwiseMin(centre - half);
-    hi = hi.cwiseMax(centre + half);
-  }
-  return asset.geoms.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(hi - lo);
-}
-
 /// A geom as a box in its body's frame (a cylinder, disc or ring as its bounding box).
 BodyBox body_box(const sim::GeomSpec& g) {
   BodyBox b;
@@ -49,6 +28,23 @@ BodyBox body_box(const sim::GeomSpec& g) {
   else
     b.half = {g.size[0], g.size[0], g.size[1]};
   return b;
+}
+
+/// The upright bounding box of an asset's geoms in its body frame (full extents).
+Eigen::Vector3d asset_size(const sim::AssetSpec& asset) {
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = Eigen::Vector3d::Constant(-1e9);
+  for (const auto& g : asset.geoms) {
+    const BodyBox b = body_box(g);
+    Eigen::Vector3d half = b.half;
+    if (g.type == sim::GeomSpec::Type::Box) {
+      // A box turned about z covers its turned corners (round geoms are the same turned).
+      const double c = std::abs(std::cos(b.yaw)), s = std::abs(std::sin(b.yaw));
+      half = {c * b.half.x() + s * b.half.y(), s * b.half.x() + c * b.half.y(), b.half.z()};
+    }
+    lo = lo.cwiseMin(b.centre - half);
+    hi = hi.cwiseMax(b.centre + half);
+  }
+  return asset.geoms.empty() ? Eigen::Vector3d::Zero() : Eigen::Vector3d(hi - lo);
 }
 
 /// How far a box's extents are from the expected ones: horizontal extents compared largest with largest
