@@ -44,6 +44,7 @@ json plan_of(const EvolveArgs& a, const std::string& start_version) {
           {"arm", a.arm},
           {"bare", a.bare},
           {"max_evals", a.max_evals},
+          {"screen", a.screen},
           {"successes", a.successes}};
   // With --rest the plan says so; without, it stays as climbs before --rest wrote it, so they resume.
   if (a.rest) plan["rest"] = true;
@@ -210,6 +211,7 @@ class Climb {
       v.library = library;
       v.out = (dir / "candidate").string();
       v.max_evals = a_.max_evals;
+      v.screen = a_.screen;
       v.successes = a_.successes;
       v.rest = a_.rest;
       v.json = true;

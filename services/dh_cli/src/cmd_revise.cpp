@@ -48,13 +48,21 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
       evo::probe_set(rows, {capability, a.successes, a.draw_seed, a.rest}, paths::config_dir(), jobs);
   report_skipped(set);
   // Progress on stderr: a search over a large set runs for minutes.
+  const char* judged = a.rest ? "episodes won from the state" : "effects held";
   const auto on_eval = [&](unsigned eval, unsigned max_evals, unsigned held, unsigned best) {
-    std::cerr << fmt::format("{}: candidate θ {} of at most {} (the first is the parent's): {} of {} {}, best {}\n",
-                             capability, eval, max_evals, held, set.states.size(),
-                             a.rest ? "episodes won from the state" : "effects held", best);
+    std::cerr << fmt::format("{}: candidate θ {} of at most {}: {} of {} {}, best {}\n", capability, eval, max_evals,
+                             held, set.states.size(), judged, best);
   };
-  const evo::Revision rev = evo::revise(
-      set.states, {capability, paths::config_dir(), parent, a.max_evals, jobs, a.max_probes, a.rest, on_eval});
+  const auto on_screen = [&](unsigned k, unsigned n, unsigned held, unsigned best) {
+    std::cerr << fmt::format("{}: the parent holds nothing; screened θ {} of {}: {} of {} {}, best {}\n", capability,
+                             k, n, held, std::min<std::size_t>(a.screen_states, set.states.size()), judged, best);
+  };
+  evo::ReviseOptions options{capability, paths::config_dir(), parent, a.max_evals, jobs, a.max_probes, a.rest};
+  options.screen = a.screen;
+  options.screen_states = a.screen_states;
+  options.on_eval = on_eval;
+  options.on_screen = on_screen;
+  const evo::Revision rev = evo::revise(set.states, options);
   nlohmann::json kappa = nlohmann::json::object();
   for (const auto& [name, v] : rev.kappa) kappa[name] = {{"parent", v.first}, {"revised", v.second}};
   std::string out, version;
@@ -84,7 +92,12 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
                             {"fixed", rev.fixed},
                             {"kept", rev.kept}}},
                           {"search",
-                           {{"evals", rev.evals}, {"max_evals", rev.max_evals}, {"wall_s", rev.wall_s}}}}
+                           {{"screened", rev.screened},
+                            {"screen_states", rev.screen_states},
+                            {"screen_best", rev.screen_best},
+                            {"evals", rev.evals},
+                            {"max_evals", rev.max_evals},
+                            {"wall_s", rev.wall_s}}}}
                .dump(2)
         << "\n";
   }
@@ -92,7 +105,8 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
           {"parent_held", rev.parent_held}, {"best_held", rev.best_held}, {"fixed", rev.fixed},
           {"kept", rev.kept},             {"evals", rev.evals},         {"max_evals", rev.max_evals},
           {"wall_s", rev.wall_s},         {"kappa", kappa},             {"out", out},
-          {"version", version},           {"improved", rev.improved()}};
+          {"version", version},           {"improved", rev.improved()},
+          {"screened", rev.screened},      {"screen_states", rev.screen_states}, {"screen_best", rev.screen_best}};
 }
 
 int cmd_revise(const ReviseArgs& a) {
@@ -102,12 +116,14 @@ int cmd_revise(const ReviseArgs& a) {
     std::cout << r.dump() << "\n";
     return improved ? 0 : 3;
   }
-  std::cout << fmt::format(
-      "{}: probe set of {} states ({} failing); the parent holds {} effects; {} of at most {} "
-      "candidate θ probed in {:.1f} s\n",
-      r["capability"].get<std::string>(), r["states"].get<unsigned>(), r["failing"].get<unsigned>(),
-      r["parent_held"].get<unsigned>(), r["evals"].get<unsigned>(), r["max_evals"].get<unsigned>(),
-      r["wall_s"].get<double>());
+  std::cout << fmt::format("{}: probe set of {} states ({} failing); the parent holds {} effects",
+                           r["capability"].get<std::string>(), r["states"].get<unsigned>(),
+                           r["failing"].get<unsigned>(), r["parent_held"].get<unsigned>());
+  if (r["screened"].get<unsigned>() > 0)
+    std::cout << fmt::format("; {} θ screened on {} failing states, the best held {}", r["screened"].get<unsigned>(),
+                             r["screen_states"].get<unsigned>(), r["screen_best"].get<unsigned>());
+  std::cout << fmt::format("; {} of at most {} candidate θ probed on the set, in {:.1f} s\n", r["evals"].get<unsigned>(),
+                           r["max_evals"].get<unsigned>(), r["wall_s"].get<double>());
   if (!improved) {
     std::cout << "no θ within the ranges held more effects than the parent's: no candidate\n";
     return 3;

@@ -274,6 +274,12 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(1u, 100000u));
   revise->add_option("--max-probes", revise_args.max_probes,
                      "probes at most over the search (each candidate probes the whole set; default no bound)");
+  revise->add_option("--screen", revise_args.screen,
+                     "when the parent holds nothing on the set: θ screened over the whole ranges (a Sobol sequence) "
+                     "before the search starts from the best of them (default 64; 0: none)");
+  revise->add_option("--screen-states", revise_args.screen_states,
+                     "failing states each screened θ is probed on (default 6)")
+      ->check(CLI::Range(1u, 100000u));
   revise->add_option("--jobs", revise_args.jobs, "probes at once (default: every core)");
   revise->add_option("--successes", revise_args.successes, "successes in the probe set, at least (default 20)");
   revise->add_flag("--rest", revise_args.rest,
@@ -318,6 +324,8 @@ int main(int argc, char** argv) {
   evolve->add_flag("!--no-bare", evolve_args.bare,
                    "skip the bare arm's campaign (the gate's third condition is then vacuous)");
   evolve->add_option("--max-evals", evolve_args.max_evals, "candidate θ probed at most per round (default 12)");
+  evolve->add_option("--screen", evolve_args.screen,
+                     "θ screened by a round's search whose parent holds nothing (dh revise --screen; default 64)");
   evolve->add_option("--successes", evolve_args.successes, "successes in each probe set, at least (default 20)");
   evolve->add_flag("--rest", evolve_args.rest,
                    "the revision search judges its probe sets by the rest of each episode (dh revise --rest)");

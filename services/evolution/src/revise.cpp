@@ -1,6 +1,8 @@
 #include "dh/evo/revise.hpp"
 
 #include <algorithm>
+#include <boost/random/sobol.hpp>
+#include <boost/random/uniform_01.hpp>
 #include <chrono>
 #include <cmath>
 #include <functional>
@@ -63,6 +65,7 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
   rev.best = rev.parent;
   rev.best_held = rev.parent_held;
   const auto t0 = std::chrono::steady_clock::now();
+  const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   struct Context {
     std::function<double(const std::vector<double>&)> f;
   } context{[&](const std::vector<double>& at) {
@@ -84,11 +87,39 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
     return static_cast<double>(held);
   }};
   rev.kept = rev.parent_held;
+  if (rev.parent_held == 0 && o.screen > 0) {
+    // Every state fails under the parent. The screened states are spread over the set's order (cells,
+    // tasks, seeds), not the first few of one task.
+    std::vector<ProbeState> subset;
+    const std::size_t n = std::min<std::size_t>(o.screen_states, states.size());
+    for (std::size_t i = 0; i < n; ++i) subset.push_back(states[i * states.size() / n]);
+    rev.screen_states = static_cast<unsigned>(n);
+    boost::random::sobol sobol(names.size());
+    boost::random::uniform_01<double> unit;
+    std::vector<double> at(names.size()), best_at;
+    for (unsigned k = 0; k < o.screen; ++k) {
+      for (double& v : at) v = unit(sobol);
+      unsigned held = 0;
+      for (const auto& r : probe_states(subset, o.config_dir, {}, o.jobs, theta_at(at), o.rest))
+        held += r.report && r.report->passed();
+      ++rev.screened;
+      if (held > rev.screen_best) {
+        rev.screen_best = held;
+        best_at = at;
+      }
+      if (o.on_screen) o.on_screen(rev.screened, o.screen, held, rev.screen_best);
+    }
+    if (best_at.empty()) {
+      rev.wall_s = elapsed();
+      return rev;  // not one effect anywhere screened: Subplex would only walk the plateau
+    }
+    x = best_at;
+  }
   nlopt::opt opt(nlopt::LN_SBPLX, static_cast<unsigned>(names.size()));
   opt.set_lower_bounds(0.0);
   opt.set_upper_bounds(1.0);
   opt.set_initial_step(0.25);
-  // A round's bound: candidates, and probes (each candidate probes the whole set).
+  // A round's bound after any screening: candidates, and probes (each candidate probes the whole set).
   rev.max_evals = o.max_evals;
   if (o.max_probes) rev.max_evals = std::min(rev.max_evals, std::max(1u, o.max_probes / rev.states));
   opt.set_maxeval(static_cast<int>(rev.max_evals));
@@ -101,7 +132,7 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
   } catch (const nlopt::roundoff_limited&) {
     // The fitness is a count: a plateau stops Subplex; what it found stands.
   }
-  rev.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  rev.wall_s = elapsed();
   for (const auto& [name, value] : rev.best)
     if (value != rev.parent.at(name)) rev.kappa[name] = {rev.parent.at(name), value};
   return rev;

@@ -377,6 +377,48 @@ TEST_F(Probe, TheRevisionSearchFindsAThetaThatMakesAFailedEffectHold) {
   EXPECT_TRUE(rev.kappa.count("approach_height"));
 }
 
+TEST_F(Probe, ASearchFromAParentThatHoldsNothingScreensTheRangesFirst) {
+  // The same failing states of goal-swap 5 without the success: the parent holds nothing, so Subplex at
+  // the parent would see a plateau of zeros. The screen probes θ spread over the ranges on both states and
+  // the search starts from the best of them.
+  inproc::Stack stack(paths::config_dir());
+  const auto suites = load_suites(paths::config_dir());
+  std::vector<EpisodeRecord> rows;
+  for (unsigned seed : {27u, 28u}) {
+    const auto file = *dir / ("gs5_" + std::to_string(seed) + ".jsonl");
+    const auto o = stack.run(find_task(suites, "goal-swap", 5), seed, "full", file);
+    EpisodeRecord r = row("ep");
+    r.seed = seed;
+    r.success = o.success;
+    r.evidence_path = file.string();
+    rows.push_back(r);
+  }
+  auto set = evo::probe_set(rows, {"pick_place", 0, 0}, paths::config_dir(), 2).states;
+  std::erase_if(set, [](const evo::ProbeOutcome& o) { return !o.state.failing; });
+  ASSERT_EQ(set.size(), 2u) << "the placements of seeds 27 and 28 no longer fail under the shipped θ";
+  evo::ReviseOptions o{"pick_place", paths::config_dir(), paths::config_dir() / "library", 3, 2};
+  o.screen = 8;
+  std::vector<unsigned> screened;
+  o.on_screen = [&](unsigned k, unsigned n, unsigned, unsigned) {
+    screened.push_back(k);
+    EXPECT_EQ(n, 8u);
+  };
+  const evo::Revision rev = evo::revise(set, o);
+  EXPECT_EQ(rev.parent_held, 0u);
+  EXPECT_EQ(rev.screened, 8u);
+  EXPECT_EQ(screened, (std::vector<unsigned>{1, 2, 3, 4, 5, 6, 7, 8}));
+  EXPECT_EQ(rev.screen_states, 2u) << "no more states than the set has";
+  ASSERT_GT(rev.screen_best, 0u) << "no screened θ made either effect hold";
+  EXPECT_TRUE(rev.improved());
+  EXPECT_GE(rev.best_held, rev.screen_best) << "the search starts from the best screened θ";
+  EXPECT_LE(rev.evals, 3u);
+  // Without the screen, Subplex starts at the parent.
+  o.screen = 0;
+  const evo::Revision flat = evo::revise(set, o);
+  EXPECT_EQ(flat.screened, 0u);
+  EXPECT_GE(flat.evals, 1u) << "Subplex starts at the parent";
+}
+
 TEST_F(Probe, TheGateReadsAnEpisodesLibraryAndOutcomeFromItsEvidence) {
   const EpisodeRecord r = row("ep");
   EpisodeRecord gone = r;

@@ -28,6 +28,9 @@ GovernorConfig load_config(const std::filesystem::path& file) {
   }
   g.verdict_frames = c.get<unsigned>("verdict_frames");
   if (g.verdict_frames == 0) c.fail("verdict_frames", "must be at least 1 (one frame alone would latch)");
+  g.verdict_wait_frames = c.get<unsigned>("verdict_wait_frames");
+  if (g.verdict_wait_frames < g.verdict_frames)
+    c.fail("verdict_wait_frames", "must be at least verdict_frames (fewer frames could never change the verdict)");
   g.verdict_wait = std::chrono::milliseconds(c.get<unsigned>("verdict_wait_ms"));
   return g;
 }

@@ -111,6 +111,11 @@ Effects EpisodeMachine::on_scene_estimate(const SceneEstimate& estimate, Clock::
       if (phase_ == Phase::Verifying && change->value)
         return end(true, Outcome::Success, "planner: every step completed; the perceived verdict followed");
     }
+    if (phase_ == Phase::Verifying && estimate.step >= verifying_from_ &&
+        ++final_frames_ >= config_.verdict_wait_frames)
+      return end(false, Outcome::GaveUp,
+                 "planner: every step of the plan completed, yet the perceived verdict stayed false over " +
+                     std::to_string(final_frames_) + " frames of the final state");
   }
   if (phase_ != Phase::AwaitingPerception) return {};
   if (!awaiting_perception_) return request_plan("a scene estimate came", now);
@@ -185,6 +190,8 @@ Effects EpisodeMachine::on_advice(const Advice& advice, Clock::time_point now) {
     if (config_.verifier == Verifier::Perception) {
       // The perceived verdict lags the world by its frames (the hand leaves the object last): wait for it.
       phase_ = Phase::Verifying;
+      verifying_from_ = last_obs_.step;
+      final_frames_ = 0;
       deadline_ = now + config_.verdict_wait;
       evidence_.append("governor", "awaiting_verdict", {{"step", last_obs_.step}, {"frames", config_.verdict_frames}});
       return {};
@@ -629,9 +636,10 @@ Effects EpisodeMachine::on_tick(Clock::time_point now) {
     return ground_and_dispatch(advice, now);  // refused: the wait is over
   }
   if (phase_ == Phase::Verifying)
-    return end(false, Outcome::GaveUp,
-               "planner: every step of the plan completed, yet the perceived verdict stayed false for " +
-                   std::to_string(config_.verdict_wait.count()) + " ms");
+    return end(false, Outcome::Infrastructure,
+               "perception: " + std::to_string(final_frames_) + " of the " +
+                   std::to_string(config_.verdict_wait_frames) + " frames of the final state the perceived verdict " +
+                   "waits for came in " + std::to_string(config_.verdict_wait.count()) + " ms");
   const std::string what = deadline_what_;
   evidence_.append("governor", "deadline_missed",
                    {{"step", last_obs_.step}, {"wait", deadline_wait_}, {"waiting_for", what}});

@@ -4,6 +4,11 @@
 // episode succeeds). NLopt's Subplex (LN_SBPLX) searches the ranges scaled
 // to [0, 1] from the parent's θ; step counts are rounded to whole steps. It proposes κ, the parameters
 // that changed, so that ℒ' = ℒ ⊕ κ; admission is the gate's, not the search's.
+//
+// A parent that holds nothing on its set leaves Subplex on a plateau of zeros, with no slope to follow and
+// no success to keep near. Such a search first screens θ spread over the whole ranges (a Sobol sequence,
+// Boost.Random) on a few of the failing states, and Subplex starts from the θ that held most there; when
+// none held a single effect, the search ends without a candidate.
 #pragma once
 
 #include <filesystem>
@@ -22,12 +27,16 @@ struct ReviseOptions {
   std::string capability;
   std::filesystem::path config_dir;
   std::filesystem::path library_dir;  ///< the parent library: its θ must be the one the probe set recorded
-  unsigned max_evals = 40;            ///< candidate θ probed at most (the parent's included)
+  unsigned max_evals = 40;            ///< candidate θ probed on the whole set at most (the first: the parent, or the best screened)
   unsigned jobs = 1;                  ///< probes at once
-  unsigned max_probes = 0;            ///< probes at most over the search (0: max_evals × the set's size)
+  unsigned max_probes = 0;  ///< probes at most over the search after any screening (0: max_evals × the set's size)
   bool rest = false;                  ///< the set is judged by the rest of each episode (ProbeSetOptions)
   /// Called after each candidate is probed: its number, the bound, the effects it held, the best so far.
   std::function<void(unsigned eval, unsigned max_evals, unsigned held, unsigned best_held)> on_eval;
+  /// Called after each screened θ: its number, how many are screened, the effects it held, the best so far.
+  std::function<void(unsigned screened, unsigned screen, unsigned held, unsigned best_held)> on_screen;
+  unsigned screen = 64;               ///< θ screened when the parent holds nothing (0: no screening)
+  unsigned screen_states = 6;         ///< failing states each screened θ is probed on, spread over the set
 };
 
 struct Revision {
@@ -37,6 +46,9 @@ struct Revision {
   unsigned parent_held = 0;  ///< states passed under the parent (effects held, or episodes won with rest)
   unsigned best_held = 0, fixed = 0, kept = 0;
   unsigned evals = 0, max_evals = 0;  ///< candidates probed, and the bound the search ran under
+  unsigned screened = 0;              ///< θ screened before the search (the parent held nothing)
+  unsigned screen_states = 0;         ///< states each was probed on
+  unsigned screen_best = 0;           ///< effects the best screened θ held on them
   double wall_s = 0;
   bool improved() const { return best_held > parent_held; }
 };

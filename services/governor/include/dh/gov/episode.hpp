@@ -50,9 +50,12 @@ struct GovernorConfig {
   Verifier verifier = Verifier::Oracle;
   /// Perceived frames in a row that must agree before the perceived verdict changes (`verdict_frames`).
   std::uint32_t verdict_frames = 3;
-  /// With verifier perception, how long a plan's completion waits for the perceived verdict, which lags
-  /// the world by its frames (`verdict_wait_ms`).
-  std::chrono::milliseconds verdict_wait{3000};
+  /// With verifier perception, how many frames of the final state (of the step the plan completed at, or
+  /// later) a plan's completion waits for the perceived verdict, which lags the world by its frames
+  /// (`verdict_wait_frames`): counted in frames, so a loaded machine's slow frames do not decide it.
+  std::uint32_t verdict_wait_frames = 12;
+  /// ... and the longest it waits for them; past it the perception service is lost (`verdict_wait_ms`).
+  std::chrono::milliseconds verdict_wait{30000};
 };
 
 struct EpisodeSpec {
@@ -240,6 +243,8 @@ class EpisodeMachine {
   /// Under perception grounding with a goal: the goal judged on perceived frames (recorded whatever the
   /// verifier; latched and ended on when the verifier is perception).
   std::optional<PerceivedVerdict> perceived_;
+  std::uint32_t verifying_from_ = 0;  ///< Verifying: the step the plan completed at
+  std::uint32_t final_frames_ = 0;    ///< Verifying: frames of the final state judged since
   /// The verdict the episode goes by now: the oracle's at the last observation, or the perceived one.
   bool verdict_now() const;
   /// The step waiting for a fresh scene estimate to be grounded; none while a plan request waits for one.
