@@ -61,6 +61,21 @@ struct Probe : ::testing::Test {
     std::ofstream(lib / (capability + ".yaml")) << text;
     return lib;
   }
+  /// Figure 3's task on seeds 27 and 28, run in process now: their rows, whose placements fail.
+  static std::vector<EpisodeRecord> goal_swap5_seeds_27_28() {
+    inproc::Stack stack(paths::config_dir());
+    const auto suites = load_suites(paths::config_dir());
+    std::vector<EpisodeRecord> rows;
+    for (unsigned seed : {27u, 28u}) {
+      const auto file = *dir / ("gs5_" + std::to_string(seed) + ".jsonl");
+      EpisodeRecord r = row("ep");
+      r.seed = seed;
+      r.success = stack.run(find_task(suites, "goal-swap", 5), seed, "full", file).success;
+      r.evidence_path = file.string();
+      rows.push_back(r);
+    }
+    return rows;
+  }
   /// The campaign row of the recording `name` (ep: Figure 3's, missed: the slipped grasp's).
   static EpisodeRecord row(const std::string& name) {
     EpisodeRecord r;
@@ -352,18 +367,8 @@ TEST_F(Probe, TheRevisionSearchFindsAThetaThatMakesAFailedEffectHold) {
   // Figure 3's task (goal-swap 5) on seeds 27 and 28: the substituted pick and place completes but the
   // plate does not end in front of the stove. A higher approach makes both hold (found by `dh revise` on
   // a campaign of seeds 27-32 over DDS); Figure 3's own seed 21 is the success it must keep.
-  inproc::Stack stack(paths::config_dir());
-  const auto suites = load_suites(paths::config_dir());
   std::vector<EpisodeRecord> rows{row("ep")};
-  for (unsigned seed : {27u, 28u}) {
-    const auto file = *dir / ("gs5_" + std::to_string(seed) + ".jsonl");
-    const auto o = stack.run(find_task(suites, "goal-swap", 5), seed, "full", file);
-    EpisodeRecord r = row("ep");
-    r.seed = seed;
-    r.success = o.success;
-    r.evidence_path = file.string();
-    rows.push_back(r);
-  }
+  for (const auto& r : goal_swap5_seeds_27_28()) rows.push_back(r);
   const auto set = evo::probe_set(rows, {"pick_place", 1, 0}, paths::config_dir(), 2);
   EXPECT_TRUE(set.skipped.empty());
   ASSERT_EQ(set.states.size(), 3u);
@@ -381,19 +386,7 @@ TEST_F(Probe, ASearchFromAParentThatHoldsNothingScreensTheRangesFirst) {
   // The same failing states of goal-swap 5 without the success: the parent holds nothing, so Subplex at
   // the parent would see a plateau of zeros. The screen probes θ spread over the ranges on both states and
   // the search starts from the best of them.
-  inproc::Stack stack(paths::config_dir());
-  const auto suites = load_suites(paths::config_dir());
-  std::vector<EpisodeRecord> rows;
-  for (unsigned seed : {27u, 28u}) {
-    const auto file = *dir / ("gs5_" + std::to_string(seed) + ".jsonl");
-    const auto o = stack.run(find_task(suites, "goal-swap", 5), seed, "full", file);
-    EpisodeRecord r = row("ep");
-    r.seed = seed;
-    r.success = o.success;
-    r.evidence_path = file.string();
-    rows.push_back(r);
-  }
-  auto set = evo::probe_set(rows, {"pick_place", 0, 0}, paths::config_dir(), 2).states;
+  auto set = evo::probe_set(goal_swap5_seeds_27_28(), {"pick_place", 0, 0}, paths::config_dir(), 2).states;
   std::erase_if(set, [](const evo::ProbeOutcome& o) { return !o.state.failing; });
   ASSERT_EQ(set.size(), 2u) << "the placements of seeds 27 and 28 no longer fail under the shipped θ";
   evo::ReviseOptions o{"pick_place", paths::config_dir(), paths::config_dir() / "library", 3, 2};
