@@ -11,6 +11,7 @@ namespace dh::perception {
 namespace {
 
 constexpr int kShadeLevels = 64;
+constexpr unsigned char kMatch = 1, kLit = 2;  // a colour LUT's bits
 constexpr int kBins = 64;  // per channel: 6 bits, 4 values per bin
 constexpr int kLutSize = kBins * kBins * kBins;
 constexpr float kL8ToL = 100.0f / 255.0f;  // OpenCV's 8-bit Lab stores L* * 255 / 100, a* + 128, b* + 128
@@ -60,7 +61,8 @@ float lowest_shade(const cv::Vec3b& colour, const ColourSegmenterParams& p) {
   return kmin + (kmax - kmin) * static_cast<float>(first) / (kShadeLevels - 1);
 }
 
-/// For every bin: does its centre colour match `colour` under some allowed shading factor?
+/// For every bin: does its centre colour match `colour` under some allowed shading factor (kMatch), and
+/// at a lit one (kLit)?
 std::vector<unsigned char> colour_lut(const cv::Vec3b& colour, const ColourSegmenterParams& p) {
   const float cr = colour[0], cg = colour[1], cb = colour[2];
   const float cc = cr * cr + cg * cg + cb * cb;
@@ -84,15 +86,18 @@ std::vector<unsigned char> colour_lut(const cv::Vec3b& colour, const ColourSegme
     const float r = static_cast<float>(((i >> 12) & 63) * 4 + 2), g = static_cast<float>(((i >> 6) & 63) * 4 + 2),
                 b = static_cast<float>((i & 63) * 4 + 2);
     int level = 0;
+    bool lit = true;  // black has no shades
     if (inv_cc > 0) {
       const float k = std::clamp((r * cr + g * cg + b * cb) * inv_cc, kmin, kmax);
       level = static_cast<int>((k - kmin) * level_scale + 0.5f);
+      lit = k >= static_cast<float>(p.lit_min_shade);
     }
     const unsigned char* l = lab_px + 3 * static_cast<std::ptrdiff_t>(i);
     const float dl = l[0] * kL8ToL - tl[level];
     const float da = static_cast<float>(l[1]) - ta[level];
     const float db = static_cast<float>(l[2]) - tb[level];
-    lut[static_cast<std::size_t>(i)] = (dl * dl + da * da + db * db <= tol2) ? 1 : 0;
+    const bool match = dl * dl + da * da + db * db <= tol2;
+    lut[static_cast<std::size_t>(i)] = match ? static_cast<unsigned char>(kMatch | (lit ? kLit : 0)) : 0;
   }
   return lut;
 }
@@ -145,17 +150,23 @@ std::vector<Mask> ColourSegmenter::segment(const cv::Mat& rgb, const std::vector
     const std::size_t ncol = entity.rgb.size();
     std::vector<const std::vector<unsigned char>*> luts;
     for (const cv::Vec3b& c : entity.rgb) luts.push_back(&lut_of(c));
-    // Per pixel: a bit per matching colour of the entity.
-    cv::Mat1b colours(rgb.rows, rgb.cols), any(rgb.rows, rgb.cols);
+    // Per pixel: a bit per matching colour of the entity, and whether one matches lit.
+    cv::Mat1b colours(rgb.rows, rgb.cols), any(rgb.rows, rgb.cols), lit(rgb.rows, rgb.cols);
     for (int y = 0; y < rgb.rows; ++y) {
       const int* b = bins.ptr<int>(y);
       unsigned char* c = colours.ptr<unsigned char>(y);
       unsigned char* a = any.ptr<unsigned char>(y);
+      unsigned char* li = lit.ptr<unsigned char>(y);
       for (int x = 0; x < rgb.cols; ++x) {
-        unsigned bits = 0;
-        for (std::size_t j = 0; j < ncol; ++j) bits |= static_cast<unsigned>((*luts[j])[static_cast<std::size_t>(b[x])]) << j;
+        unsigned bits = 0, lit_bits = 0;
+        for (std::size_t j = 0; j < ncol; ++j) {
+          const unsigned v = (*luts[j])[static_cast<std::size_t>(b[x])];
+          bits |= (v & kMatch) << j;
+          lit_bits |= v & kLit;
+        }
         c[x] = static_cast<unsigned char>(bits);
         a[x] = bits ? 255 : 0;
+        li[x] = lit_bits ? 1 : 0;
       }
     }
     cv::Mat1b opened = any;
@@ -173,14 +184,16 @@ std::vector<Mask> ColourSegmenter::segment(const cv::Mat& rgb, const std::vector
     if (n <= 1) continue;
     // Per component: pixels of each colour and of any colour (as matched, before the morphology).
     std::vector<std::vector<int>> colour_px(ncol, std::vector<int>(static_cast<std::size_t>(n), 0));
-    std::vector<int> any_px(static_cast<std::size_t>(n), 0);
+    std::vector<int> any_px(static_cast<std::size_t>(n), 0), lit_px(static_cast<std::size_t>(n), 0);
     for (int y = 0; y < roi.height; ++y) {
       const int* l = labels.ptr<int>(y);
       const unsigned char* c = colours.ptr<unsigned char>(roi.y + y) + roi.x;
+      const unsigned char* lt = lit.ptr<unsigned char>(roi.y + y) + roi.x;
       for (int x = 0; x < roi.width; ++x) {
         if (l[x] == 0 || c[x] == 0) continue;
         const auto li = static_cast<std::size_t>(l[x]);
         ++any_px[li];
+        lit_px[li] += lt[x];
         for (std::size_t j = 0; j < ncol; ++j)
           if (c[x] & (1u << j)) ++colour_px[j][li];
       }
@@ -194,7 +207,7 @@ std::vector<Mask> ColourSegmenter::segment(const cv::Mat& rgb, const std::vector
       const int area = stats.at<int>(l, cv::CC_STAT_AREA);
       if (area < entity.min_area_px || (entity.max_area_px > 0 && area > entity.max_area_px)) continue;
       const auto li = static_cast<std::size_t>(l);
-      if (colour_px[0][li] < p.main_colour_min_fraction * area) continue;
+      if (colour_px[0][li] < p.main_colour_min_fraction * area || lit_px[li] < p.lit_min_fraction * area) continue;
       std::size_t present = 0;
       for (std::size_t j = 0; j < ncol; ++j)
         if (colour_px[j][li] > 0 && colour_px[j][li] >= p.part_min_fraction * area) ++present;

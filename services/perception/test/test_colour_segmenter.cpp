@@ -127,5 +127,27 @@ TEST(ColourSegmenter, SideFacesUnderTopLightMatchByTheirChroma) {
   EXPECT_TRUE(of(masks, "cream_box").empty());
 }
 
+TEST(ColourSegmenter, ACandidateShowsItsColourLitNotOnlyWallsInTheDark) {
+  // Dark enough, a pale cream box's walls come within the tolerance of butter's yellow darkened as far
+  // (the simulator's cream cheese: walls at (38,38,31), butter's yellow at 0.17). A butter candidate
+  // must show some of its colour lit: the butter's top is, the cream box's walls are not.
+  synth::Scene s;
+  s.world_from_camera = synth::workcell_camera();
+  s.light = Eigen::Vector3d::UnitZ();
+  s.ambient = 0.17;
+  const cv::Vec3b cream{217, 217, 179}, butter{242, 230, 102};
+  s.boxes = {Box{Eigen::Vector3d(-0.1, 0.0, 0.0175), 0.4, Eigen::Vector3d(0.07, 0.05, 0.035), cream},
+             Box{Eigen::Vector3d(0.1, 0.05, 0.015), 0.2, Eigen::Vector3d(0.06, 0.04, 0.03), butter}};
+  const synth::Rendered r = synth::render(s, synth::Noise{1.0, 0.0, 0, 0, 5});
+  const std::vector<EntityAppearance> look{{"butter", {butter}, 40}};
+  ColourSegmenterParams without;
+  without.lit_min_fraction = 0;
+  const auto dark = of(ColourSegmenter(without).segment(r.frame.rgb, look), "butter");
+  ASSERT_EQ(dark.size(), 2u) << "without the test the cream box's walls are a butter candidate";
+  const auto lit = of(ColourSegmenter().segment(r.frame.rgb, look), "butter");
+  ASSERT_EQ(lit.size(), 1u);
+  EXPECT_GT(synth::iou(lit[0].pixels, synth::id_mask(r, 2)), 0.8);
+}
+
 }  // namespace
 }  // namespace dh::perception

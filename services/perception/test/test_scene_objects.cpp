@@ -2,6 +2,8 @@
 // scene description) and how it picks, among a colour's candidates, the one of the object's shape.
 #include <gtest/gtest.h>
 
+#include <opencv2/imgproc.hpp>
+
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/perception/scene_entities.hpp"
@@ -154,6 +156,68 @@ TEST(SceneObjects, AnObjectWhoseColourMatchesOnlyItsTopIsSeenByGrowingOverDepthO
   ASSERT_GT(e.confidence, 0);
   EXPECT_LT((e.centroid - Eigen::Vector3d(0.02, 0.03, 0.08)).norm(), 0.01) << e.centroid.transpose();
   EXPECT_NEAR(e.size.z(), 0.16, 0.01);
+}
+
+/// A butter-sized yellow box centred at `at` on the table, seen by the workcell camera.
+synth::Rendered butter_at(const Eigen::Vector3d& at) {
+  synth::Scene s;
+  s.world_from_camera = synth::workcell_camera();
+  s.boxes = {Box{at, 0.2, Eigen::Vector3d(0.06, 0.04, 0.03), {240, 230, 100}}};
+  return synth::render(s);
+}
+
+TEST(SceneObjects, ALookAlikesCandidateGoesToTheObjectItFitsBestAndTheOtherIsNotSeen) {
+  // A butter-sized box whose pixels both a cream cheese's and a butter's colours claim (their masks are
+  // the same pixels): the scene's order put the cream cheese first, and it took the butter; the box
+  // fits the butter best, so the butter has it and the cream cheese, with nothing else, is not seen.
+  const Eigen::Vector3d at(0.05, 0.0, 0.015);
+  const auto r = butter_at(at);
+  CloudParams p;
+  p.support_z = 0;
+  const auto est = estimate_objects(r.frame, {mask_of(r, 1, "cream_cheese"), mask_of(r, 1, "butter")},
+                                    {object("cream_cheese", {0.07, 0.05, 0.035}), object("butter", {0.06, 0.04, 0.03})}, p);
+  ASSERT_EQ(est.size(), 2u);
+  EXPECT_EQ(est[0].entity, "cream_cheese");
+  EXPECT_EQ(est[0].confidence, 0) << "the cream cheese took the butter";
+  EXPECT_EQ(est[1].entity, "butter");
+  ASSERT_GT(est[1].confidence, 0);
+  EXPECT_LT((est[1].centroid - at).norm(), 0.005) << est[1].centroid.transpose();
+}
+
+TEST(SceneObjects, ACandidateOverAnObjectPlacedIsThatObjectNotALookAlike) {
+  // The cream cheese's colour matched a patch of the table around the butter and the butter's rim (a
+  // pale table, a cream box): its box lies over the butter and is near the cream cheese's size. It is
+  // the same thing as the butter's own candidate, which fits the butter better: the cream cheese is
+  // not seen.
+  const Eigen::Vector3d at(0.05, 0.0, 0.015);
+  const auto r = butter_at(at);
+  const cv::Mat1b butter = synth::id_mask(r, 1);
+  cv::Mat1b near, inner;
+  cv::dilate(butter, near, cv::getStructuringElement(cv::MORPH_RECT, {15, 15}));
+  cv::erode(butter, inner, cv::getStructuringElement(cv::MORPH_RECT, {3, 3}));
+  const cv::Mat1b table_patch = near & ~inner;
+  CloudParams p;
+  p.support_z = 0;
+  const std::vector<LookFor> objects{object("cream_cheese", {0.07, 0.05, 0.035}), object("butter", {0.06, 0.04, 0.03})};
+  const std::vector<Mask> patch_only{{"cream_cheese", table_patch, 1.0}};
+  const EntityEstimate alone = estimate_objects(r.frame, patch_only, {objects[0]}, p)[0];
+  ASSERT_GT(alone.confidence, 0) << "alone, the patch would have been a cream cheese";
+  EXPECT_LT((alone.centroid.head<2>() - at.head<2>()).norm(), 0.03) << "over the butter";
+  const auto est = estimate_objects(r.frame, {patch_only[0], mask_of(r, 1, "butter")}, objects, p);
+  EXPECT_EQ(est[0].confidence, 0) << "the cream cheese took the butter's place";
+  ASSERT_GT(est[1].confidence, 0);
+  EXPECT_LT((est[1].centroid - at).norm(), 0.005);
+  // A patch with four of the butter's pixels is too little to be seen as it is; grown over depth it
+  // becomes the butter's box, which the butter already has.
+  cv::Mat1b ring, seed = cv::Mat1b::zeros(butter.size());
+  cv::dilate(butter, ring, cv::getStructuringElement(cv::MORPH_RECT, {5, 5}));
+  const cv::Rect b = cv::boundingRect(butter);
+  seed(cv::Rect(b.x + b.width / 2, b.y + b.height / 2, 2, 2)) = 255;
+  const Mask grown_patch{"cream_cheese", (near & ~ring) | seed, 1.0};
+  const EntityEstimate grown = estimate_objects(r.frame, {grown_patch}, {objects[0]}, p)[0];
+  ASSERT_GT(grown.confidence, 0) << "alone, the patch grows into a cream cheese";
+  EXPECT_EQ(estimate_objects(r.frame, {grown_patch, mask_of(r, 1, "butter")}, objects, p)[0].confidence, 0)
+      << "the cream cheese grew into the butter";
 }
 
 }  // namespace

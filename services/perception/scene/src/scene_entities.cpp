@@ -1,8 +1,13 @@
 #include "dh/perception/scene_entities.hpp"
 
 #include <algorithm>
+#include <boost/graph/adjacency_list.hpp>
+#include <boost/graph/maximum_weighted_matching.hpp>
+#include <opencv2/imgproc.hpp>
 #include <cmath>
 #include <map>
+#include <numeric>
+#include <optional>
 #include <tuple>
 
 #include "dh/perception/grow.hpp"
@@ -53,6 +58,78 @@ double size_mismatch(const Eigen::Vector3d& estimated, const Eigen::Vector3d& ex
   const double e0 = std::max(estimated.x(), estimated.y()), e1 = std::min(estimated.x(), estimated.y());
   const double x0 = std::max(expected.x(), expected.y()), x1 = std::min(expected.x(), expected.y());
   return std::abs(e0 - x0) + std::abs(e1 - x1) + std::abs(estimated.z() - expected.z());
+}
+
+/// An object's candidate that passes the match, and how well it fits the object, in [0, 1].
+struct Option {
+  std::size_t object = 0, candidate = 0;
+  double quality = 0;
+};
+
+/// Two estimates of one thing: the centre of either lies over the other's footprint (two things side by
+/// side each have their centre beyond the other's edge).
+bool same_box(const EntityEstimate& a, const EntityEstimate& b) {
+  const auto over = [](const EntityEstimate& box, const Eigen::Vector3d& p) {
+    const Eigen::Vector3d d = p - box.centroid;
+    return std::abs(d.dot(box.axes.col(0))) <= box.size.x() / 2 && std::abs(d.dot(box.axes.col(1))) <= box.size.y() / 2;
+  };
+  return over(a, b.centroid) || over(b, a.centroid);
+}
+
+/// The candidates that are one thing: the same pixels (entities of one colour), masks of which half the
+/// smaller lies in the larger, or estimates (`seen`, null where none) of one thing (same_box: a cream
+/// box's colour matching a yellow box's rim gives another mask of the same box). Returns each candidate's blob, the index of one of them.
+std::vector<std::size_t> blobs_of(const std::vector<Mask>& candidates, const std::vector<std::pair<int, cv::Point>>& ids,
+                                  const std::vector<const EntityEstimate*>& seen) {
+  std::vector<std::size_t> parent(candidates.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  const auto root = [&](std::size_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  std::vector<cv::Rect> box;
+  for (const auto& m : candidates) box.push_back(cv::boundingRect(m.pixels));
+  for (std::size_t i = 0; i < candidates.size(); ++i)
+    for (std::size_t j = i + 1; j < candidates.size(); ++j) {
+      if (root(i) == root(j)) continue;
+      bool same = ids[i] == ids[j];
+      if (!same && seen[i] && seen[j]) same = same_box(*seen[i], *seen[j]);
+      if (!same) {
+        const cv::Rect both = box[i] & box[j];
+        if (both.empty()) continue;
+        const int overlap = cv::countNonZero(candidates[i].pixels(both) & candidates[j].pixels(both));
+        same = 2 * overlap >= std::min(ids[i].first, ids[j].first);
+      }
+      if (same) parent[root(j)] = root(i);
+    }
+  std::vector<std::size_t> blob(candidates.size());
+  for (std::size_t i = 0; i < candidates.size(); ++i) blob[i] = root(i);
+  return blob;
+}
+
+/// At most one blob per object and one object per blob, the sum of the chosen fits the greatest (Boost's
+/// maximum weighted matching): an object takes another's look-alike only when that one has a better
+/// candidate or none. Returns the chosen options.
+std::vector<Option> assign(const std::vector<Option>& options, std::size_t objects, const std::vector<std::size_t>& blob) {
+  std::map<std::size_t, std::size_t> vertex_of_blob;  // objects are vertices 0..objects-1, blobs follow
+  std::map<std::pair<std::size_t, std::size_t>, const Option*> best;  // per (object, blob)
+  for (const Option& o : options) {
+    vertex_of_blob.try_emplace(blob[o.candidate], objects + vertex_of_blob.size());
+    const Option*& b = best[{o.object, blob[o.candidate]}];
+    if (!b || o.quality > b->quality) b = &o;
+  }
+  using Graph = boost::adjacency_list<boost::vecS, boost::vecS, boost::undirectedS, boost::no_property,
+                                      boost::property<boost::edge_weight_t, long>>;
+  Graph g(objects + vertex_of_blob.size());
+  // Even integer weights keep the matching's dual variables whole.
+  for (const auto& [key, o] : best)
+    if (const long w = 2 * std::lround(1e4 * o->quality); w > 0) boost::add_edge(key.first, vertex_of_blob.at(key.second), w, g);
+  std::vector<Graph::vertex_descriptor> mate(boost::num_vertices(g));
+  boost::maximum_weighted_matching(g, mate.data());
+  std::vector<Option> chosen;
+  for (const auto& [key, o] : best)
+    if (mate[key.first] == vertex_of_blob.at(key.second)) chosen.push_back(*o);
+  return chosen;
 }
 
 }  // namespace
@@ -127,7 +204,7 @@ std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::
                                              const std::vector<LookFor>& objects, const CloudParams& params,
                                              const ObjectMatch& match) {
   // Candidates are per entity; entities of the same colours got the same pixels, so a candidate is
-  // known by its pixel count and its first pixel, and each distinct one is identified and estimated once.
+  // known by its pixel count and its first pixel, and each distinct one is estimated once.
   using Id = std::pair<int, cv::Point>;
   const auto identity = [](const Mask& m) {
     std::vector<cv::Point> nz;
@@ -141,75 +218,90 @@ std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::
     return std::tie(a.first, a.second.y, a.second.x) < std::tie(b.first, b.second.y, b.second.x);
   };
   std::map<Id, EntityEstimate, decltype(before)> estimated(before);
-  std::vector<Id> taken;
-  std::vector<std::pair<std::pair<Id, Eigen::Vector3d>, EntityEstimate>> grown;
-  // The object's candidate closest to its size, among its largest max_candidates not taken; `grow` tries
-  // every candidate not taken, grown over the depth image (see below). confidence 0 when none passes `match`.
-  const auto choose = [&](const LookFor& o, bool grow) {
-    EntityEstimate best;
-    best.entity = o.appearance.entity;
-    best.stamp_s = frame.stamp_s;
-    double best_mismatch = 1e9;
-    Id best_id;
+  const auto bottom = [](const EntityEstimate& x) { return x.centroid.z() - x.size.z() / 2; };
+  // How well a box fits an object: 1 at its size, 0 at the most mismatch `match` allows, negative past
+  // it. The mask's score is left out: a grown seed is a patch of the support by construction.
+  const auto quality = [&](const LookFor& o, const EntityEstimate& e) {
+    const double limit = match.max_size_mismatch * o.size.sum();
+    return 1 - size_mismatch(e.size, o.size) / limit;
+  };
+
+  // Each object's largest max_candidates that pass `match`, with how well each fits it.
+  std::vector<Option> options;
+  for (std::size_t k = 0; k < objects.size(); ++k) {
     std::size_t tried = 0;
+    for (std::size_t i = 0; i < candidates.size() && tried < match.max_candidates; ++i) {
+      const Mask& m = candidates[i];
+      if (m.entity != objects[k].appearance.entity) continue;
+      ++tried;
+      auto cached = estimated.find(ids[i]);
+      if (cached == estimated.end()) cached = estimated.emplace(ids[i], estimate_entity(frame, m, params)).first;
+      const EntityEstimate& e = cached->second;
+      if (e.confidence <= 0 || bottom(e) > match.max_bottom_z_m) continue;
+      if (const double q = quality(objects[k], e); q >= 0) options.push_back({k, i, q});
+    }
+  }
+  std::vector<const EntityEstimate*> seen(candidates.size(), nullptr);
+  for (const Option& o : options) seen[o.candidate] = &estimated.at(ids[o.candidate]);
+  const std::vector<std::size_t> blob = blobs_of(candidates, ids, seen);
+  std::vector<EntityEstimate> out(objects.size());
+  for (std::size_t k = 0; k < objects.size(); ++k) {
+    out[k].entity = objects[k].appearance.entity;
+    out[k].stamp_s = frame.stamp_s;
+  }
+  std::vector<bool> taken(candidates.size(), false);  // by blob
+  for (const Option& o : assign(options, objects.size(), blob)) {
+    out[o.object] = estimated.at(ids[o.candidate]);
+    out[o.object].entity = objects[o.object].appearance.entity;
+    taken[blob[o.candidate]] = true;
+  }
+
+  // An object none of whose candidates has its size may be one whose colour matched only its lit faces
+  // (white and grey walls render as grey as the floor and the shadows): with a known support, its
+  // candidates not taken grow over the depth image into what stands above the support, in the objects'
+  // order after every object seen as it is has been placed; the one closest to its size wins.
+  std::vector<std::pair<std::pair<Id, Eigen::Vector3d>, EntityEstimate>> grown;
+  for (std::size_t k = 0; k < objects.size() && params.support_z; ++k) {
+    if (out[k].confidence > 0) continue;
+    const LookFor& o = objects[k];
+    GrowParams g;
+    g.support_z = *params.support_z;
+    // What of the seed lies higher than the object standing on its support can reach is something else
+    // (a robot link the colour mask joined) and is dropped; a seed too small to estimate (a rim) grows.
+    g.max_height_m = o.size.z() + match.seed_margin_m;
+    g.max_radius_m = 0.5 * std::hypot(o.size.x(), o.size.y()) + match.grow_margin_m;
+    g.min_depth_m = params.min_depth_m;
+    g.max_depth_m = params.max_depth_m;
+    std::optional<std::size_t> best;
+    double best_quality = -1;
     for (std::size_t i = 0; i < candidates.size(); ++i) {
       const Mask& m = candidates[i];
-      if (m.entity != o.appearance.entity || (!grow && tried == match.max_candidates)) continue;
-      const Id& id = ids[i];
-      if (std::find(taken.begin(), taken.end(), id) != taken.end()) continue;
-      ++tried;
-      const auto bottom = [](const EntityEstimate& x) { return x.centroid.z() - x.size.z() / 2; };
-      EntityEstimate e;
-      if (!grow) {
-        auto cached = estimated.find(id);
-        if (cached == estimated.end())
-          cached = estimated.emplace(id, estimate_entity(frame, m, params)).first;
-        e = cached->second;
-        if (e.confidence <= 0 || bottom(e) > match.max_bottom_z_m) continue;
-      } else {
-        // What of the seed lies higher than the object standing on its support can reach is something else
-        // (a robot link the colour mask joined) and is dropped; a seed too small to estimate (a rim) grows.
-        GrowParams g;
-        g.support_z = *params.support_z;
-        g.max_height_m = o.size.z() + match.seed_margin_m;
-        g.max_radius_m = 0.5 * std::hypot(o.size.x(), o.size.y()) + match.grow_margin_m;
-        g.min_depth_m = params.min_depth_m;
-        g.max_depth_m = params.max_depth_m;
-        // Identical objects grow the same candidates alike: each (candidate, size) is grown once.
-        auto done = std::find_if(grown.begin(), grown.end(),
-                                 [&](const auto& x) { return x.first == std::pair(id, o.size); });
-        if (done == grown.end()) {
-          const cv::Mat1b mask = grow_by_depth(frame, m.pixels, g);
-          grown.emplace_back(std::pair(id, o.size),
-                             cv::countNonZero(mask) > 0
-                                 ? estimate_entity(frame, Mask{m.entity, mask, m.score}, params)
-                                 : EntityEstimate{});
-          done = std::prev(grown.end());
-        }
-        e = done->second;
-        // Grown, it must reach down to what holds it: a robot link or a fixture's rim stands higher.
-        if (e.confidence <= 0 || bottom(e) > g.support_z + match.grown_max_bottom_m) continue;
+      if (m.entity != o.appearance.entity || taken[blob[i]]) continue;
+      // Identical objects grow the same candidates alike: each (candidate, size) is grown once.
+      auto done = std::find_if(grown.begin(), grown.end(), [&](const auto& x) { return x.first == std::pair(ids[i], o.size); });
+      if (done == grown.end()) {
+        const cv::Mat1b mask = grow_by_depth(frame, m.pixels, g);
+        grown.emplace_back(std::pair(ids[i], o.size), cv::countNonZero(mask) > 0
+                                                          ? estimate_entity(frame, Mask{m.entity, mask, m.score}, params)
+                                                          : EntityEstimate{});
+        done = std::prev(grown.end());
       }
-      e.entity = m.entity;
-      const double mismatch = size_mismatch(e.size, o.size);
-      if (mismatch < best_mismatch) {
-        best_mismatch = mismatch;
-        best = e;
-        best_id = id;
+      const EntityEstimate& e = done->second;
+      // Grown, it must reach down to what holds it: a robot link or a fixture's rim stands higher. Nor
+      // may it grow into an object already placed (a cream box's candidate into the yellow box beside
+      // its own colour's pixels).
+      if (e.confidence <= 0 || bottom(e) > g.support_z + match.grown_max_bottom_m ||
+          std::any_of(out.begin(), out.end(), [&](const EntityEstimate& x) { return x.confidence > 0 && same_box(x, e); }))
+        continue;
+      if (const double q = quality(o, e); q >= 0 && q > best_quality) {
+        best_quality = q;
+        best = i;
+        out[k] = e;
+        out[k].entity = o.appearance.entity;
       }
     }
-    if (best.confidence > 0 && best_mismatch > match.max_size_mismatch * o.size.sum()) best.confidence = 0;
-    if (best.confidence > 0) taken.push_back(best_id);
-    return best;
-  };
-  std::vector<EntityEstimate> out;
-  for (const auto& o : objects) out.push_back(choose(o, false));
-  // An object none of whose candidates has its size may be one whose colour matched only its lit faces
-  // (white and grey walls render as grey as the floor and the shadows): its candidates grow over the depth
-  // image into what stands above the known support, after every object seen as it is has chosen.
-  if (params.support_z)
-    for (std::size_t k = 0; k < objects.size(); ++k)
-      if (out[k].confidence <= 0) out[k] = choose(objects[k], true);
+    if (best) taken[blob[*best]] = true;
+  }
   // Identical objects (same colours, same size) are told apart by where they are expected (pairwise: a
   // cycle of three that no exchange of two improves stays; no scene has three identical objects). Two seen
   // trade estimates when that lowers the sum of their distances to their priors; one seen goes to the

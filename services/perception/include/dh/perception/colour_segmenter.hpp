@@ -14,9 +14,10 @@
 // joins an entity's differently coloured parts); then connected components (8-connected).
 //
 // The candidate rule (documented in services/perception/README.md):
-//  - a component is a candidate for the entity when its area is within [min_area_px, max_area_px] and the entity's
+//  - a component is a candidate for the entity when its area is within [min_area_px, max_area_px], the entity's
 //    first (main) colour covers at least `main_colour_min_fraction` of it (so a white plate is not a
-//    candidate for a yellow-and-white mug, whose main colour is yellow);
+//    candidate for a yellow-and-white mug, whose main colour is yellow) and at least `lit_min_fraction` of
+//    it matches lit (a shading factor of `lit_min_shade` or more: not only walls in the dark);
 //  - every candidate is returned as its own Mask: when several entities share a colour, or one entity is
 //    split by an occluder, the caller disambiguates (by size or position); a component may be the
 //    candidate of several entities;
@@ -47,6 +48,12 @@ struct ColourSegmenterParams {
   int close_px = 7;  ///< closing kernel; 0 = none
   double main_colour_min_fraction = 0.2;
   double part_min_fraction = 0.02;
+  /// A candidate shows some of its colour lit: at least this share of its area matches at a shading
+  /// factor of lit_min_shade or more. Under the workcell's light from above an object's top is lit and its
+  /// walls are not (0.15-0.32), and in the dark a chromatic colour's shades come within the tolerance of
+  /// another's: a cream box's walls (38,38,31) match butter's yellow at 0.17. 0: no such test.
+  double lit_min_fraction = 0.03;
+  double lit_min_shade = 0.4;
 };
 
 /// Not thread-safe (it caches a lookup table per colour): one instance per thread.
@@ -65,7 +72,8 @@ class ColourSegmenter final : public Segmenter {
   const ColourSegmenterParams& params() const { return params_; }
 
  private:
-  /// Whether each 6-bit-per-channel colour bin matches `colour`, built on first use (about 1 ms).
+  /// Per 6-bit-per-channel colour bin: kMatch if it matches `colour`, | kLit if at a lit shade; built on
+  /// first use (about 1 ms).
   const std::vector<unsigned char>& lut_of(const cv::Vec3b& colour);
 
   ColourSegmenterParams params_;
