@@ -45,6 +45,7 @@ json plan_of(const EvolveArgs& a, const std::string& start_version) {
           {"bare", a.bare},
           {"max_evals", a.max_evals},
           {"screen", a.screen},
+          {"prune", a.prune},
           {"successes", a.successes}};
   // With --rest the plan says so; without, it stays as climbs before --rest wrote it, so they resume.
   if (a.rest) plan["rest"] = true;
@@ -212,6 +213,7 @@ class Climb {
       v.out = (dir / "candidate").string();
       v.max_evals = a_.max_evals;
       v.screen = a_.screen;
+      v.prune = a_.prune;
       v.successes = a_.successes;
       v.rest = a_.rest;
       v.json = true;

@@ -60,8 +60,13 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
   evo::ReviseOptions options{capability, paths::config_dir(), parent, a.max_evals, jobs, a.max_probes, a.rest};
   options.screen = a.screen;
   options.screen_states = a.screen_states;
+  options.prune = a.prune;
   options.on_eval = on_eval;
   options.on_screen = on_screen;
+  options.on_prune = [&](const std::string& parameter, bool reverted, unsigned held, unsigned best) {
+    std::cerr << fmt::format("{}: κ pruned: without {} {} of {} {}, best {}: {}\n", capability, parameter, held,
+                             set.states.size(), judged, best, reverted ? "back to the parent's" : "kept");
+  };
   const evo::Revision rev = evo::revise(set.states, options);
   nlohmann::json kappa = nlohmann::json::object();
   for (const auto& [name, v] : rev.kappa) kappa[name] = {{"parent", v.first}, {"revised", v.second}};
@@ -95,6 +100,8 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
                            {{"screened", rev.screened},
                             {"screen_states", rev.screen_states},
                             {"screen_best", rev.screen_best},
+                            {"pruned", rev.pruned},
+                            {"reverted", rev.reverted},
                             {"evals", rev.evals},
                             {"max_evals", rev.max_evals},
                             {"wall_s", rev.wall_s}}}}
@@ -106,7 +113,8 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
           {"kept", rev.kept},             {"evals", rev.evals},         {"max_evals", rev.max_evals},
           {"wall_s", rev.wall_s},         {"kappa", kappa},             {"out", out},
           {"version", version},           {"improved", rev.improved()},
-          {"screened", rev.screened},      {"screen_states", rev.screen_states}, {"screen_best", rev.screen_best}};
+          {"screened", rev.screened},      {"screen_states", rev.screen_states}, {"screen_best", rev.screen_best},
+          {"pruned", rev.pruned},          {"reverted", rev.reverted}};
 }
 
 int cmd_revise(const ReviseArgs& a) {
@@ -122,8 +130,12 @@ int cmd_revise(const ReviseArgs& a) {
   if (r["screened"].get<unsigned>() > 0)
     std::cout << fmt::format("; {} θ screened on {} failing states, the best held {}", r["screened"].get<unsigned>(),
                              r["screen_states"].get<unsigned>(), r["screen_best"].get<unsigned>());
-  std::cout << fmt::format("; {} of at most {} candidate θ probed on the set, in {:.1f} s\n", r["evals"].get<unsigned>(),
-                           r["max_evals"].get<unsigned>(), r["wall_s"].get<double>());
+  std::cout << fmt::format("; {} of at most {} candidate θ probed on the set", r["evals"].get<unsigned>(),
+                           r["max_evals"].get<unsigned>());
+  if (r["pruned"].get<unsigned>() > 0)
+    std::cout << fmt::format("; κ pruned: {} of {} changes back to the parent's", r["reverted"].get<unsigned>(),
+                             r["pruned"].get<unsigned>());
+  std::cout << fmt::format(", in {:.1f} s\n", r["wall_s"].get<double>());
   if (!improved) {
     std::cout << "no θ within the ranges held more effects than the parent's: no candidate\n";
     return 3;

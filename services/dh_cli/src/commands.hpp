@@ -62,6 +62,7 @@ struct ReviseArgs {
   std::string db, capability, arm = "full", library, out;
   unsigned max_evals = 40, max_probes = 0, jobs = 0;
   unsigned screen = 64, screen_states = 6;  ///< θ screened, on how many failing states, when the parent holds nothing
+  bool prune = true;                        ///< κ pruned after the search
   std::size_t successes = 20;
   std::uint64_t draw_seed = 0;
   bool rest = false;  ///< the probe set judged by the rest of each episode
@@ -100,6 +101,7 @@ struct EvolveArgs {
   std::string tasks, dev_seeds = "21-40", regression_seeds = "41-42";
   unsigned rounds = 3, max_evals = 12, ready_ms = 20000;
   unsigned screen = 64;  ///< θ screened by a round's search whose parent holds nothing (dh revise --screen)
+  bool prune = true;     ///< each round's κ pruned (dh revise --no-prune)
   std::size_t successes = 20;
   bool bare = true, json = false;
   bool rest = false;  ///< the revision search judges its probe sets by the rest of each episode

@@ -280,6 +280,9 @@ int main(int argc, char** argv) {
   revise->add_option("--screen-states", revise_args.screen_states,
                      "failing states each screened θ is probed on (default 6)")
       ->check(CLI::Range(1u, 100000u));
+  revise->add_flag("!--no-prune", revise_args.prune,
+                   "keep every changed parameter (default: each goes back to the parent's value when the set "
+                   "holds as many effects without it)");
   revise->add_option("--jobs", revise_args.jobs, "probes at once (default: every core)");
   revise->add_option("--successes", revise_args.successes, "successes in the probe set, at least (default 20)");
   revise->add_flag("--rest", revise_args.rest,
@@ -326,6 +329,7 @@ int main(int argc, char** argv) {
   evolve->add_option("--max-evals", evolve_args.max_evals, "candidate θ probed at most per round (default 12)");
   evolve->add_option("--screen", evolve_args.screen,
                      "θ screened by a round's search whose parent holds nothing (dh revise --screen; default 64)");
+  evolve->add_flag("!--no-prune", evolve_args.prune, "keep each round's κ unpruned (dh revise --no-prune)");
   evolve->add_option("--successes", evolve_args.successes, "successes in each probe set, at least (default 20)");
   evolve->add_flag("--rest", evolve_args.rest,
                    "the revision search judges its probe sets by the rest of each episode (dh revise --rest)");

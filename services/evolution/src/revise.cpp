@@ -66,23 +66,28 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
   rev.best_held = rev.parent_held;
   const auto t0 = std::chrono::steady_clock::now();
   const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
-  struct Context {
-    std::function<double(const std::vector<double>&)> f;
-  } context{[&](const std::vector<double>& at) {
-    const cap::Theta th = theta_at(at);
-    ++rev.evals;
+  // A θ probed on the whole set; it becomes the best when it holds more (`or_as_many`: as many).
+  const auto probe_set_under = [&](const cap::Theta& th, bool or_as_many) {
     unsigned held = 0, fixed = 0, kept = 0;
     for (const auto& r : probe_states(states, o.config_dir, {}, o.jobs, th, o.rest)) {
       const bool h = r.report && r.report->passed();
       held += h;
       (r.state.failing ? fixed : kept) += h;
     }
-    if (held > rev.best_held) {
+    const bool better = held > rev.best_held || (or_as_many && held == rev.best_held);
+    if (better) {
       rev.best = th;
       rev.best_held = held;
       rev.fixed = fixed;
       rev.kept = kept;
     }
+    return std::pair(held, better);
+  };
+  struct Context {
+    std::function<double(const std::vector<double>&)> f;
+  } context{[&](const std::vector<double>& at) {
+    ++rev.evals;
+    const unsigned held = probe_set_under(theta_at(at), false).first;
     if (o.on_eval) o.on_eval(rev.evals, rev.max_evals, held, rev.best_held);
     return static_cast<double>(held);
   }};
@@ -108,6 +113,7 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
         best_at = at;
       }
       if (o.on_screen) o.on_screen(rev.screened, o.screen, held, rev.screen_best);
+      if (held == subset.size()) break;  // none later can hold more: the first of equals is taken anyway
     }
     if (best_at.empty()) {
       rev.wall_s = elapsed();
@@ -123,6 +129,7 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
   rev.max_evals = o.max_evals;
   if (o.max_probes) rev.max_evals = std::min(rev.max_evals, std::max(1u, o.max_probes / rev.states));
   opt.set_maxeval(static_cast<int>(rev.max_evals));
+  opt.set_stopval(static_cast<double>(rev.states));  // every state holds: nothing to search for
   opt.set_max_objective([](const std::vector<double>& at, std::vector<double>&,
                            void* data) { return static_cast<Context*>(data)->f(at); },
                         &context);
@@ -131,6 +138,25 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
     opt.optimize(x, fx);
   } catch (const nlopt::roundoff_limited&) {
     // The fitness is a count: a plateau stops Subplex; what it found stands.
+  }
+  if (o.prune && rev.improved()) {
+    // κ as small as the set allows: each changed parameter, the smallest change (in its range) first, goes
+    // back to the parent's value when the set holds as many effects without the change.
+    std::vector<std::pair<double, std::string>> changed;
+    for (const auto& [name, value] : rev.best)
+      if (value != rev.parent.at(name)) {
+        const cap::ParameterRange& r = ranges.at(name);
+        changed.emplace_back(std::abs(value - rev.parent.at(name)) / (r.max - r.min), name);
+      }
+    std::sort(changed.begin(), changed.end());
+    for (const auto& [share, name] : changed) {
+      cap::Theta without = rev.best;
+      without[name] = rev.parent.at(name);
+      ++rev.pruned;
+      const auto [held, reverted] = probe_set_under(without, true);
+      rev.reverted += reverted;
+      if (o.on_prune) o.on_prune(name, reverted, held, rev.best_held);
+    }
   }
   rev.wall_s = elapsed();
   for (const auto& [name, value] : rev.best)

@@ -8,7 +8,10 @@
 // A parent that holds nothing on its set leaves Subplex on a plateau of zeros, with no slope to follow and
 // no success to keep near. Such a search first screens θ spread over the whole ranges (a Sobol sequence,
 // Boost.Random) on a few of the failing states, and Subplex starts from the θ that held most there; when
-// none held a single effect, the search ends without a candidate.
+// none held a single effect, the search ends without a candidate. A screened θ differs from the parent
+// in every parameter; so does a search that wandered. κ is then pruned: each changed parameter, the
+// smallest change first, goes back to the parent's value when the whole set holds as many effects
+// without it, so that the revision states only what the set needs.
 #pragma once
 
 #include <filesystem>
@@ -37,6 +40,9 @@ struct ReviseOptions {
   std::function<void(unsigned screened, unsigned screen, unsigned held, unsigned best_held)> on_screen;
   unsigned screen = 64;               ///< θ screened when the parent holds nothing (0: no screening)
   unsigned screen_states = 6;         ///< failing states each screened θ is probed on, spread over the set
+  bool prune = true;                  ///< prune κ after the search (each changed parameter: one probe of the set)
+  /// Called after each parameter the pruning tried: whether it went back to the parent's value.
+  std::function<void(const std::string& parameter, bool reverted, unsigned held, unsigned best_held)> on_prune;
 };
 
 struct Revision {
@@ -49,6 +55,8 @@ struct Revision {
   unsigned screened = 0;              ///< θ screened before the search (the parent held nothing)
   unsigned screen_states = 0;         ///< states each was probed on
   unsigned screen_best = 0;           ///< effects the best screened θ held on them
+  unsigned pruned = 0;                ///< parameters the pruning tried (one probe of the set each)
+  unsigned reverted = 0;              ///< ... of which went back to the parent's value
   double wall_s = 0;
   bool improved() const { return best_held > parent_held; }
 };
