@@ -70,7 +70,12 @@ static void BM_Ground(benchmark::State& state) {
   registry.announce(info);
   Observation obs;
   obs.step = 40;
-  for (const char* n : {"bowl", "plate", "cream_cheese", "wine_bottle"}) obs.entities.push_back({n, "box", {}, {}, {}});
+  for (const char* n : {"bowl", "plate", "cream_cheese", "wine_bottle"}) {
+    EntityState e;
+    e.name = n;
+    e.kind = "box";
+    obs.entities.push_back(e);
+  }
   Advice a{"p0", false, "pick_place", {{"object", "bowl"}, {"target", "plate"}}, "", "", "rules", false, {}};
   const std::set<std::string> masked;
   const std::map<std::string, std::map<std::string, double>> library;  // announced θ

@@ -57,8 +57,15 @@ struct PerceivedCommands : ::testing::Test {
     o.ee_p = {-0.1, 0.0, 0.25};
     o.ee_q = {0, 1, 0, 0};
     o.gripper_opening = 0.08;
-    o.entities = {{"butter", "box", {0.0, -0.15, 0.0}, {1, 0, 0, 0}, {0.02, 0.02, 0.02}},
-                  {"plate", "plate", {0.0, 0.15, 0.0}, {1, 0, 0, 0}, {0.09, 0.09, 0.006}}};
+    o.entities.assign(2, EntityState{});
+    o.entities[0].name = "butter";
+    o.entities[0].kind = "box";
+    o.entities[0].p = {0.0, -0.15, 0.0};
+    o.entities[0].half_extents = {0.02, 0.02, 0.02};
+    o.entities[1].name = "plate";
+    o.entities[1].kind = "plate";
+    o.entities[1].p = {0.0, 0.15, 0.0};
+    o.entities[1].half_extents = {0.09, 0.09, 0.006};
     observation.write(convert::to_msg(o, kChannel, episode));
   }
 

@@ -57,7 +57,14 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
     std::cerr << fmt::format("{}: the parent holds nothing; screened θ {} of {}: {} of {} {}, best {}\n", capability,
                              k, n, held, std::min<std::size_t>(a.screen_states, set.states.size()), judged, best);
   };
-  evo::ReviseOptions options{capability, paths::config_dir(), parent, a.max_evals, jobs, a.max_probes, a.rest};
+  evo::ReviseOptions options;
+  options.capability = capability;
+  options.config_dir = paths::config_dir();
+  options.library_dir = parent;
+  options.max_evals = a.max_evals;
+  options.jobs = jobs;
+  options.max_probes = a.max_probes;
+  options.rest = a.rest;
   options.screen = a.screen;
   options.screen_states = a.screen_states;
   options.prune = a.prune;

@@ -61,6 +61,18 @@ struct Probe : ::testing::Test {
     std::ofstream(lib / (capability + ".yaml")) << text;
     return lib;
   }
+  /// The search's options over `library` (configs/library when empty), on two threads.
+  static evo::ReviseOptions search(const fs::path& library, unsigned max_evals, unsigned max_probes = 0, bool rest = false) {
+    evo::ReviseOptions o;
+    o.capability = "pick_place";
+    o.config_dir = paths::config_dir();
+    o.library_dir = library.empty() ? paths::config_dir() / "library" : library;
+    o.max_evals = max_evals;
+    o.jobs = 2;
+    o.max_probes = max_probes;
+    o.rest = rest;
+    return o;
+  }
   /// Figure 3's task on seeds 27 and 28, run in process now: their rows, whose placements fail.
   static std::vector<EpisodeRecord> goal_swap5_seeds_27_28() {
     inproc::Stack stack(paths::config_dir());
@@ -328,9 +340,9 @@ TEST_F(Probe, AProbeSetJudgedByTheRestOfItsEpisodesCountsTheirSuccesses) {
   }
   // The search judges a set the way it was probed.
   const auto parent = paths::config_dir() / "library";
-  EXPECT_THROW(evo::revise(set, {"pick_place", paths::config_dir(), parent, 2, 2, 0, false, {}}),
+  EXPECT_THROW(evo::revise(set, search(parent, 2)),
                std::invalid_argument);
-  const evo::Revision rev = evo::revise(set, {"pick_place", paths::config_dir(), parent, 2, 2, 0, true, {}});
+  const evo::Revision rev = evo::revise(set, search(parent, 2, 0, true));
   EXPECT_EQ(rev.parent_held, static_cast<unsigned>(outcome->success) + 2u * missed->success);
   EXPECT_LE(rev.evals, 2u);
 }
@@ -339,7 +351,7 @@ TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParents
   const auto set = evo::probe_set({row("ep"), row("missed")}, {"pick_place", 1, 0}, paths::config_dir(), 2).states;
   ASSERT_EQ(set.size(), 3u);
   const auto parent = paths::config_dir() / "library";
-  const evo::Revision rev = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 0, false, {}});
+  const evo::Revision rev = evo::revise(set, search(parent, 4));
   EXPECT_LE(rev.evals, 4u);
   EXPECT_GE(rev.evals, 1u);
   EXPECT_EQ(rev.states, 3u);
@@ -355,10 +367,10 @@ TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParents
   }
   // A set recorded under other θ than the parent library's is refused.
   const auto other = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
-  EXPECT_THROW(evo::revise(set, {"pick_place", paths::config_dir(), other, 4, 2, 0, false, {}}), std::invalid_argument);
-  EXPECT_THROW(evo::revise({}, {"pick_place", paths::config_dir(), parent, 4, 2, 0, false, {}}), std::invalid_argument);
+  EXPECT_THROW(evo::revise(set, search(other, 4)), std::invalid_argument);
+  EXPECT_THROW(evo::revise({}, search(parent, 4)), std::invalid_argument);
   // --max-probes bounds the round: three states per candidate, three probes at most, so one candidate.
-  const evo::Revision bounded = evo::revise(set, {"pick_place", paths::config_dir(), parent, 4, 2, 3, false, {}});
+  const evo::Revision bounded = evo::revise(set, search(parent, 4, 3));
   EXPECT_EQ(bounded.max_evals, 1u);
   EXPECT_EQ(bounded.evals, 1u);
 }
@@ -373,7 +385,7 @@ TEST_F(Probe, TheRevisionSearchFindsAThetaThatMakesAFailedEffectHold) {
   EXPECT_TRUE(set.skipped.empty());
   ASSERT_EQ(set.states.size(), 3u);
   const evo::Revision rev =
-      evo::revise(set.states, {"pick_place", paths::config_dir(), paths::config_dir() / "library", 4, 2, 0, false, {}});
+      evo::revise(set.states, search({}, 4));
   EXPECT_EQ(rev.failing, 2u);
   EXPECT_EQ(rev.parent_held, 1u);
   EXPECT_TRUE(rev.improved()) << rev.best_held << " held, the parent " << rev.parent_held;
@@ -389,7 +401,7 @@ TEST_F(Probe, ASearchFromAParentThatHoldsNothingScreensTheRangesFirst) {
   auto set = evo::probe_set(goal_swap5_seeds_27_28(), {"pick_place", 0, 0}, paths::config_dir(), 2).states;
   std::erase_if(set, [](const evo::ProbeOutcome& o) { return !o.state.failing; });
   ASSERT_EQ(set.size(), 2u) << "the placements of seeds 27 and 28 no longer fail under the shipped θ";
-  evo::ReviseOptions o{"pick_place", paths::config_dir(), paths::config_dir() / "library", 3, 2};
+  evo::ReviseOptions o = search({}, 3);
   o.screen = 8;
   std::vector<unsigned> screened;
   o.on_screen = [&](unsigned k, unsigned n, unsigned, unsigned) {

@@ -13,20 +13,31 @@
 namespace dh::policy {
 namespace {
 
+EntityState entity(const std::string& name, const std::string& kind, std::array<double, 3> p,
+                   std::array<double, 3> half, double joint = 0) {
+  EntityState e;
+  e.name = name;
+  e.kind = kind;
+  e.p = p;
+  e.half_extents = half;
+  e.joint = joint;
+  return e;
+}
+
 Observation scene(double bowl_x) {
   Observation o;
   o.ee_p = {0.1, 0.0, 0.3};
   o.ee_q = {0, 1, 0, 0};  // pointing down
   o.gripper_opening = 0.04;
-  o.entities.push_back({"bowl", "object", {bowl_x, 0.1, 0.0}, {1, 0, 0, 0}, {0.05, 0.05, 0.03}, 0});
-  o.entities.push_back({"cabinet_top_drawer", "drawer", {0.3, -0.2, 0.25}, {1, 0, 0, 0}, {0.1, 0.01, 0.01}, 0.07});
+  o.entities.push_back(entity("bowl", "object", {bowl_x, 0.1, 0.0}, {0.05, 0.05, 0.03}));
+  o.entities.push_back(entity("cabinet_top_drawer", "drawer", {0.3, -0.2, 0.25}, {0.1, 0.01, 0.01}, 0.07));
   return o;
 }
 
 TEST(PolicyFeatures, EntitiesGoToTheirSlotsAndUnknownNamesAreIgnored) {
   FeatureSpec spec{{"bowl", "cabinet_top_drawer", "plate"}, {"bowl", "put", "the"}};
   Observation o = scene(0.4);
-  o.entities.push_back({"never_seen", "object", {9, 9, 9}, {1, 0, 0, 0}, {}, 0});
+  o.entities.push_back(entity("never_seen", "object", {9, 9, 9}, {}));
   std::vector<float> f(static_cast<std::size_t>(spec.size()));
   encode(spec, record(o, 1), spec.slots(entity_names(o)), spec.word_indices("Put the BOWL away"), f.data());
   const int e0 = FeatureSpec::kProprio;
