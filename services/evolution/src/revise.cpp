@@ -61,7 +61,8 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
     }
     return th;
   };
-  // The parent's own point is the first evaluation: the search starts from what the set already holds.
+  // Unless a screen moves the start, the parent's own point is the first evaluation: the search starts
+  // from what the set already holds.
   rev.best = rev.parent;
   rev.best_held = rev.parent_held;
   const auto t0 = std::chrono::steady_clock::now();

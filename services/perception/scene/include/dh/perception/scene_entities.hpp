@@ -61,14 +61,16 @@ struct ObjectMatch {
   double seed_margin_m = 0.05;
 };
 
-/// One estimate per object from a segmenter's candidate masks: each candidate of the object is estimated,
-/// and the one whose box is closest to the object's size wins; no candidate that passes `match` means
-/// "not seen" (confidence 0) — better than a wrong place. Objects that share colours (two identical
-/// objects) never get the same candidate: the first in the scene's order chooses first, then identical
-/// objects (same colours and size) trade places when that lowers the sum of their distances to their
-/// priors, and one seen of two goes to the one whose prior is nearer. With a known
-/// support height (params.support_z), an object not seen that way tries its candidates again grown over
-/// the depth image (grow_by_depth): colour finds only the lit top of a white or grey object.
+/// One estimate per object from a segmenter's candidate masks: each object's largest candidates are
+/// estimated, and those whose box is near the object's size are its options, fitting it the better the
+/// nearer. Candidates that are one thing (the same pixels, overlapping masks, a box over another's
+/// footprint) form a blob; objects and blobs are matched one to one for the greatest sum of fits, so a
+/// look-alike takes an object's blob only when that object fits elsewhere or nowhere. No blob means "not
+/// seen" (confidence 0) — better than a wrong place. Identical objects (same colours and size) then trade
+/// places when that lowers the sum of their distances to their priors, and one seen of two goes to the
+/// one whose prior is nearer. With a known support height (params.support_z), an object not seen that way
+/// tries the candidates of blobs not taken again, grown over the depth image (grow_by_depth: colour finds
+/// only the lit top of a white or grey object), unless the grown box lies over an object already placed.
 std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::vector<Mask>& candidates,
                                              const std::vector<LookFor>& objects, const CloudParams& params = {},
                                              const ObjectMatch& match = {});
