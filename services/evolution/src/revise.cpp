@@ -130,7 +130,9 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
   rev.max_evals = o.max_evals;
   if (o.max_probes) rev.max_evals = std::min(rev.max_evals, std::max(1u, o.max_probes / rev.states));
   opt.set_maxeval(static_cast<int>(rev.max_evals));
-  opt.set_stopval(static_cast<double>(rev.states));  // every state holds: nothing to search for
+  // Every state holds: nothing left to search for. NLopt stops once the objective passes stopval
+  // strictly, and the count reaches the number of states at most.
+  opt.set_stopval(rev.states - 0.5);
   opt.set_max_objective([](const std::vector<double>& at, std::vector<double>&,
                            void* data) { return static_cast<Context*>(data)->f(at); },
                         &context);
