@@ -26,8 +26,9 @@
 //   dh probe --db FILE --capability C [--library DIR] [--jobs N] [--json]
 //                                            the capability's probe set (its failed commands and as many
 //                                            successes), probed in parallel
-//   dh revise --db FILE [--capability C] [--library DIR] [--max-evals N] [--out DIR]
-//                                            searches C's θ within its ranges on its probe set; writes the
+//   dh revise --db FILE [--capability C] [--library DIR] [--max-evals N] [--screen N] [--no-prune] [--out DIR]
+//                                            searches C's θ within its ranges on its probe set (screening the
+//                                            ranges first when the parent holds nothing; κ pruned); writes the
 //                                            candidate library (exit 3: nothing better than the parent)
 //   dh gate --parent DB --candidate DB --library DIR --capability C [--bare DB]
 //                                            the paired gate (Eq. 6) of a candidate against its parent, on
