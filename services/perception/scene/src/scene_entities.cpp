@@ -80,15 +80,13 @@ bool same_box(const EntityEstimate& a, const EntityEstimate& b) {
 /// smaller lies in the larger, or estimates (`seen`, null where none) of one thing (same_box: a cream
 /// box's colour matching a yellow box's rim gives another mask of the same box). Returns each candidate's blob, the index of one of them.
 std::vector<std::size_t> blobs_of(const std::vector<Mask>& candidates, const std::vector<std::pair<int, cv::Point>>& ids,
-                                  const std::vector<const EntityEstimate*>& seen) {
+                                  const std::vector<cv::Rect>& box, const std::vector<const EntityEstimate*>& seen) {
   std::vector<std::size_t> parent(candidates.size());
   std::iota(parent.begin(), parent.end(), 0);
   const auto root = [&](std::size_t i) {
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
   };
-  std::vector<cv::Rect> box;
-  for (const auto& m : candidates) box.push_back(cv::boundingRect(m.pixels));
   for (std::size_t i = 0; i < candidates.size(); ++i)
     for (std::size_t j = i + 1; j < candidates.size(); ++j) {
       if (root(i) == root(j)) continue;
@@ -206,14 +204,15 @@ std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::
   // Candidates are per entity; entities of the same colours got the same pixels, so a candidate is
   // known by its pixel count and its first pixel, and each distinct one is estimated once.
   using Id = std::pair<int, cv::Point>;
-  const auto identity = [](const Mask& m) {
+  // Its pixels' bounding box comes from the same scan (blobs_of compares only masks whose boxes meet).
+  std::vector<Id> ids;
+  std::vector<cv::Rect> box;
+  for (const auto& m : candidates) {
     std::vector<cv::Point> nz;
     cv::findNonZero(m.pixels, nz);
-    return Id(static_cast<int>(nz.size()), nz.empty() ? cv::Point(-1, -1) : nz.front());
-  };
-  std::vector<Id> ids;
-  ids.reserve(candidates.size());
-  for (const auto& m : candidates) ids.push_back(identity(m));
+    ids.emplace_back(static_cast<int>(nz.size()), nz.empty() ? cv::Point(-1, -1) : nz.front());
+    box.push_back(cv::boundingRect(nz));
+  }
   const auto before = [](const Id& a, const Id& b) {
     return std::tie(a.first, a.second.y, a.second.x) < std::tie(b.first, b.second.y, b.second.x);
   };
@@ -243,7 +242,7 @@ std::vector<EntityEstimate> estimate_objects(const RgbdFrame& frame, const std::
   }
   std::vector<const EntityEstimate*> seen(candidates.size(), nullptr);
   for (const Option& o : options) seen[o.candidate] = &estimated.at(ids[o.candidate]);
-  const std::vector<std::size_t> blob = blobs_of(candidates, ids, seen);
+  const std::vector<std::size_t> blob = blobs_of(candidates, ids, box, seen);
   std::vector<EntityEstimate> out(objects.size());
   for (std::size_t k = 0; k < objects.size(); ++k) {
     out[k].entity = objects[k].appearance.entity;
