@@ -5,13 +5,162 @@
 #include <boost/random/uniform_01.hpp>
 #include <chrono>
 #include <cmath>
-#include <functional>
 #include <nlopt.hpp>
+#include <optional>
 #include <stdexcept>
 
 #include "dh/cap/library_theta.hpp"
 
 namespace dh::evo {
+
+namespace {
+
+/// What the three stages share: the probe states, θ's scaling onto [0, 1] and the revision being built.
+class Search {
+ public:
+  Search(Revision& rev, const cap::ThetaRanges& ranges, std::vector<ProbeState> states,
+         const ReviseOptions& o)
+      : rev_(rev), ranges_(ranges), states_(std::move(states)), o_(o) {
+    for (const auto& [name, value] : rev_.parent) {
+      const cap::ParameterRange& r = ranges_.at(name);
+      names_.push_back(name);
+      x0_.push_back((value - r.min) / (r.max - r.min));
+    }
+  }
+
+  /// θ at a point of the unit cube: the parent's own value where the point is the parent's (not its round
+  /// trip through the scaling), step counts rounded to whole steps.
+  cap::Theta theta_at(const std::vector<double>& at) const {
+    cap::Theta th;
+    for (std::size_t i = 0; i < names_.size(); ++i) {
+      if (at[i] == x0_[i]) {
+        th[names_[i]] = rev_.parent.at(names_[i]);
+        continue;
+      }
+      const cap::ParameterRange& r = ranges_.at(names_[i]);
+      const double v = r.min + std::clamp(at[i], 0.0, 1.0) * (r.max - r.min);
+      th[names_[i]] = r.unit == "steps" ? std::round(v) : v;
+    }
+    return th;
+  }
+
+  /// Screens Sobol points over the whole ranges on a few failing states spread over the set's order
+  /// (cells, tasks, seeds), not the first few of one task. Returns the point that held most (the first of
+  /// equals), or nothing when none held a single effect.
+  std::optional<std::vector<double>> screen() {
+    std::vector<ProbeState> subset;
+    const std::size_t n = std::min<std::size_t>(o_.screen_states, states_.size());
+    for (std::size_t i = 0; i < n; ++i) subset.push_back(states_[i * states_.size() / n]);
+    rev_.screen_states = static_cast<unsigned>(n);
+    boost::random::sobol sobol(names_.size());
+    boost::random::uniform_01<double> unit;
+    std::vector<double> at(names_.size());
+    std::optional<std::vector<double>> best;
+    for (unsigned k = 0; k < o_.screen; ++k) {
+      for (double& v : at) v = unit(sobol);
+      const Held h = held_on(subset, theta_at(at));
+      ++rev_.screened;
+      if (h.held > rev_.screen_best) {
+        rev_.screen_best = h.held;
+        best = at;
+      }
+      if (o_.on_screen) o_.on_screen(rev_.screened, o_.screen, h.held, rev_.screen_best);
+      if (h.held == subset.size()) break;  // none later can hold more: the first of equals is taken anyway
+    }
+    return best;
+  }
+
+  /// Subplex from `start` on the whole set, within the round's bound; the best θ goes to the revision.
+  void subplex(std::vector<double> start) {
+    nlopt::opt opt(nlopt::LN_SBPLX, static_cast<unsigned>(names_.size()));
+    opt.set_lower_bounds(0.0);
+    opt.set_upper_bounds(1.0);
+    opt.set_initial_step(0.25);
+    // A round's bound after any screening: candidates, and probes (each candidate probes the whole set).
+    rev_.max_evals = o_.max_evals;
+    if (o_.max_probes) rev_.max_evals = std::min(rev_.max_evals, std::max(1u, o_.max_probes / rev_.states));
+    opt.set_maxeval(static_cast<int>(rev_.max_evals));
+    // Every state holds: nothing left to search for. NLopt stops once the objective passes stopval
+    // strictly, and the count reaches the number of states at most.
+    opt.set_stopval(rev_.states - 0.5);
+    opt.set_max_objective(
+        [](const std::vector<double>& at, std::vector<double>&, void* self) {
+          auto& s = *static_cast<Search*>(self);
+          ++s.rev_.evals;
+          const unsigned held = s.try_on_set(s.theta_at(at), false).held;
+          if (s.o_.on_eval) s.o_.on_eval(s.rev_.evals, s.rev_.max_evals, held, s.rev_.best_held);
+          return static_cast<double>(held);
+        },
+        this);
+    double fx = 0;
+    try {
+      opt.optimize(start, fx);
+    } catch (const nlopt::roundoff_limited&) {
+      // The fitness is a count: a plateau stops Subplex; what it found stands.
+    }
+  }
+
+  /// κ as small as the set allows: each changed parameter, the smallest change (in its range) first, goes
+  /// back to the parent's value when the set holds as many effects without the change.
+  void prune() {
+    std::vector<std::pair<double, std::string>> changed;
+    for (const auto& [name, value] : rev_.best)
+      if (value != rev_.parent.at(name)) {
+        const cap::ParameterRange& r = ranges_.at(name);
+        changed.emplace_back(std::abs(value - rev_.parent.at(name)) / (r.max - r.min), name);
+      }
+    std::sort(changed.begin(), changed.end());
+    for (const auto& [share, name] : changed) {
+      cap::Theta without = rev_.best;
+      without[name] = rev_.parent.at(name);
+      ++rev_.pruned;
+      const Held h = try_on_set(without, true);
+      rev_.reverted += h.taken;
+      if (o_.on_prune) o_.on_prune(name, h.taken, h.held, rev_.best_held);
+    }
+  }
+
+  std::vector<double> parent_point() const { return x0_; }
+
+ private:
+  struct Held {
+    unsigned held = 0, fixed = 0, kept = 0;
+    bool taken = false;  ///< it became the revision's best
+  };
+
+  /// The effects `th` holds on `states`: failing states fixed and successes kept.
+  Held held_on(const std::vector<ProbeState>& states, const cap::Theta& th) const {
+    Held h;
+    for (const auto& r : probe_states(states, o_.config_dir, {}, o_.jobs, th, o_.rest)) {
+      const bool passed = r.report && r.report->passed();
+      h.held += passed;
+      (r.state.failing ? h.fixed : h.kept) += passed;
+    }
+    return h;
+  }
+
+  /// `th` on the whole set; it becomes the best when it holds more (`or_as_many`: as many).
+  Held try_on_set(const cap::Theta& th, bool or_as_many) {
+    Held h = held_on(states_, th);
+    h.taken = h.held > rev_.best_held || (or_as_many && h.held == rev_.best_held);
+    if (h.taken) {
+      rev_.best = th;
+      rev_.best_held = h.held;
+      rev_.fixed = h.fixed;
+      rev_.kept = h.kept;
+    }
+    return h;
+  }
+
+  Revision& rev_;
+  const cap::ThetaRanges& ranges_;
+  const std::vector<ProbeState> states_;
+  const ReviseOptions& o_;
+  std::vector<std::string> names_;
+  std::vector<double> x0_;
+};
+
+}  // namespace
 
 Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
   if (set.empty())
@@ -22,7 +171,6 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
     throw std::invalid_argument("library " + o.library_dir.string() + " has no " + o.capability + ".yaml");
   Revision rev;
   rev.parent = t->second;
-  const cap::ThetaRanges& ranges = lib.ranges.at(o.capability);
   std::vector<ProbeState> states;
   for (const auto& p : set) {
     if (!p.report || p.report->capability != o.capability)
@@ -39,129 +187,26 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
     rev.parent_held += p.report->passed();
   }
   rev.states = static_cast<unsigned>(states.size());
-
-  std::vector<std::string> names;
-  std::vector<double> x;
-  for (const auto& [name, value] : rev.parent) {
-    const cap::ParameterRange& r = ranges.at(name);
-    names.push_back(name);
-    x.push_back((value - r.min) / (r.max - r.min));
-  }
-  const std::vector<double> x0 = x;
-  const auto theta_at = [&](const std::vector<double>& at) {
-    cap::Theta th;
-    for (std::size_t i = 0; i < names.size(); ++i) {
-      if (at[i] == x0[i]) {  // the parent's own value, not its round trip through the scaling
-        th[names[i]] = rev.parent.at(names[i]);
-        continue;
-      }
-      const cap::ParameterRange& r = ranges.at(names[i]);
-      const double v = r.min + std::clamp(at[i], 0.0, 1.0) * (r.max - r.min);
-      th[names[i]] = r.unit == "steps" ? std::round(v) : v;
-    }
-    return th;
-  };
   // Unless a screen moves the start, the parent's own point is the first evaluation: the search starts
   // from what the set already holds.
   rev.best = rev.parent;
   rev.best_held = rev.parent_held;
-  const auto t0 = std::chrono::steady_clock::now();
-  const auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
-  // A θ probed on the whole set; it becomes the best when it holds more (`or_as_many`: as many).
-  const auto probe_set_under = [&](const cap::Theta& th, bool or_as_many) {
-    unsigned held = 0, fixed = 0, kept = 0;
-    for (const auto& r : probe_states(states, o.config_dir, {}, o.jobs, th, o.rest)) {
-      const bool h = r.report && r.report->passed();
-      held += h;
-      (r.state.failing ? fixed : kept) += h;
-    }
-    const bool better = held > rev.best_held || (or_as_many && held == rev.best_held);
-    if (better) {
-      rev.best = th;
-      rev.best_held = held;
-      rev.fixed = fixed;
-      rev.kept = kept;
-    }
-    return std::pair(held, better);
-  };
-  struct Context {
-    std::function<double(const std::vector<double>&)> f;
-  } context{[&](const std::vector<double>& at) {
-    ++rev.evals;
-    const unsigned held = probe_set_under(theta_at(at), false).first;
-    if (o.on_eval) o.on_eval(rev.evals, rev.max_evals, held, rev.best_held);
-    return static_cast<double>(held);
-  }};
   rev.kept = rev.parent_held;
+
+  const auto t0 = std::chrono::steady_clock::now();
+  Search search(rev, lib.ranges.at(o.capability), std::move(states), o);
+  std::vector<double> start = search.parent_point();
   if (rev.parent_held == 0 && o.screen > 0) {
-    // Every state fails under the parent. The screened states are spread over the set's order (cells,
-    // tasks, seeds), not the first few of one task.
-    std::vector<ProbeState> subset;
-    const std::size_t n = std::min<std::size_t>(o.screen_states, states.size());
-    for (std::size_t i = 0; i < n; ++i) subset.push_back(states[i * states.size() / n]);
-    rev.screen_states = static_cast<unsigned>(n);
-    boost::random::sobol sobol(names.size());
-    boost::random::uniform_01<double> unit;
-    std::vector<double> at(names.size()), best_at;
-    for (unsigned k = 0; k < o.screen; ++k) {
-      for (double& v : at) v = unit(sobol);
-      unsigned held = 0;
-      for (const auto& r : probe_states(subset, o.config_dir, {}, o.jobs, theta_at(at), o.rest))
-        held += r.report && r.report->passed();
-      ++rev.screened;
-      if (held > rev.screen_best) {
-        rev.screen_best = held;
-        best_at = at;
-      }
-      if (o.on_screen) o.on_screen(rev.screened, o.screen, held, rev.screen_best);
-      if (held == subset.size()) break;  // none later can hold more: the first of equals is taken anyway
+    auto screened = search.screen();
+    if (!screened) {  // not one effect anywhere screened: Subplex would only walk the plateau
+      rev.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      return rev;
     }
-    if (best_at.empty()) {
-      rev.wall_s = elapsed();
-      return rev;  // not one effect anywhere screened: Subplex would only walk the plateau
-    }
-    x = best_at;
+    start = std::move(*screened);
   }
-  nlopt::opt opt(nlopt::LN_SBPLX, static_cast<unsigned>(names.size()));
-  opt.set_lower_bounds(0.0);
-  opt.set_upper_bounds(1.0);
-  opt.set_initial_step(0.25);
-  // A round's bound after any screening: candidates, and probes (each candidate probes the whole set).
-  rev.max_evals = o.max_evals;
-  if (o.max_probes) rev.max_evals = std::min(rev.max_evals, std::max(1u, o.max_probes / rev.states));
-  opt.set_maxeval(static_cast<int>(rev.max_evals));
-  // Every state holds: nothing left to search for. NLopt stops once the objective passes stopval
-  // strictly, and the count reaches the number of states at most.
-  opt.set_stopval(rev.states - 0.5);
-  opt.set_max_objective([](const std::vector<double>& at, std::vector<double>&,
-                           void* data) { return static_cast<Context*>(data)->f(at); },
-                        &context);
-  double fx = 0;
-  try {
-    opt.optimize(x, fx);
-  } catch (const nlopt::roundoff_limited&) {
-    // The fitness is a count: a plateau stops Subplex; what it found stands.
-  }
-  if (o.prune && rev.improved()) {
-    // κ as small as the set allows: each changed parameter, the smallest change (in its range) first, goes
-    // back to the parent's value when the set holds as many effects without the change.
-    std::vector<std::pair<double, std::string>> changed;
-    for (const auto& [name, value] : rev.best)
-      if (value != rev.parent.at(name)) {
-        const cap::ParameterRange& r = ranges.at(name);
-        changed.emplace_back(std::abs(value - rev.parent.at(name)) / (r.max - r.min), name);
-      }
-    std::sort(changed.begin(), changed.end());
-    for (const auto& [share, name] : changed) {
-      cap::Theta without = rev.best;
-      without[name] = rev.parent.at(name);
-      ++rev.pruned;
-      const auto [held, reverted] = probe_set_under(without, true);
-      rev.reverted += reverted;
-      if (o.on_prune) o.on_prune(name, reverted, held, rev.best_held);
-    }
-  }
-  rev.wall_s = elapsed();
+  search.subplex(std::move(start));
+  if (o.prune && rev.improved()) search.prune();
+  rev.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   for (const auto& [name, value] : rev.best)
     if (value != rev.parent.at(name)) rev.kappa[name] = {rev.parent.at(name), value};
   return rev;
