@@ -338,7 +338,8 @@ std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t s
   return out;
 }
 
-std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& placements) {
+std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& placements,
+                       const std::vector<BodyPair>& exclude) {
   const MjcfFragments robot = robot_mjcf(scene.robot, scene.robot_base.data(), scene.finger_friction);
   std::string x;
   x += "<mujoco model=\"dh_" + scene.name + "\">\n";
@@ -379,6 +380,11 @@ std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& pla
   x += "</worldbody>\n";
   x += "<actuator>\n" + robot.actuators + "</actuator>\n";
   if (!robot.equalities.empty()) x += "<equality>\n" + robot.equalities + "</equality>\n";
+  if (!exclude.empty()) {
+    x += "<contact>\n";
+    for (const auto& [a, b] : exclude) x += "<exclude body1=\"" + a + "\" body2=\"" + b + "\"/>\n";
+    x += "</contact>\n";
+  }
   x += "</mujoco>\n";
   return x;
 }

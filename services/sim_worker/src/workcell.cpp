@@ -55,7 +55,12 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
 
   std::vector<Placement> nominal;
   for (const auto& e : scene_.entities) nominal.push_back({e.name, e.nominal_xy[0], e.nominal_xy[1], e.yaw});
-  m_ = compile_model(scene_mjcf(scene_, nominal), scene_.file.string()).release();
+  // Compiled twice: the bodies that can never touch are read off the first model and left out of the
+  // second's collision detection (contact_exclusion.hpp).
+  ModelPtr first = compile_model(scene_mjcf(scene_, nominal), scene_.file.string());
+  const std::vector<BodyPair> exclude = never_touching(first.get());
+  m_ = exclude.empty() ? first.release()
+                       : compile_model(scene_mjcf(scene_, nominal, exclude), scene_.file.string()).release();
   d_ = mj_makeData(m_);
   // The hash is of the model without the RGB-D cameras a simulator worker adds (configs/cameras.yaml):
   // they render, they do not move anything, and an in-process run has none.
@@ -63,7 +68,7 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
   if (!scene_.cameras.empty()) {
     SceneSpec without = scene_;
     without.cameras.clear();
-    bare = compile_model(scene_mjcf(without, nominal), scene_.file.string());
+    bare = compile_model(scene_mjcf(without, nominal, exclude), scene_.file.string());
   }
   const mjModel* hashed = bare ? bare.get() : m_;
   std::vector<unsigned char> bytes(static_cast<std::size_t>(mj_sizeModel(hashed)));

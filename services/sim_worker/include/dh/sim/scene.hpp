@@ -13,6 +13,7 @@
 #include "dh/common/robot_contract.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/sim/asset.hpp"
+#include "dh/sim/contact_exclusion.hpp"
 #include "dh/sim/robot_model.hpp"
 
 namespace dh::sim {
@@ -124,7 +125,9 @@ std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t s
 
 /// The complete MJCF document of the workcell with entities at `placements`, with the cameras
 /// "agentview" and "wrist" (camera.hpp) and the scene's extra `cameras`, which do not touch the physics.
-std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& placements);
+/// `exclude`: body pairs left out of collision detection (never_touching in contact_exclusion.hpp).
+std::string scene_mjcf(const SceneSpec& scene, const std::vector<Placement>& placements,
+                       const std::vector<BodyPair>& exclude = {});
 
 /// MJCF names: a part body is "<entity>_<part>", its joint "<entity>_<part>_joint", an asset site
 /// "<entity>_<site>" (also for sites on parts), a table region keeps its own name; a part's grip site is

@@ -1,0 +1,27 @@
+// Body pairs that can never touch, left out of collision detection (issue 18: collision filtering that
+// keeps every real contact). MuJoCo 2.2 tests every geom pair of two bodies whose bounding spheres meet,
+// so the drawers of one cabinet, stacked and sliding side by side, cost as many box-box tests per
+// substep as an object lying on the table, and never produce a contact.
+//
+// A body pair is excluded when each of the two is static (welded to the world) or slides on one limited
+// slide joint from a static parent, at least one of them slides, and every geom pair of theirs that the
+// contact bits let collide has disjoint axis-aligned boxes over the whole joint ranges (the box at either
+// end of a slide, and their hull, for a translation), widened by the geoms' margins and a millimetre.
+// No contact that could ever occur is dropped, so the simulation is the same bit for bit
+// (test_contact_exclusion.cpp).
+#pragma once
+
+#include <string>
+#include <utility>
+#include <vector>
+
+struct mjModel_;
+
+namespace dh::sim {
+
+using BodyPair = std::pair<std::string, std::string>;
+
+/// The pairs of `m`'s bodies that can never touch, by body name, in body order.
+std::vector<BodyPair> never_touching(const mjModel_* m);
+
+}  // namespace dh::sim
