@@ -15,6 +15,8 @@ namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr double kSlack = 0.001;  // m beyond the margins: rounding of poses, never a real gap
+// m a slide may pass its range: a limit is a soft constraint, and a drawer slammed shut presses into it
+constexpr double kOvertravel = 0.01;
 
 struct Box {
   std::array<double, 3> lo{kInf, kInf, kInf}, hi{-kInf, -kInf, -kInf};
@@ -66,6 +68,8 @@ Box geom_box(const mjModel* m, const mjData* d, int g) {
 enum class Motion { Static, Slides, Moves };
 
 Motion motion_of(const mjModel* m, int body) {
+  for (int b = body; b != 0; b = m->body_parentid[b])
+    if (m->body_mocapid[b] >= 0) return Motion::Moves;  // welded to the world, and moved by whoever drives it
   const int weld = m->body_weldid[body];
   if (weld == 0) return Motion::Static;
   if (m->body_jntnum[weld] != 1 || m->body_weldid[m->body_parentid[weld]] != 0) return Motion::Moves;
@@ -79,8 +83,8 @@ std::vector<BodyPair> never_touching(const mjModel* m) {
   std::vector<Motion> motion(static_cast<std::size_t>(m->nbody));
   for (int b = 0; b < m->nbody; ++b) motion[b] = motion_of(m, b);
   // Every geom's box over its body's whole motion: at the model's reference pose and with every slide
-  // joint at either end of its range (a slide only translates its bodies, so the hull of the two ends
-  // holds every pose between).
+  // joint at either end of its range and past it (a slide only translates its bodies, so the hull of the
+  // two ends holds every pose between).
   const DataPtr data = make_data(m);
   mjData* d = data.get();
   std::vector<Box> swept(static_cast<std::size_t>(m->ngeom));
@@ -89,7 +93,7 @@ std::vector<BodyPair> never_touching(const mjModel* m) {
     if (end >= 0)
       for (int j = 0; j < m->njnt; ++j)
         if (m->jnt_type[j] == mjJNT_SLIDE && m->jnt_limited[j])
-          d->qpos[m->jnt_qposadr[j]] = m->jnt_range[2 * j + end];
+          d->qpos[m->jnt_qposadr[j]] = m->jnt_range[2 * j + end] + (end == 0 ? -kOvertravel : kOvertravel);
     mj_kinematics(m, d);
     for (int g = 0; g < m->ngeom; ++g) swept[g].add(geom_box(m, d, g));
   }

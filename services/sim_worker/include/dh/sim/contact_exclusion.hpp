@@ -5,8 +5,9 @@
 //
 // A body pair is excluded when each of the two is static (welded to the world) or slides on one limited
 // slide joint from a static parent, at least one of them slides, and every geom pair of theirs that the
-// contact bits let collide has disjoint axis-aligned boxes over the whole joint ranges (the box at either
-// end of a slide, and their hull, for a translation), widened by the geoms' margins and a millimetre.
+// contact bits let collide has disjoint axis-aligned boxes over the whole joint ranges and a centimetre
+// past them (the box at either end of a slide, and their hull, for a translation), widened by the geoms'
+// margins and a millimetre. A body moved by a mocap is never static.
 // No contact that could ever occur is dropped, so the simulation is the same bit for bit
 // (test_contact_exclusion.cpp).
 #pragma once
