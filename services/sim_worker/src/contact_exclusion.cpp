@@ -6,7 +6,10 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <map>
+#include <mutex>
 
+#include "dh/common/digest.hpp"
 #include "dh/sim/model.hpp"
 
 namespace dh::sim {
@@ -118,6 +121,19 @@ std::vector<BodyPair> never_touching(const mjModel* m) {
       if (any && apart) out.emplace_back(n1, n2);
     }
   return out;
+}
+
+std::vector<BodyPair> never_touching(const std::string& xml, const std::string& origin) {
+  static std::mutex mutex;
+  static std::map<std::pair<std::uint64_t, std::size_t>, std::vector<BodyPair>> known;
+  const std::pair key(fnv1a64(xml.data(), xml.size()), xml.size());
+  {
+    std::lock_guard lock(mutex);
+    if (const auto k = known.find(key); k != known.end()) return k->second;
+  }
+  std::vector<BodyPair> pairs = never_touching(compile_model(xml, origin).get());
+  std::lock_guard lock(mutex);
+  return known.emplace(key, std::move(pairs)).first->second;
 }
 
 }  // namespace dh::sim

@@ -1,7 +1,5 @@
 #include "dh/sim/workcell.hpp"
 
-#include "dh/common/robot_contract.hpp"
-
 #include <mujoco/mujoco.h>
 
 #include <Eigen/Dense>
@@ -12,6 +10,7 @@
 
 #include "dh/common/digest.hpp"
 #include "dh/common/geometry.hpp"
+#include "dh/common/robot_contract.hpp"
 #include "dh/sim/model.hpp"
 #include "dh/sim/placing.hpp"
 
@@ -29,8 +28,8 @@ struct Workcell::Ids {
   int gripper_act = -1;
   int tcp_site = -1;
   int finger_left_body = -1, finger_right_body = -1;
-  std::vector<int> object_body;  ///< free objects, in scene order
-  std::vector<std::size_t> object_entity;     ///< index into scene.entities
+  std::vector<int> object_body;            ///< free objects, in scene order
+  std::vector<std::size_t> object_entity;  ///< index into scene.entities
   std::vector<int> fixture_body;
   std::vector<std::size_t> fixture_entity;
   struct Part {
@@ -38,12 +37,12 @@ struct Workcell::Ids {
     int body = -1, grip_site = -1, qpos = -1;
     std::array<double, 3> grip_half{};
   };
-  std::vector<Part> parts;                    ///< fixtures' articulated parts, in scene order
+  std::vector<Part> parts;  ///< fixtures' articulated parts, in scene order
   struct Region {
     int site = -1;
     std::string owner, relation;
   };
-  std::vector<Region> regions;                ///< every other site: table regions and asset regions
+  std::vector<Region> regions;  ///< every other site: table regions and asset regions
   std::array<double, 7> effort{};
 };
 
@@ -55,12 +54,12 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
 
   std::vector<Placement> nominal;
   for (const auto& e : scene_.entities) nominal.push_back({e.name, e.nominal_xy[0], e.nominal_xy[1], e.yaw});
-  // Compiled twice: the bodies that can never touch are read off the first model and left out of the
-  // second's collision detection (contact_exclusion.hpp).
-  ModelPtr first = compile_model(scene_mjcf(scene_, nominal), scene_.file.string());
-  const std::vector<BodyPair> exclude = never_touching(first.get());
-  m_ = exclude.empty() ? first.release()
-                       : compile_model(scene_mjcf(scene_, nominal, exclude), scene_.file.string()).release();
+  // The bodies that can never touch are read off the model without exclusions (compiled the first time
+  // this process builds the scene) and left out of the workcell's collision detection.
+  const std::string all_pairs = scene_mjcf(scene_, nominal);
+  const std::vector<BodyPair> exclude = never_touching(all_pairs, scene_.file.string());
+  m_ = compile_model(exclude.empty() ? all_pairs : scene_mjcf(scene_, nominal, exclude), scene_.file.string())
+           .release();
   d_ = mj_makeData(m_);
   // The hash is of the model without the RGB-D cameras a simulator worker adds (configs/cameras.yaml):
   // they render, they do not move anything, and an in-process run has none.
@@ -102,9 +101,10 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
       ids_->fixture_body.push_back(need(mjOBJ_BODY, e.name));
       ids_->fixture_entity.push_back(k);
       for (const auto& part : e.asset.parts)
-        ids_->parts.push_back({part_body(e.name, part.name), part.kind, e.name, need(mjOBJ_BODY, part_body(e.name, part.name)),
-                               need(mjOBJ_SITE, part_grip_site(e.name, part.name)),
-                               m_->jnt_qposadr[need(mjOBJ_JOINT, part_joint(e.name, part.name))], part.grip.half});
+        ids_->parts.push_back(
+            {part_body(e.name, part.name), part.kind, e.name, need(mjOBJ_BODY, part_body(e.name, part.name)),
+             need(mjOBJ_SITE, part_grip_site(e.name, part.name)),
+             m_->jnt_qposadr[need(mjOBJ_JOINT, part_joint(e.name, part.name))], part.grip.half});
       continue;
     }
     ids_->object_body.push_back(need(mjOBJ_BODY, e.name));
@@ -115,22 +115,25 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
   std::array<double, 7> ready{};
   std::copy(scene_.ready_q.begin(), scene_.ready_q.end(), ready.begin());
   if (scene_.controller == "osc_pose") {
-    osc_ = std::make_unique<OscPose>(m_, ids_->arm, ids_->arm_dof, ids_->arm_qpos, ids_->tcp_site, ready, ids_->effort,
-                                     gains);
+    osc_ = std::make_unique<OscPose>(m_, ids_->arm, ids_->arm_dof, ids_->arm_qpos, ids_->tcp_site, ready,
+                                     ids_->effort, gains);
   } else {
     std::array<double, 7> lower{}, upper{};
     for (int i = 0; i < 7; ++i) lower[i] = scene_.robot.arm[i].lower, upper[i] = scene_.robot.arm[i].upper;
-    ik_ = std::make_unique<JointIk>(m_, ids_->arm_dof, ids_->arm_qpos, ids_->tcp_site, ready, lower, upper, ids_->effort,
-                                    gains.speed_limit);
+    ik_ = std::make_unique<JointIk>(m_, ids_->arm_dof, ids_->arm_qpos, ids_->tcp_site, ready, lower, upper,
+                                    ids_->effort, gains.speed_limit);
   }
   for (const auto& r : scene_.regions) ids_->regions.push_back({need(mjOBJ_SITE, r.name), r.of, r.relation});
   for (const auto& e : scene_.entities) {
-    for (const auto& s : e.asset.sites) ids_->regions.push_back({need(mjOBJ_SITE, e.name + "_" + s.name), e.name, s.relation});
+    for (const auto& s : e.asset.sites)
+      ids_->regions.push_back({need(mjOBJ_SITE, e.name + "_" + s.name), e.name, s.relation});
     for (const auto& part : e.asset.parts)
       for (const auto& s : part.sites)
-        ids_->regions.push_back({need(mjOBJ_SITE, e.name + "_" + s.name), part_body(e.name, part.name), s.relation});
+        ids_->regions.push_back(
+            {need(mjOBJ_SITE, e.name + "_" + s.name), part_body(e.name, part.name), s.relation});
   }
-  std::sort(ids_->regions.begin(), ids_->regions.end(), [](const Ids::Region& a, const Ids::Region& b) { return a.site < b.site; });
+  std::sort(ids_->regions.begin(), ids_->regions.end(),
+            [](const Ids::Region& a, const Ids::Region& b) { return a.site < b.site; });
 }
 
 Workcell::~Workcell() {
@@ -184,7 +187,8 @@ std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
                                p[2] + robot::kMaxDeltaPosM * a[2]};
   if (clamp_to_workspace(p_goal, limits_))
     events.push_back({StepEvent::WorkspaceClamp, "position target clamped into the workspace box"});
-  const Eigen::Vector3d dr(robot::kMaxDeltaRotRad * a[3], robot::kMaxDeltaRotRad * a[4], robot::kMaxDeltaRotRad * a[5]);
+  const Eigen::Vector3d dr(robot::kMaxDeltaRotRad * a[3], robot::kMaxDeltaRotRad * a[4],
+                           robot::kMaxDeltaRotRad * a[5]);
   constexpr double period = kSubsteps * 0.002;
   if (osc_) {
     osc_->set_goal(d_, geo::vec(p_goal) - Eigen::Map<const Eigen::Vector3d>(p), dr);
@@ -231,7 +235,8 @@ std::vector<StepEvent> Workcell::step(const std::array<double, 7>& action_in) {
   // MuJoCo drops contacts and constraints silently when its buffers are full; that physics is wrong.
   for (int w : {mjWARN_CONTACTFULL, mjWARN_CNSTRFULL})
     if (d_->warning[w].number > 0)
-      throw std::runtime_error(scene_.name + ": MuJoCo's " + (w == mjWARN_CONTACTFULL ? "contact" : "constraint") +
+      throw std::runtime_error(scene_.name + ": MuJoCo's " +
+                               (w == mjWARN_CONTACTFULL ? "contact" : "constraint") +
                                " buffer overflowed (raise nconmax/njmax in scene_mjcf)");
   return events;
 }
@@ -246,7 +251,9 @@ bool Workcell::in_contact(int body_a, int body_b) const {
 
 bool Workcell::goal_holds() const { return goal_ && goal_->holds(d_); }
 
-bool Workcell::holds(const std::vector<PredicateSpec>& goal) const { return GoalEvaluator(m_, scene_, goal).holds(d_); }
+bool Workcell::holds(const std::vector<PredicateSpec>& goal) const {
+  return GoalEvaluator(m_, scene_, goal).holds(d_);
+}
 
 double Workcell::max_penetration() const {
   double deepest = 0;
@@ -255,7 +262,8 @@ double Workcell::max_penetration() const {
     const int b2 = m_->body_rootid[m_->geom_bodyid[d_->contact[i].geom2]];
     auto scene_entity = [&](int root) {
       return std::find(ids_->object_body.begin(), ids_->object_body.end(), root) != ids_->object_body.end() ||
-             std::find(ids_->fixture_body.begin(), ids_->fixture_body.end(), root) != ids_->fixture_body.end();
+             std::find(ids_->fixture_body.begin(), ids_->fixture_body.end(), root) !=
+                 ids_->fixture_body.end();
     };
     if (scene_entity(b1) || scene_entity(b2)) deepest = std::max(deepest, -d_->contact[i].dist);
   }
@@ -391,7 +399,9 @@ void Workcell::restore(const PhysicsState& s) {
   put(s.qfrc_applied, d_->qfrc_applied);
   put(s.xfrc_applied, d_->xfrc_applied);
   put(s.userdata, d_->userdata);
-  if (osc_) osc_->set_orientation_goal(Eigen::Quaterniond(s.userdata[0], s.userdata[1], s.userdata[2], s.userdata[3]));
+  if (osc_)
+    osc_->set_orientation_goal(
+        Eigen::Quaterniond(s.userdata[0], s.userdata[1], s.userdata[2], s.userdata[3]));
   mj_forward(m_, d_);
   ended_ = s;
 }

@@ -25,4 +25,9 @@ using BodyPair = std::pair<std::string, std::string>;
 /// The pairs of `m`'s bodies that can never touch, by body name, in body order.
 std::vector<BodyPair> never_touching(const mjModel_* m);
 
+/// The same for the model the MJCF document `xml` compiles to (std::runtime_error naming `origin` when
+/// MuJoCo rejects it), remembered by the document's hash for the life of the process: a probe or an
+/// episode that builds a scene again compiles it once, not twice.
+std::vector<BodyPair> never_touching(const std::string& xml, const std::string& origin);
+
 }  // namespace dh::sim
