@@ -77,9 +77,10 @@ int main(int argc, char** argv) {
   for (int k = 0; k < steps; ++k) {
     // A sweep in front of the arm, down and up, turning, the jaw opening and closing.
     const double t = k * 0.05;
-    const std::array<double, 7> a{
-        0.6 * std::sin(0.7 * t), 0.6 * std::cos(0.5 * t),           0.5 * std::sin(0.9 * t), 0, 0,
-        0.3 * std::sin(0.3 * t), std::sin(0.4 * t) > 0 ? 1.0 : -1.0};
+    // clang-format off
+    const std::array<double, 7> a{0.6 * std::sin(0.7 * t), 0.6 * std::cos(0.5 * t), 0.5 * std::sin(0.9 * t),
+                                  0, 0, 0.3 * std::sin(0.3 * t), std::sin(0.4 * t) > 0 ? 1.0 : -1.0};
+    // clang-format on
     bare_step(m, bare.get(), m, cell.data(), own);
     bare_step(unfiltered.get(), bare_unfiltered.get(), m, cell.data(), without_exclusions);
     bare_step(hand_only.get(), bare_hand.get(), m, cell.data(), hand);
