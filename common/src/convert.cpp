@@ -220,3 +220,4 @@ static_assert(static_cast<int>(dh::msg::FAILURE_PERCEPTION_LOST) == static_cast<
 static_assert(static_cast<int>(dh::msg::SEAM_REJECTED_CHANNEL) == static_cast<int>(dh::SeamEventKind::RejectedChannel));
 static_assert(static_cast<int>(dh::msg::SEAM_SAFETY_HOLD) == static_cast<int>(dh::SeamEventKind::SafetyHold));
 static_assert(static_cast<int>(dh::msg::SEAM_SPEED_LIMITED) == static_cast<int>(dh::SeamEventKind::SpeedLimited));
+static_assert(static_cast<int>(dh::msg::SEAM_ENDED) == static_cast<int>(dh::SeamEventKind::Ended));

@@ -145,6 +145,18 @@ TEST_F(RobotAdapter, AProtectiveStopEndsTheEpisodeWithItsReason) {
   ASSERT_TRUE(
       itest::wait_until(m, cv, 10s, [&] { return idle() && status->last_episode_id() == "ur-pstop"; }));
   EXPECT_NE(status->last_error().find("protective stop"), std::string::npos) << status->last_error();
+  {
+    // The governor hears it as a code on the seam's topic, with the same reason.
+    std::unique_lock l(m);
+    ASSERT_TRUE(cv.wait_for(l, 5s, [&] {
+      return std::any_of(events.begin(), events.end(),
+                         [](const msg::SeamEvent& e) { return e.kind() == msg::SEAM_ENDED; });
+    }));
+    const auto e = std::find_if(events.begin(), events.end(),
+                                [](const msg::SeamEvent& e) { return e.kind() == msg::SEAM_ENDED; });
+    EXPECT_EQ(e->reason(), status->last_error());
+    EXPECT_EQ(e->episode_id(), "ur-pstop");
+  }
   std::this_thread::sleep_for(300ms);  // the stop's deceleration
   EXPECT_LT(peak_over(500ms), 1e-3);
 }

@@ -148,10 +148,12 @@ class GovernorBinding {
     const auto& v = s.msg;
     core_->on_verdict(v.channel(), v.episode_id(), v.step(), v.predicate(), v.value());
   }
-  void on(const Sample<port::SeamEvent>& s, Context&) {
+  void on(const Sample<port::SeamEvent>& s, Context& ctx) {
     const auto& e = s.msg;
-    core_->on_seam_event(e.channel(), e.episode_id(),
-                         {e.step(), e.command_id(), static_cast<SeamEventKind>(e.kind()), e.reason(), {}});
+    carry_out(ctx, core_->on_seam_event(
+                       e.channel(), e.episode_id(),
+                       {e.step(), e.command_id(), static_cast<SeamEventKind>(e.kind()), e.reason(), {}},
+                       gov::Clock::now()));
   }
   void on(const Sample<port::SceneEstimate>& s, Context& ctx) {
     carry_out(ctx, core_->on_scene_estimate(s.msg.channel(), convert::from_msg(s.msg), gov::Clock::now()));

@@ -212,8 +212,11 @@ void GovernorCore::on_verdict(std::uint32_t channel, const std::string& episode,
   if (auto* m = running(channel, episode)) m->on_verdict(step, predicate, value);
 }
 
-void GovernorCore::on_seam_event(std::uint32_t channel, const std::string& episode, const SeamEvent& e) {
-  if (auto* m = running(channel, episode)) m->on_seam_event(e);
+CoreEffects GovernorCore::on_seam_event(std::uint32_t channel, const std::string& episode, const SeamEvent& e,
+                                        Clock::time_point now) {
+  CoreEffects out;
+  if (auto* m = running(channel, episode)) emit(channel, m->on_seam_event(e), now, out);
+  return out;
 }
 
 void GovernorCore::on_announce(const CapabilityInfo& info) { registry_.announce(info); }

@@ -354,8 +354,10 @@ void EpisodeMachine::on_verdict(std::uint32_t step, const std::string& predicate
   evidence_.append("sim_worker", "verdict_event", {{"step", step}, {"predicate", predicate}, {"value", value}});
 }
 
-void EpisodeMachine::on_seam_event(const SeamEvent& e) {
+Effects EpisodeMachine::on_seam_event(const SeamEvent& e) {
   evidence_.append("seam", to_string(e.kind), {{"step", e.step}, {"command_id", e.command_id}, {"reason", e.reason}});
+  if (e.kind != SeamEventKind::Ended || phase_ == Phase::Ended) return {};
+  return end(false, Outcome::Infrastructure, "the robot seam ended the episode: " + e.reason);
 }
 
 void EpisodeMachine::take_progress(std::uint32_t step, bool through) {

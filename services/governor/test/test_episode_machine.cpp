@@ -10,6 +10,12 @@ using namespace std::chrono_literals;
 
 using Machine = test::MachineTest;
 
+namespace {
+bool nothing(const Effects& fx) {
+  return !fx.plan_request && !fx.command && !fx.lease && !fx.cancel_command && !fx.end;
+}
+}  // namespace
+
 TEST_F(Machine, PlansGroundsDispatchesRenewsAndEndsOnTheLatchedVerdict) {
   Effects fx = m->on_observation(test::scene_observation(0), t0);
   ASSERT_TRUE(fx.plan_request);
@@ -88,6 +94,28 @@ TEST_F(Machine, NoFirstObservationIsAnInfrastructureFailure) {
   const Effects fx = m->on_tick(t0 + config.first_observation_timeout + 1ms);
   ASSERT_TRUE(fx.end);
   EXPECT_EQ(fx.end->outcome, Outcome::Infrastructure);
+}
+
+TEST_F(Machine, TheSeamEndingTheEpisodeEndsItAtOnceWithTheSeamsReason) {
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  m->on_status({"ep/c0", "pick_place@a", CommandState::Accepted, "", "", 0, 0, 0}, t0);
+  m->on_observation(test::scene_observation(3), t0);
+  EXPECT_TRUE(nothing(m->on_seam_event({3, "ep/c0", SeamEventKind::SafetyHold, "wrist at 2.1 rad/s", {}})))
+      << "a hold is recorded, and the command goes on";
+  fx = m->on_seam_event(
+      {3, "ep/c0", SeamEventKind::Ended, "the cell failed at step 3: the arm was stopped", {}});
+  ASSERT_TRUE(fx.end) << "no wait for the step-stall deadline";
+  EXPECT_EQ(fx.end->outcome, Outcome::Infrastructure);
+  EXPECT_EQ(fx.end->steps, 3u);
+  EXPECT_NE(fx.end->reason.find("the cell failed at step 3: the arm was stopped"), std::string::npos)
+      << fx.end->reason;
+  EXPECT_EQ(fx.cancel_command, "ep/c0");
+  EXPECT_TRUE(nothing(m->on_seam_event({3, "ep/c0", SeamEventKind::Ended, "again", {}})))
+      << "an ended episode does not end twice";
+  const auto k = kinds();
+  EXPECT_EQ(std::count(k.begin(), k.end(), "seam_ended"), 2);
+  EXPECT_EQ(std::count(k.begin(), k.end(), "episode_end"), 1);
 }
 
 TEST_F(Machine, ACompletionReportedBeforeItsObservationWaitsForIt) {

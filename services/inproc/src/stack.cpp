@@ -165,20 +165,25 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
 
   bool fresh = !ep.governor_saw_obs;  // the seam stepped: its observation is new to every core
   std::function<void(cap::HostEffects)> from_host;
-  // The seam's effects: its refusals, corrections and verdict changes go to the governor (over DDS they are
-  // the seam and verdict topics); a new step is seen next round.
+  std::function<void(gov::CoreEffects)> from_governor;
+  // The seam's effects: its refusals, corrections, end and verdict changes go to the governor (over DDS they
+  // are the seam and verdict topics); a new step is seen next round.
   const auto deliver = [&](const sim::SeamEffects& sx) {
-    for (const auto& e : sx.events) governor_.on_seam_event(kChannel, episode_id, e);
+    for (const auto& e : sx.events) from_governor(governor_.on_seam_event(kChannel, episode_id, e, now));
     if (sx.verdict)
       governor_.on_verdict(kChannel, episode_id, sx.verdict->step, sx.verdict->predicate, sx.verdict->value);
-    if (sx.ended) throw std::runtime_error("episode " + episode_id + ": " + *sx.ended);
+    if (sx.ended) {
+      if (!end)
+        throw std::logic_error("episode " + episode_id + " goes on after its seam ended it: " + *sx.ended);
+      return;
+    }
     if (!sx.observation) return;
     obs = *sx.observation;
     now += std::chrono::milliseconds(50);
     fresh = true;
   };
   // Routes the governor's effects the way the DDS shells carry them, at once (one control step).
-  std::function<void(gov::CoreEffects)> from_governor = [&](gov::CoreEffects effects) {
+  from_governor = [&](gov::CoreEffects effects) {
     for (const gov::ChannelEffects& e : effects) {
       if (e.episode_id != episode_id) continue;
       const gov::Effects& fx = e.fx;

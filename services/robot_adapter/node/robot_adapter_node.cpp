@@ -73,6 +73,11 @@ class AdapterBinding {
         ->check(CLI::PositiveNumber);
     app.add_option("--output-hz", cell_.output_hz, "the RTDE output rate (Hz)")
         ->check(CLI::Range(50.0, 500.0));
+    app.add_option(
+           "--timeout-ms", timeout_ms_,
+           "how long the controller may stay silent in an exchange before the link counts as lost (a UR "
+           "streams every 2 to 20 ms; a test double on a loaded host may pause longer)")
+        ->check(CLI::Range(10u, 10000u));
     app.add_option("--lease-grace-ms", grace_ms_,
                    "wall time an action of a command without a lease waits for one");
     app.add_option("--abandon-after-s", abandon_after_s_,
@@ -102,6 +107,7 @@ class AdapterBinding {
       cell_.limits.workspace_min[i] = ws_min_[i];
       cell_.limits.workspace_max[i] = ws_max_[i];
     }
+    cell_.timeout = std::chrono::milliseconds(timeout_ms_);
     cell_.base_xyz = {base_[0], base_[1], base_[2]};
     cell_.base_yaw = base_[3];
     if (!gripper_.empty()) cell_.gripper = {gripper_[0], gripper_[1], gripper_[2], gripper_[3]};
@@ -235,6 +241,7 @@ class AdapterBinding {
   std::vector<double> base_{0, 0, 0, 0}, ws_min_{-1, -1, -1}, ws_max_{1, 1, 1};
   std::vector<double> gripper_;  ///< --gripper; empty: RtdeCellConfig's (the 2F-85's)
   unsigned grace_ms_ = 1000, abandon_after_s_ = 60;
+  unsigned timeout_ms_ = static_cast<unsigned>(rtde::RtdeCellConfig{}.timeout.count());
   std::optional<sim::SeamCore> core_;
   std::optional<rtde::RtdeCell> arm_;
   std::string last_episode_, last_error_;

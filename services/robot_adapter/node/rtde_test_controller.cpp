@@ -15,7 +15,10 @@
 // robot_adapter --entities reads (cell_entities.hpp): what a calibration measures on a real cell.
 // --verdict-out FILE keeps there whether the task's goal holds in the controller's world, the oracle a
 // real cell lacks, for the dry run to set beside the perceived verdict: a JSON object (goal, holds,
-// time_s) rewritten whenever the value changes and at exit.
+// time_s) rewritten whenever the value changes and at exit. --protective-stop-after-s S is a drill: the
+// arm takes a protective stop S s (its clock) after the first servo target an adapter applied.
+#include <mujoco/mujoco.h>
+
 #include <CLI/CLI.hpp>
 #include <cstdlib>
 #include <fstream>
@@ -24,8 +27,6 @@
 #include <memory>
 #include <optional>
 #include <thread>
-
-#include <mujoco/mujoco.h>
 
 #include "dh/common/dds.hpp"
 #include "dh/common/event_queue.hpp"
@@ -38,6 +39,7 @@
 #include "dh/msg/cameraPubSubTypes.h"
 #include "dh/rtde/cell_entities.hpp"
 #include "dh/rtde/oracle_verdict.hpp"
+#include "dh/rtde/servo_program.hpp"
 #include "dh/rtde/simulated_ur.hpp"
 #include "dh/sim/camera.hpp"
 #include "dh/sim/model.hpp"
@@ -125,6 +127,7 @@ int run(int argc, char** argv) {
   std::string cell, robot = "ur7e", entities_out, verdict_out;
   unsigned task = 0, channel = 0;
   std::uint64_t seed = 0;
+  double stop_after_s = 0;
   app.add_option("--port", port, "RTDE port on 127.0.0.1");
   app.add_option("--script-port", script_port, "the secondary interface's stand-in on 127.0.0.1");
   app.add_option("--gripper-port", gripper_port, "the Robotiq URCap server's stand-in on 127.0.0.1");
@@ -139,6 +142,10 @@ int run(int argc, char** argv) {
                  "write the scene's fixtures, parts and regions for robot_adapter --entities (with --cell)");
   app.add_option("--verdict-out", verdict_out,
                  "keep whether the task's goal holds in the controller's world in this JSON file (with --cell)");
+  app.add_option("--protective-stop-after-s", stop_after_s,
+                 "a drill: a protective stop this long (controller time) after the first servo target an "
+                 "adapter applied")
+      ->check(CLI::PositiveNumber);
   CLI11_PARSE(app, argc, argv);
   if (!verdict_out.empty() && cell.empty()) {
     std::cerr << "--verdict-out needs --cell: the goal is the cell's task's\n";
@@ -202,10 +209,21 @@ int run(int argc, char** argv) {
               "double, not a robot)",
               controller->port(), controller->script_port(), controller->gripper_port());
     auto next_log = std::chrono::steady_clock::now() + std::chrono::seconds(1);
+    std::optional<double> first_target_s;  ///< controller time of the first applied target (the drill's)
     while (!shutdown_requested()) {
       if (auto r = requests.pop(std::chrono::milliseconds(100))) {
         frames->write(rig->frame(r->camera(), r->request_id()));
         log->debug("frame of camera {} sent for request '{}'", r->camera(), r->request_id());
+      }
+      if (stop_after_s > 0 && controller->with_arm([&](rtde::SimulatedUr& a) {
+            if (!first_target_s && std::get<std::int32_t>(a.output(rtde::ServoProgram::kAppliedRegister)) > 0)
+              first_target_s = a.time();
+            if (!first_target_s || a.time() < *first_target_s + stop_after_s) return false;
+            a.protective_stop();
+            return true;
+          })) {
+        log->info("drill: protective stop {} s after the first servo target", stop_after_s);
+        stop_after_s = 0;
       }
       if (verdict && controller->with_arm([&](rtde::SimulatedUr& a) { return verdict->judge(a); })) verdict->write();
       if (std::chrono::steady_clock::now() < next_log) continue;

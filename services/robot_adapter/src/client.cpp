@@ -93,9 +93,13 @@ std::vector<Value> Client::receive(const Recipe& outputs, std::chrono::milliseco
 
 std::vector<Value> Client::receive_latest(const Recipe& outputs, std::chrono::milliseconds timeout) {
   std::vector<Value> v = receive(outputs, timeout);
-  boost::system::error_code ec;
-  while (reader_.buffered() > 0 || io_->socket.available(ec) > 0) v = receive(outputs, timeout);
+  while (unread()) v = receive(outputs, timeout);
   return v;
+}
+
+bool Client::unread() {
+  boost::system::error_code ec;
+  return reader_.buffered() > 0 || io_->socket.available(ec) > 0;
 }
 
 void Client::send(const Recipe& inputs, const std::vector<Value>& values, std::chrono::milliseconds timeout) {
@@ -115,6 +119,10 @@ Package Client::exchange(const Package& request, const char* step, std::chrono::
     if (p.type != PackageType::DataPackage)
       fail(std::string(step) + ": a " + to_string(p.type) + " package where " + to_string(request.type) +
            " was expected");
+    // Past the deadline only what came before it is read: outputs stream on, but the reply is late.
+    if (left.count() <= 0 && !unread())
+      fail(std::string(step) + ": no answer from the controller within " + std::to_string(timeout.count()) +
+           " ms");
   }
 }
 
@@ -142,9 +150,6 @@ Package Client::next(const char* step, std::chrono::milliseconds timeout) {
     const auto left =
         std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now());
     if (!connected()) fail(std::string(step) + ": not connected");
-    if (left.count() <= 0)
-      fail(std::string(step) + ": no answer from the controller within " + std::to_string(timeout.count()) +
-           " ms");
     std::array<std::uint8_t, 4096> buffer;
     std::size_t got = 0;
     boost::system::error_code ec;
@@ -152,7 +157,7 @@ Package Client::next(const char* step, std::chrono::milliseconds timeout) {
       ec = e;
       got = n;
     });
-    if (!io_->run(left))
+    if (!io_->run(std::max(left, std::chrono::milliseconds(0))))
       fail(std::string(step) + ": no answer from the controller within " + std::to_string(timeout.count()) +
            " ms");
     if (ec) fail(std::string(step) + ": the controller closed the connection (" + ec.message() + ")");

@@ -17,10 +17,14 @@ struct DeadlineSocket {
   boost::asio::ip::tcp::socket socket{context};
 
   /// Runs the operation started before it until it completes or `timeout` passes; on timeout the socket
-  /// is closed (the operation then completes with an error) and false is returned.
+  /// is closed (the operation then completes with an error) and false is returned. The deadline is
+  /// declared only after a last look that finds nothing: a caller descheduled past its deadline on a
+  /// loaded host finds what came meanwhile (run_for does not look once its deadline has passed).
   bool run(std::chrono::milliseconds timeout) {
     context.restart();
     context.run_for(timeout);
+    if (context.stopped()) return true;
+    context.poll();
     if (context.stopped()) return true;
     boost::system::error_code ignored;
     socket.close(ignored);

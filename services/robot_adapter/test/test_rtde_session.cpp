@@ -1,6 +1,7 @@
 // A client and the test controller in one RTDE session over loopback TCP: the handshake, recipes (a
 // refused field named), outputs streamed at the recipe's frequency, inputs reaching the controller; and
-// a controller that stops answering, drops the link or is not there ends the call with the step named.
+// a controller that stops answering, drops the link or is not there ends the call with the step named, and
+// only after what came before the deadline is read.
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -111,6 +112,24 @@ TEST_F(Session, AControllerThatStopsAnsweringOrDropsTheLinkEndsTheCallWithItsSte
     ADD_FAILURE() << "a dropped link kept delivering";
   } catch (const ClientError& e) {
     EXPECT_NE(std::string(e.what()).find("closed the connection"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(Session, ACallerPastItsDeadlineReadsWhatCameMeanwhileBeforeCallingItLost) {
+  client.connect("127.0.0.1", controller.port(), 2s);
+  const Recipe out = client.setup_outputs(250, {"timestamp"}, 1s);
+  client.start(1s);
+  client.receive(out, 1s);
+  std::this_thread::sleep_for(50ms);  // outputs come in while nobody reads
+  // A zero timeout is a caller that woke after its deadline: what is in the socket is still read.
+  EXPECT_NO_THROW(client.receive(out, 0ms));
+  controller.set_silent(true);
+  std::this_thread::sleep_for(50ms);
+  try {
+    for (int i = 0; i < 1000; ++i) client.receive(out, 0ms);  // what came before the silence, then none
+    ADD_FAILURE() << "a silent controller kept sending";
+  } catch (const ClientError& e) {
+    EXPECT_NE(std::string(e.what()).find("receive: no answer"), std::string::npos) << e.what();
   }
 }
 

@@ -291,9 +291,7 @@ class Channel {
   void publish(const sim::SeamEffects& fx) {
     for (const auto& e : fx.events) {
       ctx_.write<port::SeamEvent>(sim::to_msg(e, id_, core_.episode_id()));
-      if (e.kind != SeamEventKind::SafetyHold && e.kind != SeamEventKind::WorkspaceClamp &&
-          e.kind != SeamEventKind::ActionClamped && e.kind != SeamEventKind::SpeedLimited)
-        log_.info("channel={} step={} action refused: {}", id_, e.step, e.reason);
+      if (is_refusal(e.kind)) log_.info("channel={} step={} action refused: {}", id_, e.step, e.reason);
     }
     if (fx.verdict) {
       msg::Verdict v;

@@ -152,11 +152,11 @@ SeamEffects SeamCore::on_tick(SeamClock::time_point now) {
   if (!running()) return {};
   if (now - last_sign_of_life_ >= settings_.abandon_after) {
     SeamEffects fx;
-    fx.ended =
-        "no lease, request or applied action for " +
-        std::to_string(std::chrono::duration_cast<std::chrono::seconds>(settings_.abandon_after).count()) +
-        " s (governor gone?); episode abandoned at step " + std::to_string(step_);
-    end();
+    ended_by_seam(fx,
+                  "no lease, request or applied action for " +
+                      std::to_string(
+                          std::chrono::duration_cast<std::chrono::seconds>(settings_.abandon_after).count()) +
+                      " s (governor gone?); episode abandoned at step " + std::to_string(step_));
     return fx;
   }
   return admit(now);
@@ -185,9 +185,9 @@ SeamEffects SeamCore::admit(SeamClock::time_point now) {
       corrections = cell_->step(applied.a);
     } catch (const std::exception& e) {
       // The cell cannot go on (MuJoCo's contact buffer overflowed, the controller stopped the arm): the
-      // episode is lost; the governor's stalled-step deadline ends it and the channel says why.
-      fx.ended = "the cell failed at step " + std::to_string(step_) + ": " + e.what();
-      end();
+      // episode is lost, and the governor hears why from the seam's event.
+      ended_by_seam(fx, "the cell failed at step " + std::to_string(step_) + ": " + e.what(),
+                    applied.command_id);
       return fx;
     }
     physics_s_ += std::chrono::duration<double>(SeamClock::now() - t0).count();
@@ -200,6 +200,12 @@ SeamEffects SeamCore::admit(SeamClock::time_point now) {
     it = pending_.begin();
   }
   return fx;
+}
+
+void SeamCore::ended_by_seam(SeamEffects& fx, std::string why, std::string command_id) {
+  fx.events.push_back({step_, std::move(command_id), SeamEventKind::Ended, why, {}});
+  fx.ended = std::move(why);
+  end();
 }
 
 void SeamCore::observe(SeamEffects& fx, const ActionIn* applied) {

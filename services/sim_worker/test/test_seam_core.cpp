@@ -220,9 +220,47 @@ TEST_F(SeamCoreTest, NothingForTheAbandonPeriodAbandonsTheEpisode) {
   const auto fx = seam.on_tick(t0 + 60s);
   ASSERT_TRUE(fx.ended);
   EXPECT_NE(fx.ended->find("abandoned at step 0"), std::string::npos);
+  ASSERT_EQ(fx.events.size(), 1u);
+  EXPECT_EQ(fx.events[0].kind, SeamEventKind::Ended) << "the governor hears it as a code";
+  EXPECT_EQ(fx.events[0].reason, *fx.ended);
   EXPECT_FALSE(seam.running());
   EXPECT_EQ(seam.episode_id(), "ep") << "the last episode is still named";
   EXPECT_TRUE(refused(act("c0", 0, t0 + 61s), "c0", SeamEventKind::RejectedCommand));
+}
+
+/// The workcell, until its step `fail_at`: there it throws as MuJoCo's overflowing contact buffer or a
+/// controller that stopped the arm does.
+class FailingCell : public sim::SeamCell {
+ public:
+  FailingCell(sim::SeamCell& inner, int fail_at) : inner_(inner), left_(fail_at) {}
+  std::vector<sim::StepEvent> step(const std::array<double, 7>& action) override {
+    if (left_-- == 0) throw std::runtime_error("the controller reports protective stop");
+    return inner_.step(action);
+  }
+  Observation observe() const override { return inner_.observe(); }
+
+ private:
+  sim::SeamCell& inner_;
+  int left_;
+};
+
+TEST_F(SeamCoreTest, ACellThatCannotGoOnEndsTheEpisodeWithItsReasonAsAnEvent) {
+  FailingCell failing(*cell, 2);
+  cell->reset(21, *goal);
+  seam.start(failing, "ep", 300, "goal", t0);
+  lease("c0", 10, t0);
+  ASSERT_TRUE(act("c0", 0, t0).observation);
+  ASSERT_TRUE(act("c0", 1, t0 + 50ms).observation);
+  const auto fx = act("c0", 2, t0 + 100ms);
+  EXPECT_FALSE(fx.observation);
+  ASSERT_TRUE(fx.ended);
+  EXPECT_EQ(*fx.ended, "the cell failed at step 2: the controller reports protective stop");
+  ASSERT_EQ(fx.events.size(), 1u);
+  EXPECT_EQ(fx.events[0].kind, SeamEventKind::Ended);
+  EXPECT_EQ(fx.events[0].command_id, "c0") << "the command whose action the cell could not apply";
+  EXPECT_EQ(fx.events[0].step, 2u);
+  EXPECT_EQ(fx.events[0].reason, *fx.ended);
+  EXPECT_FALSE(seam.running());
 }
 
 TEST(WorkerPorts, MatchTheServiceReadme) {

@@ -74,7 +74,8 @@ class GovernorCore {
   CoreEffects on_scene_estimate(std::uint32_t channel, const SceneEstimate& e, Clock::time_point now);
   void on_verdict(std::uint32_t channel, const std::string& episode, std::uint32_t step,
                   const std::string& predicate, bool value);
-  void on_seam_event(std::uint32_t channel, const std::string& episode, const SeamEvent& e);
+  CoreEffects on_seam_event(std::uint32_t channel, const std::string& episode, const SeamEvent& e,
+                            Clock::time_point now);
 
   /// An instance announced itself (again): it is alive, and draining if it says so.
   void on_announce(const CapabilityInfo& info);

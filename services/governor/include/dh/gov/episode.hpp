@@ -149,7 +149,9 @@ class EpisodeMachine {
   /// The perception service's latest estimates for this episode (kept only under perception grounding);
   /// a step waiting for a fresh estimate is grounded with it.
   Effects on_scene_estimate(const SceneEstimate& estimate, Clock::time_point now);
-  void on_seam_event(const SeamEvent& e);
+  /// The seam's refusals and corrections go to the evidence; an Ended event (the cell failed, or the seam
+  /// gave the episode up) ends it as infrastructure with the seam's reason, without waiting for a deadline.
+  Effects on_seam_event(const SeamEvent& e);
   /// When the wait in progress (planner, acknowledgement, next observation, ...) runs out: on_tick at or
   /// after it acts. The in-process bus advances its clock to it when nothing else can happen.
   Clock::time_point deadline() const { return deadline_; }

@@ -53,6 +53,8 @@ class Client {
   /// The next package that is not a text message; ClientError (closing) on timeout or a closed link.
   Package next(const char* step, std::chrono::milliseconds timeout);
   void write(const Package& p, const char* step, std::chrono::milliseconds timeout);
+  /// Whether bytes came that are not read yet (in the package reader or the socket).
+  bool unread();
   /// Sends `request` and returns the reply of its type, all within `timeout`.
   Package exchange(const Package& request, const char* step, std::chrono::milliseconds timeout);
   /// The accepted flag of the reply to `request`.

@@ -68,7 +68,8 @@ struct SeamEffects {
   std::vector<SeamEvent> events;
   std::optional<VerdictChange> verdict;     ///< the task predicate changed at `observation`
   std::optional<Observation> observation;   ///< a new step: the episode started or an action was applied
-  std::optional<std::string> ended;         ///< the seam ended the episode itself (physics failed, abandoned)
+  std::optional<std::string> ended;  ///< the seam ended the episode itself (physics failed, abandoned);
+                                     ///< an Ended event in `events` says so to the governor
 };
 
 class SeamCore {
@@ -125,6 +126,8 @@ class SeamCore {
   SeamEffects admit(SeamClock::time_point now);
   /// The new step's observation (and verdict change), logged with the action that led to it.
   void observe(SeamEffects& fx, const ActionIn* applied);
+  /// The seam ends the episode itself: `why` as `ended` and as an Ended event (what the governor reads).
+  void ended_by_seam(SeamEffects& fx, std::string why, std::string command_id = {});
 
   std::uint32_t channel_;
   SeamSettings settings_;
