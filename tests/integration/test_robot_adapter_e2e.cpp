@@ -26,10 +26,11 @@ constexpr std::array<double, 6> kReady{0, -1.3, 1.6, -1.87, -1.5708, 0};
 struct RobotAdapter : ::testing::Test {
   itest::IsolatedEnv env;
   rtde::SimulatedController arm{paths::config_dir() / "robots" / "ur7e.urdf", kReady};
+  // The test double shares a loaded host (CI runs two tests at once): 2 s for its silence, not 500 ms.
   cli::Deployment adapter{
-      {itest::service("robot_adapter",
-                      {"--rtde-port", std::to_string(arm.port()), "--script-port",
-                       std::to_string(arm.script_port()), "--channel", "0", "--abandon-after-s", "3"})},
+      {itest::service("robot_adapter", {"--rtde-port", std::to_string(arm.port()), "--script-port",
+                                        std::to_string(arm.script_port()), "--channel", "0",
+                                        "--abandon-after-s", "3", "--timeout-ms", "2000"})},
       paths::bin_dir(),
       env.runs / "logs"};
   dds::Participant p{"itest"};
