@@ -63,9 +63,8 @@ int main(int argc, char** argv) {
   const dh::sim::SceneSpec scene = dh::sim::load_scene(file);
   dh::sim::Workcell cell(scene);
   const mjModel* m = cell.model();
-  std::vector<dh::sim::Placement> nominal;
-  for (const auto& e : scene.entities) nominal.push_back({e.name, e.nominal_xy[0], e.nominal_xy[1], e.yaw});
-  const dh::sim::ModelPtr unfiltered = dh::sim::compile_model(dh::sim::scene_mjcf(scene, nominal), file);
+  const dh::sim::ModelPtr unfiltered =
+      dh::sim::compile_model(dh::sim::scene_mjcf(scene, dh::sim::nominal_placements(scene)), file);
   const dh::sim::ModelPtr hand_only(mj_copyModel(nullptr, m));
   for (int g = 0; g < hand_only->ngeom; ++g)
     if (hand_only->geom_contype[g] == 2) hand_only->geom_contype[g] = 0;  // the arm links (robot_model.cpp)

@@ -257,6 +257,12 @@ std::string task_scene_key(const TaskDef& task, std::uint64_t seed, const std::s
          (robot.empty() ? "" : "|robot " + robot);
 }
 
+std::vector<Placement> nominal_placements(const SceneSpec& scene) {
+  std::vector<Placement> nominal;
+  for (const auto& e : scene.entities) nominal.push_back({e.name, e.nominal_xy[0], e.nominal_xy[1], e.yaw});
+  return nominal;
+}
+
 std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t seed) {
   std::mt19937_64 rng(seed * 0x9E3779B97F4A7C15ULL + 1);
   constexpr double kClearance = 0.015;

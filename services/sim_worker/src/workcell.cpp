@@ -52,8 +52,7 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
   // The envelope: the paper's 2 rad/s, never above any joint's own URDF limit.
   for (const auto& j : scene_.robot.arm) limits_.joint_speed = std::min(limits_.joint_speed, j.velocity);
 
-  std::vector<Placement> nominal;
-  for (const auto& e : scene_.entities) nominal.push_back({e.name, e.nominal_xy[0], e.nominal_xy[1], e.yaw});
+  const std::vector<Placement> nominal = nominal_placements(scene_);
   // The bodies that can never touch are read off the model without exclusions (compiled the first time
   // this process builds the scene) and left out of the workcell's collision detection.
   const std::string all_pairs = scene_mjcf(scene_, nominal);

@@ -123,6 +123,10 @@ inline constexpr double kPosMinReach = 0.24, kPosMaxReach = 0.75;
 /// and clear of the table's regions. Throws std::runtime_error when no placement is found.
 std::vector<Placement> sample_placements(const SceneSpec& scene, std::uint64_t seed);
 
+/// Every entity at its nominal place and yaw: what the workcell's model is compiled with (a reset moves
+/// the free objects to their seed's placements).
+std::vector<Placement> nominal_placements(const SceneSpec& scene);
+
 /// The complete MJCF document of the workcell with entities at `placements`, with the cameras
 /// "agentview" and "wrist" (camera.hpp) and the scene's extra `cameras`, which do not touch the physics.
 /// `exclude`: body pairs left out of collision detection (never_touching in contact_exclusion.hpp).
