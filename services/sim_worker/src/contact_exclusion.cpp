@@ -123,7 +123,7 @@ std::vector<BodyPair> never_touching(const mjModel* m) {
   return out;
 }
 
-std::vector<BodyPair> never_touching(const std::string& xml, const std::string& origin) {
+std::vector<BodyPair> never_touching(const std::string& xml, const std::string& origin, ModelPtr* compiled) {
   static std::mutex mutex;
   static std::map<std::pair<std::uint64_t, std::size_t>, std::vector<BodyPair>> known;
   const std::pair key(fnv1a64(xml.data(), xml.size()), xml.size());
@@ -131,7 +131,9 @@ std::vector<BodyPair> never_touching(const std::string& xml, const std::string& 
     std::lock_guard lock(mutex);
     if (const auto k = known.find(key); k != known.end()) return k->second;
   }
-  std::vector<BodyPair> pairs = never_touching(compile_model(xml, origin).get());
+  ModelPtr m = compile_model(xml, origin);
+  std::vector<BodyPair> pairs = never_touching(m.get());
+  if (compiled) *compiled = std::move(m);
   std::lock_guard lock(mutex);
   return known.emplace(key, std::move(pairs)).first->second;
 }

@@ -54,11 +54,16 @@ Workcell::Workcell(SceneSpec scene) : scene_(std::move(scene)) {
 
   const std::vector<Placement> nominal = nominal_placements(scene_);
   // The bodies that can never touch are read off the model without exclusions (compiled the first time
-  // this process builds the scene) and left out of the workcell's collision detection.
+  // this process builds the scene, and then the workcell's own when there are none) and left out of the
+  // workcell's collision detection.
   const std::string all_pairs = scene_mjcf(scene_, nominal);
-  const std::vector<BodyPair> exclude = never_touching(all_pairs, scene_.file.string());
-  m_ = compile_model(exclude.empty() ? all_pairs : scene_mjcf(scene_, nominal, exclude), scene_.file.string())
-           .release();
+  ModelPtr model;
+  const std::vector<BodyPair> exclude = never_touching(all_pairs, scene_.file.string(), &model);
+  if (!exclude.empty())
+    model = compile_model(scene_mjcf(scene_, nominal, exclude), scene_.file.string());
+  else if (!model)
+    model = compile_model(all_pairs, scene_.file.string());
+  m_ = model.release();
   d_ = mj_makeData(m_);
   // The hash is of the model without the RGB-D cameras a simulator worker adds (configs/cameras.yaml):
   // they render, they do not move anything, and an in-process run has none.

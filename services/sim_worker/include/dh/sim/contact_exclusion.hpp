@@ -16,7 +16,7 @@
 #include <utility>
 #include <vector>
 
-struct mjModel_;
+#include "dh/sim/model.hpp"
 
 namespace dh::sim {
 
@@ -27,7 +27,9 @@ std::vector<BodyPair> never_touching(const mjModel_* m);
 
 /// The same for the model the MJCF document `xml` compiles to (std::runtime_error naming `origin` when
 /// MuJoCo rejects it), remembered by the document's hash for the life of the process: a probe or an
-/// episode that builds a scene again compiles it once, not twice.
-std::vector<BodyPair> never_touching(const std::string& xml, const std::string& origin);
+/// episode that builds a scene again compiles it once, not twice. The first time, the model compiled
+/// is handed to `compiled` when one is given, for a caller that needs that same model.
+std::vector<BodyPair> never_touching(const std::string& xml, const std::string& origin,
+                                     ModelPtr* compiled = nullptr);
 
 }  // namespace dh::sim
