@@ -60,6 +60,7 @@ Observation from_msg(const msg::Observation& m) {
   o.contact_right = m.contact_right();
   o.gripper = {m.gripper().pad_below_tcp(), m.gripper().pad_half_width(), m.gripper().pad_thickness(),
                m.gripper().hand_above_tcp()};
+  std::copy_n(m.base_p().begin(), 3, o.base_p.begin());
   std::copy_n(m.q().begin(), 7, o.q.begin());
   std::copy_n(m.dq().begin(), 7, o.dq.begin());
   o.entities = from_msg(m.entities());
@@ -83,6 +84,7 @@ msg::Observation to_msg(const Observation& o, std::uint32_t channel, const std::
   m.gripper().pad_half_width(o.gripper.pad_half_width);
   m.gripper().pad_thickness(o.gripper.pad_thickness);
   m.gripper().hand_above_tcp(o.gripper.hand_above_tcp);
+  std::copy_n(o.base_p.begin(), 3, m.base_p().begin());
   std::copy_n(o.q.begin(), 7, m.q().begin());
   std::copy_n(o.dq.begin(), 7, m.dq().begin());
   m.entities(to_msg(o.entities));

@@ -35,6 +35,7 @@ json observation_state(const Observation& o) {
           {"ee_q", o.ee_q},
           {"gripper_opening", o.gripper_opening},
           {"contacts", {o.contact_left, o.contact_right}},
+          {"base_p", o.base_p},
           {"q", o.q},
           {"dq", o.dq},
           {"entities", o.entities},
@@ -51,6 +52,7 @@ Observation observation_from(const json& j) {
   o.gripper_opening = j.at("gripper_opening");
   o.contact_left = j.at("contacts").at(0);
   o.contact_right = j.at("contacts").at(1);
+  o.base_p = j.at("base_p");
   o.q = j.at("q");
   o.dq = j.at("dq");
   o.entities = j.at("entities").get<std::vector<EntityState>>();

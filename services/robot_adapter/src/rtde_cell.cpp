@@ -276,6 +276,7 @@ Observation RtdeCell::observe() const {
     o.gripper_opening = state_.gripper_closed ? 0.0 : config_.gripper_stroke_m;
   }
   o.gripper = config_.gripper;
+  o.base_p = config_.base_xyz;
   o.entities = config_.entities;
   return o;
 }

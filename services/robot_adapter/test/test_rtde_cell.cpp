@@ -139,6 +139,7 @@ TEST_F(Cell, ABaseTurnedInTheWorldMovesTheToolInTheWorldFrame) {
   EXPECT_NEAR(start.ee_p[0], 0.4 - tcp[1], 1e-9);
   EXPECT_NEAR(start.ee_p[1], -0.1 + tcp[0], 1e-9);
   EXPECT_NEAR(start.ee_p[2], 0.02 + tcp[2], 1e-9);
+  EXPECT_EQ(start.base_p, c.base_xyz) << "the observation says where the base stands";
   for (int i = 0; i < 8; ++i) cell.step({0.6, 0, 0, 0, 0, 0, -1});
   const Observation end = cell.observe();
   EXPECT_NEAR(end.ee_p[0] - start.ee_p[0], 8 * 0.6 * 0.05 * 0.2655, 0.02) << "world +x";

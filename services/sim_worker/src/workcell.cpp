@@ -290,6 +290,7 @@ Observation Workcell::observe() const {
   std::copy(p, p + 3, o.ee_p.begin());
   o.ee_q = tcp_quat(d_);
   o.gripper = scene_.gripper;
+  o.base_p = scene_.robot_base;
   for (int a : ids_->finger_qpos) o.gripper_opening += d_->qpos[a];
   for (std::size_t i = 0; i < ids_->arm; ++i) {  // a 6-joint arm leaves the seventh 0
     o.q[i] = d_->qpos[ids_->arm_qpos[i]];

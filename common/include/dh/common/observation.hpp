@@ -36,6 +36,7 @@ struct Observation {
   double gripper_opening = 0;
   bool contact_left = false, contact_right = false;
   robot::Gripper gripper;  ///< the jaw's shape, as the arm's robot profile declares it
+  std::array<double, 3> base_p{};  ///< where the arm's base stands (world, m): what a skill judges reach from
   std::array<double, 7> q{}, dq{};
   std::vector<EntityState> entities;
   bool goal_holds = false;  ///< the benchmark predicate at this step

@@ -59,12 +59,14 @@ ParamTable PickPlaceParams::table(bool grasp_only) {
   if (grasp_only)
     return ParamTable("pick_place (grasp only: regrasp, reseat)",
                       {{"approach_height", &approach_height}, {"corridor_clearance", &corridor_clearance},
-                       {"rim_grasp_depth", &rim_grasp_depth}, {"approach_steps", &approach_steps},
+                       {"rim_grasp_depth", &rim_grasp_depth}, {"lean_angle", &lean_angle},
+                       {"lean_within", &lean_within}, {"approach_steps", &approach_steps},
                        {"descent_steps", &descent_steps}, {"close_steps", &close_steps}});
   return ParamTable("pick_place", {{"approach_height", &approach_height}, {"corridor_height", &corridor_height},
                                    {"corridor_clearance", &corridor_clearance}, {"rim_grasp_depth", &rim_grasp_depth},
                                    {"place_clearance", &place_clearance}, {"max_speed", &max_speed},
                                    {"cavity_clearance", &cavity_clearance}, {"cavity_ceiling", &cavity_ceiling},
+                                   {"lean_angle", &lean_angle}, {"lean_within", &lean_within},
                                    {"retreat_height", &retreat_height}, {"approach_steps", &approach_steps},
                                    {"descent_steps", &descent_steps}, {"close_steps", &close_steps},
                                    {"lift_steps", &lift_steps}, {"carry_min_steps", &carry_min_steps},
@@ -147,15 +149,37 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
     const double obj_yaw = geo::tool_yaw(geo::quat(o.q));
     const bool narrow_x = o.half_extents[0] <= o.half_extents[1];
     yaw = narrow_x ? obj_yaw + std::numbers::pi / 2 : obj_yaw;
-    // A round body (a bottle) is held across any diameter: keep the wrist where it is.
-    if (std::abs(o.half_extents[0] - o.half_extents[1]) < 1e-3) yaw = ee_yaw;
+    // A round body (a bottle) is held across any diameter: keep the wrist where it is, or near the base
+    // close across the way to it, so that the whole lean goes towards the base.
+    const Eigen::Vector2d from_base(c.x() - obs.base_p[0], c.y() - obs.base_p[1]);
+    if (std::abs(o.half_extents[0] - o.half_extents[1]) < 1e-3)
+      yaw = leans(from_base) ? std::atan2(from_base.y(), from_base.x()) : ee_yaw;
     grasp_ = {c.x(), c.y(), o.p[2] + grasp_above_bottom(o, obs.gripper)};
   }
   // The jaw is symmetric: of yaw and yaw+π take the one closer to the tool's current yaw.
   if (std::abs(geo::wrap(yaw - ee_yaw)) > std::numbers::pi / 2) yaw += std::numbers::pi;
   grasp_q_ = geo::top_down(geo::wrap(yaw));
+  if (!has_rim(o))
+    grasp_q_ = lean(grasp_q_, Eigen::Vector2d(grasp_.x() - obs.base_p[0], grasp_.y() - obs.base_p[1]));
   // Already in the jaw (a regrasp just took it): go on from the lift.
   enter(!grasp_only_ && obs.in_jaw(o) ? Stage::Lift : Stage::Approach, obs);
+}
+
+bool PickPlaceSkill::leans(const Eigen::Vector2d& from_base) const {
+  return p_.lean_angle > 0 && from_base.norm() < p_.lean_within;
+}
+
+Eigen::Quaterniond PickPlaceSkill::lean(const Eigen::Quaterniond& q, const Eigen::Vector2d& from_base) const {
+  // Near its base a vertical hand cannot come down: the wrist would have to fold in over the base. Turned
+  // about the jaw's closing axis (tool y), the tool axis leans towards the base and the wrist moves away
+  // from it by its distance from the tool centre times sin(lean_angle); the pads' planes stay as they were.
+  if (!leans(from_base)) return q;
+  const Eigen::Vector3d closing = q * Eigen::Vector3d::UnitY();
+  for (const double a : {p_.lean_angle, -p_.lean_angle}) {
+    const Eigen::Quaterniond leant = Eigen::Quaterniond(Eigen::AngleAxisd(a, closing)) * q;
+    if ((leant * Eigen::Vector3d::UnitZ()).head<2>().dot(from_base) <= 0) return leant;
+  }
+  return q;  // unreachable: one of the two turns points the tool axis towards the base or across it
 }
 
 const char* PickPlaceSkill::stage_name(Stage s) {

@@ -6,6 +6,7 @@
 
 #include "dh/cap/descriptor.hpp"
 #include "dh/cap/library.hpp"
+#include "dh/common/geometry.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/inproc/bus.hpp"
 #include "dh/sim/scene.hpp"
@@ -133,6 +134,36 @@ TEST_F(SkillsPhysics, APlateIsCarriedByItsRim) {
   const TaskDef& t = task("goal", 5);
   const auto r = run(t, 22, "pick_place", {{"object", "plate"}, {"target", "stove_front_region"}});
   EXPECT_TRUE(r.goal) << r.stage << ": " << r.reason;
+}
+
+TEST_F(SkillsPhysics, ABottleByTheBaseIsTakenWithTheHandLeaningTowardsTheBase) {
+  // goal-swap 9 stands the wine bottle 20 cm in front of the Panda's base, where a vertical hand cannot
+  // come down to its neck: the wrist would have to fold in over the base.
+  const TaskDef& t = task("goal-swap", 9);
+  const cap::Bindings args{{"object", "wine_bottle"}, {"target", "wine_rack_top_region"}};
+  for (int seed = 1; seed <= 4; ++seed) {
+    cell(t).reset(seed, t.goal);
+    const Observation start = cell(t).observe();
+    const EntityState& bottle = *start.entity("wine_bottle");
+    const Eigen::Vector2d from_base(bottle.p[0] - start.base_p[0], bottle.p[1] - start.base_p[1]);
+    ASSERT_LT(from_base.norm(), 0.25) << "seed " << seed;
+    // The tool's axis when the jaw first holds the bottle.
+    std::optional<Eigen::Vector3d> axis;
+    inproc::CommandRunner runner(cell(t), *host, t.budget_steps);
+    runner.begin_episode("goal-swap/9/" + std::to_string(seed) + "/" + std::to_string(++episodes));
+    runner.after_step = [&](std::uint32_t) {
+      const Observation o = cell(t).observe();
+      if (!axis && o.holding()) axis = geo::quat(o.ee_q) * Eigen::Vector3d::UnitZ();
+    };
+    const auto leant = runner.run("pick_place", args, library.at("pick_place"), t.budget_steps);
+    EXPECT_TRUE(leant.goal) << "seed " << seed << ": " << leant.stage << ": " << leant.reason;
+    // It held the bottle leaning lean_angle off vertical, towards the base.
+    ASSERT_TRUE(axis) << "seed " << seed;
+    EXPECT_NEAR(std::acos(-axis->z()), library.at("pick_place").at("lean_angle"), 0.05) << "seed " << seed;
+    EXPECT_LT(axis->head<2>().dot(from_base), 0) << "seed " << seed;
+    const auto upright = run(t, seed, "pick_place", args, {{"lean_angle", 0.0}});
+    EXPECT_FALSE(upright.goal) << "seed " << seed << ": a vertical hand took the bottle by the base";
+  }
 }
 
 TEST_F(SkillsPhysics, PushRefusesWhatIsWiderThanTheJawAndPushesWithARevisedTheta) {

@@ -1,10 +1,11 @@
 // Analytic pick-and-place from observed geometry: approach, guarded descent, close, lift, carry over a
 // corridor that clears everything on the way, lower, release, retreat (about 230 steps; the paper's
 // Table 8). Rims (bowls, plates, mugs) are pinched at the point nearest the tool, boxes and bottles across
-// their narrow side. The place point is the target's centre, or a free slot of a receptacle that holds
-// something already, so two objects in one basket each get a place. Into a cavity (a region with a
-// ceiling: a microwave) the object goes in level through the opening and the hand backs out the same way.
-// Started with the object already in the jaw (after a regrasp), it goes on from the lift.
+// their narrow side; near the arm's base the hand leans towards it (lean_angle). The place point is the
+// target's centre, or a free slot of a receptacle that holds something already, so two objects in one basket
+// each get a place. Into a cavity (a region with a ceiling: a microwave) the object goes in level through the
+// opening and the hand backs out the same way. Started with the object already in the jaw (after a regrasp),
+// it goes on from the lift.
 #pragma once
 
 #include "dh/cap/motion.hpp"
@@ -22,6 +23,8 @@ struct PickPlaceParams {
   double max_speed;           ///< m/s of the tool at the fastest
   double cavity_clearance;    ///< m between object bottom and a cavity's floor at release
   double cavity_ceiling;      ///< m of a cavity's ceiling below its fixture's top (assumed thickness)
+  double lean_angle;          ///< rad the tool axis leans towards the arm's base for a grasp near it
+  double lean_within;         ///< m from the arm's base (horizontally) within which a grasp leans
   double retreat_height;
   double approach_steps, descent_steps, close_steps, lift_steps, carry_min_steps, carry_max_steps,
       lower_steps, release_steps, retreat_steps;
@@ -57,6 +60,10 @@ class PickPlaceSkill : public Skill {
   Eigen::Vector2d place_xy(const Observation& obs) const;
   Eigen::Vector2d entry_xy() const;  ///< in front of a cavity's opening, where the object slides in from
   double grasp_above_bottom(const EntityState& o, const robot::Gripper& g) const;
+  /// Whether a grasp `from_base` (m, horizontally) from the arm's base leans, and the hand's orientation
+  /// `q` leant (lean_angle, towards the base about the jaw's closing axis) when it does.
+  bool leans(const Eigen::Vector2d& from_base) const;
+  Eigen::Quaterniond lean(const Eigen::Quaterniond& q, const Eigen::Vector2d& from_base) const;
   double corridor_z(const Observation& obs, const Eigen::Vector2d& to) const;
 
   PickPlaceParams p_;
