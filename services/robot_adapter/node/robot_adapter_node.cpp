@@ -214,7 +214,8 @@ class AdapterBinding {
   void publish(Context& ctx, const sim::SeamEffects& fx) {
     for (const auto& e : fx.events) {
       ctx.write<port::SeamEvent>(sim::to_msg(e, channel_, core_->episode_id()));
-      ctx.log.info("channel={} step={} {}", channel_, e.step, e.reason);
+      // The seam's end is logged once, as the episode's end below.
+      if (e.kind != SeamEventKind::Ended) ctx.log.info("channel={} step={} {}", channel_, e.step, e.reason);
     }
     if (fx.observation)
       ctx.write<port::Observation>(convert::to_msg(*fx.observation, channel_, core_->episode_id()));

@@ -129,6 +129,7 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
   const Eigen::Vector3d c = geo::vec(o.p);
   const Eigen::Vector3d ee = geo::vec(obs.ee_p);
   const double ee_yaw = geo::tool_yaw(geo::quat(obs.ee_q));
+  const Eigen::Vector2d from_base(c.x() - obs.base_p[0], c.y() - obs.base_p[1]);
   double yaw;
   if (has_rim(o)) {
     // Pinch the rim at the point nearest the tool; the jaw closes across the wall (radially). A mug's
@@ -151,7 +152,6 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
     yaw = narrow_x ? obj_yaw + std::numbers::pi / 2 : obj_yaw;
     // A round body (a bottle) is held across any diameter: keep the wrist where it is, or near the base
     // close across the way to it, so that the whole lean goes towards the base.
-    const Eigen::Vector2d from_base(c.x() - obs.base_p[0], c.y() - obs.base_p[1]);
     if (std::abs(o.half_extents[0] - o.half_extents[1]) < 1e-3)
       yaw = leans(from_base) ? std::atan2(from_base.y(), from_base.x()) : ee_yaw;
     grasp_ = {c.x(), c.y(), o.p[2] + grasp_above_bottom(o, obs.gripper)};
@@ -159,8 +159,7 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
   // The jaw is symmetric: of yaw and yaw+π take the one closer to the tool's current yaw.
   if (std::abs(geo::wrap(yaw - ee_yaw)) > std::numbers::pi / 2) yaw += std::numbers::pi;
   grasp_q_ = geo::top_down(geo::wrap(yaw));
-  if (!has_rim(o))
-    grasp_q_ = lean(grasp_q_, Eigen::Vector2d(grasp_.x() - obs.base_p[0], grasp_.y() - obs.base_p[1]));
+  if (!has_rim(o)) grasp_q_ = lean(grasp_q_, from_base);  // a rim's pinch stays vertical
   // Already in the jaw (a regrasp just took it): go on from the lift.
   enter(!grasp_only_ && obs.in_jaw(o) ? Stage::Lift : Stage::Approach, obs);
 }
@@ -175,11 +174,10 @@ Eigen::Quaterniond PickPlaceSkill::lean(const Eigen::Quaterniond& q, const Eigen
   // from it by its distance from the tool centre times sin(lean_angle); the pads' planes stay as they were.
   if (!leans(from_base)) return q;
   const Eigen::Vector3d closing = q * Eigen::Vector3d::UnitY();
-  for (const double a : {p_.lean_angle, -p_.lean_angle}) {
-    const Eigen::Quaterniond leant = Eigen::Quaterniond(Eigen::AngleAxisd(a, closing)) * q;
-    if ((leant * Eigen::Vector3d::UnitZ()).head<2>().dot(from_base) <= 0) return leant;
-  }
-  return q;  // unreachable: one of the two turns points the tool axis towards the base or across it
+  const Eigen::Quaterniond leant = Eigen::Quaterniond(Eigen::AngleAxisd(p_.lean_angle, closing)) * q;
+  // Of the two turns, the one whose tool axis points towards the base.
+  if ((leant * Eigen::Vector3d::UnitZ()).head<2>().dot(from_base) <= 0) return leant;
+  return Eigen::Quaterniond(Eigen::AngleAxisd(-p_.lean_angle, closing)) * q;
 }
 
 const char* PickPlaceSkill::stage_name(Stage s) {
