@@ -208,6 +208,30 @@ TEST_F(SkillsPhysics, SlideDrawerOpensAndCloses) {
   EXPECT_EQ(a.reason, "already in the asked state");
 }
 
+TEST_F(SkillsPhysics, AWristAtItsLimitTurnsTheHandTheOtherWayAndTakesTheButter) {
+  // long-task 2: turning the knob on leaves joint 7 near its limit, so the approach to the butter in the
+  // yaw nearest the wrist's stops 5-6 cm short. The hand goes again turned by π, which the jaw's symmetry
+  // allows, and takes the butter to the stove.
+  const TaskDef& t = task("long-task", 2);
+  for (int seed : {7, 9}) {
+    const auto knob = run(t, seed, "turn_knob", {{"knob", "stove_knob"}, {"state", "on"}});
+    ASSERT_EQ(knob.state, CommandState::Completed) << "seed " << seed << ": " << knob.reason;
+    const double start_yaw = geo::tool_yaw(geo::quat(cell(t).observe().ee_q));
+    std::optional<double> held_yaw;
+    runners[sim::task_scene_key(t, 0)]->after_step = [&](std::uint32_t) {
+      const Observation o = cell(t).observe();
+      if (!held_yaw && o.holding()) held_yaw = geo::tool_yaw(geo::quat(o.ee_q));
+    };
+    const auto r =
+        run(t, seed, "pick_place", {{"object", "butter"}, {"target", "stove_cook_region"}}, {}, false);
+    runners[sim::task_scene_key(t, 0)]->after_step = nullptr;
+    EXPECT_TRUE(r.goal) << "seed " << seed << ": " << r.stage << ": " << r.reason;
+    ASSERT_TRUE(held_yaw) << "seed " << seed;
+    EXPECT_GT(std::abs(geo::wrap(*held_yaw - start_yaw)), std::numbers::pi / 2)
+        << "seed " << seed << ": the butter was taken in the yaw nearest the wrist's";
+  }
+}
+
 TEST_F(SkillsPhysics, TurnKnobTurnsTheStoveOn) {
   const TaskDef& t = task("goal", 7);
   const auto r = run(t, 1, "turn_knob", {{"knob", "stove_knob"}, {"state", "on"}});

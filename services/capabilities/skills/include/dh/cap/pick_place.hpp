@@ -79,6 +79,7 @@ class PickPlaceSkill : public Skill {
   double object_z0_ = 0;
   std::optional<Cavity> cavity_;  ///< the target is the inside of a fixture with a ceiling (a microwave)
   bool grasp_only_ = false;
+  bool turned_back_ = false;  ///< the approach was tried again with the hand turned by π
   double cavity_radius_ = 0;
 };
 
