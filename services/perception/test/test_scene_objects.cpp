@@ -34,9 +34,9 @@ TEST(SceneObjects, TheGoalKitchensFreeObjectsWithTheirColoursAndSizes) {
     EXPECT_EQ(std::find(names.begin(), names.end(), fixture), names.end()) << fixture << " is the cell's layout";
   const auto bowl = std::find_if(objects.begin(), objects.end(), [](const auto& o) { return o.appearance.entity == "bowl"; });
   ASSERT_NE(bowl, objects.end());
-  // configs/assets/bowl.yaml: a wall ring of outer radius 0.065 m reaching 0.05 m up; colour 0.1 grey.
-  EXPECT_NEAR(bowl->size.x(), 0.13, 1e-9);
-  EXPECT_NEAR(bowl->size.y(), 0.13, 1e-9);
+  // configs/assets/bowl.yaml: a wall ring of outer radius 0.0535 m reaching 0.05 m up; colour 0.1 grey.
+  EXPECT_NEAR(bowl->size.x(), 0.107, 1e-9);
+  EXPECT_NEAR(bowl->size.y(), 0.107, 1e-9);
   EXPECT_NEAR(bowl->size.z(), 0.05, 1e-9);
   EXPECT_EQ(bowl->appearance.rgb.front(), cv::Vec3b(26, 26, 26));
   EXPECT_GT(bowl->appearance.max_area_px, 1000);
