@@ -14,8 +14,34 @@ namespace {
 /// the physics tests end within 9 mm.
 constexpr double kApproachMissM = 0.03;
 
+/// Room a held box keeps from each side of a region it is turned to fit (m).
+constexpr double kFitMarginM = 0.005;
+
 bool inside_xy(const EntityState& e, const Eigen::Vector2d& xy, double margin) {
   return std::abs(xy.x() - e.p[0]) < e.half_extents[0] + margin && std::abs(xy.y() - e.p[1]) < e.half_extents[1] + margin;
+}
+
+/// The turn about the vertical (rad, at most a quarter turn) that lines the box `o` up with the region
+/// `t` when its footprint does not fit the region at its present yaw but does lined up (a book and a
+/// caddy's compartment); 0 when it fits as it is, or in no way.
+double fitting_turn(const EntityState& o, const EntityState& t) {
+  if (t.kind != "region") return 0;
+  const double a = o.half_extents[0], b = o.half_extents[1];
+  const auto fits = [&](double yaw) {
+    const double c = std::abs(std::cos(yaw)), s = std::abs(std::sin(yaw));
+    return a * c + b * s <= t.half_extents[0] - kFitMarginM &&
+           a * s + b * c <= t.half_extents[1] - kFitMarginM;
+  };
+  const double yaw = geo::wrap(geo::tool_yaw(geo::quat(o.q)) - geo::tool_yaw(geo::quat(t.q)));
+  if (fits(yaw)) return 0;
+  std::optional<double> best;
+  for (int k = -2; k <= 2; ++k) {
+    const double turn = geo::wrap(k * std::numbers::pi / 2 - yaw);
+    if (std::abs(turn) <= std::numbers::pi / 2 + 1e-9 && fits(yaw + turn) &&
+        (!best || std::abs(turn) < std::abs(*best)))
+      best = turn;
+  }
+  return best.value_or(0);
 }
 }  // namespace
 
@@ -289,12 +315,21 @@ void PickPlaceSkill::enter(Stage s, const Observation& obs) {
       grasp_offset_ = {ee.x() - o.p[0], ee.y() - o.p[1]};
       grasp_height_ = ee.z() - o.p[2];
       place_ = place_xy(obs);
+      // A rim or a round body fits any way round; a box may need turning on the way (in the carry).
+      place_turn_ = has_rim(o) || cavity_ || std::abs(o.half_extents[0] - o.half_extents[1]) < 1e-3
+                        ? 0
+                        : fitting_turn(o, *obs.entity(target_));
       cavity_radius_ = std::max(o.half_extents[0], o.half_extents[1]);
-      const double z = corridor_z(obs, (cavity_ ? entry_xy() : place_) + grasp_offset_);
+      const double z =
+          corridor_z(obs, (cavity_ ? entry_xy() : place_) + Eigen::Rotation2Dd(place_turn_) * grasp_offset_);
       m_.go(obs, {ee.x(), ee.y(), z + grasp_height_}, grasp_q_, steps(p_.lift_steps * std::max(1.0, z / p_.corridor_height)));
       break;
     }
     case Stage::Carry: {
+      // The held object turns with the hand about the vertical through the tool centre, and so does its
+      // offset from the tool.
+      grasp_q_ = Eigen::AngleAxisd(place_turn_, Eigen::Vector3d::UnitZ()) * grasp_q_;
+      grasp_offset_ = Eigen::Rotation2Dd(place_turn_) * grasp_offset_;
       // Into a cavity: to the point in front of its opening the object will slide in from.
       const Eigen::Vector2d over = cavity_ ? entry_xy() : place_;
       const Eigen::Vector3d to(over.x() + grasp_offset_.x(), over.y() + grasp_offset_.y(), ee.z());

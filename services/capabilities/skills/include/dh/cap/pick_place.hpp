@@ -75,6 +75,7 @@ class PickPlaceSkill : public Skill {
   Eigen::Quaterniond grasp_q_;          ///< tool orientation at the grasp
   Eigen::Vector2d grasp_offset_{0, 0};  ///< tool xy minus object xy, measured after the close
   Eigen::Vector2d place_{0, 0};         ///< object xy at the release
+  double place_turn_ = 0;               ///< rad the hand turns the object about the vertical in the carry
   double grasp_height_ = 0;             ///< tool z minus object z, measured after the close
   double object_z0_ = 0;
   std::optional<Cavity> cavity_;  ///< the target is the inside of a fixture with a ceiling (a microwave)
