@@ -232,8 +232,11 @@ Eigen::Vector2d PickPlaceSkill::place_xy(const Observation& obs) const {
   const EntityState& o = *obs.entity(object_);
   const Eigen::Vector2d centre(t.p[0], t.p[1]);
   // A body's room on the table: a rim's radius, a handled pot's body, else the box's larger half side.
-  const double r = has_rim(o) || o.kind == "moka_pot" ? std::min(o.half_extents[0], o.half_extents[1])
-                                                     : std::max(o.half_extents[0], o.half_extents[1]);
+  const auto room = [](const EntityState& e) {
+    return has_rim(e) || e.kind == "moka_pot" ? std::min(e.half_extents[0], e.half_extents[1])
+                                              : std::max(e.half_extents[0], e.half_extents[1]);
+  };
+  const double r = room(o);
   const double fx = std::max(0.0, t.half_extents[0] - r - 0.005), fy = std::max(0.0, t.half_extents[1] - r - 0.005);
   auto handle = [](const EntityState& e) { return e.kind == "drawer" || e.kind == "door"; };
   // What fits through a ring's hole (the post it goes over) is not in its way: it passes inside.
@@ -241,11 +244,18 @@ Eigen::Vector2d PickPlaceSkill::place_xy(const Observation& obs) const {
   auto through_hole = [&](const EntityState& e) { return std::max(e.half_extents[0], e.half_extents[1]) < hole; };
   // Objects already resting in or on the target take their room; the slots are the centre and the
   // eight points half a free width away from it.
-  std::vector<Eigen::Vector2d> occupants;
+  std::vector<const EntityState*> occupants;
   for (const auto& e : obs.entities)
     if (e.name != object_ && e.name != target_ && !part_or_region(e) && e.half_extents[0] < t.half_extents[0] &&
         inside_xy(t, {e.p[0], e.p[1]}, 0) && e.p[2] >= t.p[2] - t.half_extents[2] - 0.01)
-      occupants.emplace_back(e.p[0], e.p[1]);
+      occupants.push_back(&e);
+  const auto at = [](const EntityState* q) { return Eigen::Vector2d(q->p[0], q->p[1]); };
+  // How far a slot's body stays from the nearest occupant's (negative: they overlap).
+  const auto clearance = [&](const Eigen::Vector2d& c) {
+    double gap = 1e9;
+    for (const auto* q : occupants) gap = std::min(gap, (c - at(q)).norm() - room(*q) - r);
+    return gap;
+  };
   Eigen::Vector2d best = centre;
   double best_gap = -1;
   if (!occupants.empty())
@@ -253,12 +263,22 @@ Eigen::Vector2d PickPlaceSkill::place_xy(const Observation& obs) const {
       for (int j = -1; j <= 1; ++j) {
         const Eigen::Vector2d c = centre + Eigen::Vector2d(i * fx, j * fy);
         double gap = 1e9;
-        for (const auto& q : occupants) gap = std::min(gap, (c - q).norm());
+        for (const auto* q : occupants) gap = std::min(gap, (c - at(q)).norm());
         if (gap > best_gap + 1e-6) {
           best_gap = gap;
           best = c;
         }
       }
+  // On a surface (a thin region: a burner) too small for both bodies inside it, the object may overhang
+  // its edge with its centre 1 cm inside (the On predicate reads the centre), when no inner slot is clear.
+  if (!occupants.empty() && t.kind == "region" && t.half_extents[2] <= 0.02 && clearance(best) < 0) {
+    const double ex = std::max(0.0, t.half_extents[0] - 0.01), ey = std::max(0.0, t.half_extents[1] - 0.01);
+    for (int i = -1; i <= 1; ++i)
+      for (int j = -1; j <= 1; ++j) {
+        const Eigen::Vector2d c = centre + Eigen::Vector2d(i * ex, j * ey);
+        if (clearance(c) > clearance(best) + 1e-6) best = c;
+      }
+  }
   if (t.kind != "region") return best;
   // A region partly under something taller (a drawer pulled out of its cabinet): the object comes down
   // where nothing stands over it, as far as the region allows.

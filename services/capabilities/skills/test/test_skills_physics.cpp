@@ -255,6 +255,20 @@ TEST_F(SkillsPhysics, ABookAcrossACompartmentIsTurnedToFitIt) {
   EXPECT_GE(turned, 2) << "seeds 1-8 no longer lay the book across the compartment";
 }
 
+TEST_F(SkillsPhysics, TwoMokaPotsShareTheBurner) {
+  // long 8: both moka pots (7.6 cm across) onto the burner's 14 cm square. The first takes its centre;
+  // the second comes down overhanging the burner's edge, clear of the first, its centre inside.
+  const TaskDef& t = task("long", 8);
+  for (int seed = 1; seed <= 8; ++seed) {
+    const auto first =
+        run(t, seed, "pick_place", {{"object", "moka_pot_1"}, {"target", "stove_cook_region"}});
+    ASSERT_EQ(first.state, CommandState::Completed) << "seed " << seed << ": " << first.reason;
+    const auto second =
+        run(t, seed, "pick_place", {{"object", "moka_pot_2"}, {"target", "stove_cook_region"}}, {}, false);
+    EXPECT_TRUE(second.goal) << "seed " << seed << ": " << second.stage << ": " << second.reason;
+  }
+}
+
 TEST_F(SkillsPhysics, TurnKnobTurnsTheStoveOn) {
   const TaskDef& t = task("goal", 7);
   const auto r = run(t, 1, "turn_knob", {{"knob", "stove_knob"}, {"state", "on"}});
