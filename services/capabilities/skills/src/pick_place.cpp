@@ -21,6 +21,9 @@ bool inside_xy(const EntityState& e, const Eigen::Vector2d& xy, double margin) {
   return std::abs(xy.x() - e.p[0]) < e.half_extents[0] + margin && std::abs(xy.y() - e.p[1]) < e.half_extents[1] + margin;
 }
 
+/// A body the jaw holds alike across any diameter (a bottle, a pot): its footprint is square.
+bool round_body(const EntityState& e) { return std::abs(e.half_extents[0] - e.half_extents[1]) < 1e-3; }
+
 /// The turn about the vertical (rad, at most a quarter turn) that lines the box `o` up with the region
 /// `t` when its footprint does not fit the region at its present yaw but does lined up (a book and a
 /// caddy's compartment); 0 when it fits as it is, or in no way.
@@ -182,8 +185,7 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
     yaw = narrow_x ? obj_yaw + std::numbers::pi / 2 : obj_yaw;
     // A round body (a bottle) is held across any diameter: keep the wrist where it is, or near the base
     // close across the way to it, so that the whole lean goes towards the base.
-    if (std::abs(o.half_extents[0] - o.half_extents[1]) < 1e-3)
-      yaw = leans(from_base) ? std::atan2(from_base.y(), from_base.x()) : ee_yaw;
+    if (round_body(o)) yaw = leans(from_base) ? std::atan2(from_base.y(), from_base.x()) : ee_yaw;
     grasp_ = {c.x(), c.y(), o.p[2] + grasp_above_bottom(o, obs.gripper)};
   }
   // The jaw is symmetric: of yaw and yaw+π take the one closer to the tool's current yaw.
@@ -336,9 +338,7 @@ void PickPlaceSkill::enter(Stage s, const Observation& obs) {
       grasp_height_ = ee.z() - o.p[2];
       place_ = place_xy(obs);
       // A rim or a round body fits any way round; a box may need turning on the way (in the carry).
-      place_turn_ = has_rim(o) || cavity_ || std::abs(o.half_extents[0] - o.half_extents[1]) < 1e-3
-                        ? 0
-                        : fitting_turn(o, *obs.entity(target_));
+      place_turn_ = has_rim(o) || cavity_ || round_body(o) ? 0 : fitting_turn(o, *obs.entity(target_));
       cavity_radius_ = std::max(o.half_extents[0], o.half_extents[1]);
       const double z =
           corridor_z(obs, (cavity_ ? entry_xy() : place_) + Eigen::Rotation2Dd(place_turn_) * grasp_offset_);

@@ -234,7 +234,7 @@ TEST_F(SkillsPhysics, AWristAtItsLimitTurnsTheHandTheOtherWayAndTakesTheButter) 
 
 TEST_F(SkillsPhysics, ABookAcrossACompartmentIsTurnedToFitIt) {
   // long 5: the book (6 x 14 cm) into the caddy's back compartment (8.8 cm wide inside). Lying turned by
-  // more than about 0.15 rad it does not fit as it is; the hand turns it in the carry to line it up.
+  // more than about 0.13 rad it does not fit as it is; the hand turns it in the carry to line it up.
   const TaskDef& t = task("long", 5);
   const cap::Bindings args{{"object", "book"}, {"target", "caddy_back_contain_region"}};
   const auto across = [](const Observation& o) {  // |sin| of the book's yaw against the caddy's
