@@ -69,7 +69,11 @@ TEST(Campaign, KilledHalfWayResumesWithoutRerunningAndReports) {
                                         << r.sim_success.value_or(false) << " (goal first held at step "
                                         << r.sim_goal_step << ")";
     // The governor ends at the decision after the goal first held (decisions come every 10 steps).
-    if (r.success && r.sim_success) EXPECT_LE(r.sim_goal_step, static_cast<int>(r.steps)) << r.episode_id;
+    if (r.success && r.sim_success) {
+      EXPECT_LE(r.sim_goal_step, static_cast<int>(r.steps)) << r.episode_id;
+    }
+    EXPECT_TRUE(r.capabilities_missing)
+        << r.episode_id << ": the governor's result says what the arm ran without";
     if (r.cell == "goal" && r.task == 8) {
       EXPECT_TRUE(r.success) << r.episode_id << ": " << r.reason;
     }

@@ -2,6 +2,8 @@
 
 #include <sqlite3.h>
 
+#include <algorithm>
+
 namespace dh::campaign {
 
 namespace {
@@ -36,23 +38,28 @@ CREATE TABLE IF NOT EXISTS attribution (
 )sql";
 
 // Version 4: the simulator's own verdict beside the governor's (NULL: no report came), and the flag
-// when they disagree, on every episode and every lost attempt.
+// when they disagree, on every episode and every lost attempt. Version 5: the capabilities the arm needs
+// that the episode ran without, comma-separated ('' none; NULL unknown: no result, or an older row).
 struct AddedColumn {
   const char* name;
   const char* type;
 };
-constexpr AddedColumn kVerdictColumns[] = {{"sim_success", "INTEGER"},
-                                           {"sim_goal_step", "INTEGER NOT NULL DEFAULT -1"},
-                                           {"sim_goal_at_end", "INTEGER NOT NULL DEFAULT 0"},
-                                           {"verdict_disagrees", "INTEGER NOT NULL DEFAULT 0"}};
+constexpr AddedColumn kAddedColumns[] = {{"sim_success", "INTEGER"},
+                                         {"sim_goal_step", "INTEGER NOT NULL DEFAULT -1"},
+                                         {"sim_goal_at_end", "INTEGER NOT NULL DEFAULT 0"},
+                                         {"verdict_disagrees", "INTEGER NOT NULL DEFAULT 0"},
+                                         {"capabilities_missing", "TEXT"}};
 
-// Column order shared by the insert and read_row(); a file older than version 4 opened read-only reads
-// the verdict columns as unknown.
+// Column order shared by the insert and read_row(); a file older than version 5 opened read-only reads
+// the columns it lacks as unknown.
 #define DH_BASE_COLUMNS                                                                                    \
   "arm, cell, task, seed, success, steps, budget, wall_s, physics_s, outcome, reason, infrastructure, " \
   "tick_limit, evidence_path, episode_id, worker, channel, finished_at, "
-constexpr const char* kColumns = DH_BASE_COLUMNS "sim_success, sim_goal_step, sim_goal_at_end, verdict_disagrees";
-constexpr const char* kColumnsBeforeVerdict = DH_BASE_COLUMNS "NULL, -1, 0, 0";
+constexpr const char* kColumns =
+    DH_BASE_COLUMNS "sim_success, sim_goal_step, sim_goal_at_end, verdict_disagrees, capabilities_missing";
+constexpr const char* kColumnsBeforeMissing =
+    DH_BASE_COLUMNS "sim_success, sim_goal_step, sim_goal_at_end, verdict_disagrees, NULL";
+constexpr const char* kColumnsBeforeVerdict = DH_BASE_COLUMNS "NULL, -1, 0, 0, NULL";
 #undef DH_BASE_COLUMNS
 
 // Clears a reused prepared statement whichever way the call leaves.
@@ -75,6 +82,21 @@ std::string column_text(sqlite3_stmt* s, int i) {
   return p ? std::string(p, static_cast<std::size_t>(sqlite3_column_bytes(s, i))) : std::string();
 }
 unsigned column_uint(sqlite3_stmt* s, int i) { return static_cast<unsigned>(sqlite3_column_int64(s, i)); }
+
+std::vector<std::string> split_names(const std::string& joined) {
+  std::vector<std::string> out;
+  for (std::size_t at = 0; at < joined.size();) {
+    const std::size_t comma = std::min(joined.find(',', at), joined.size());
+    out.push_back(joined.substr(at, comma - at));
+    at = comma + 1;
+  }
+  return out;
+}
+std::string join_names(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ",") + n;
+  return out;
+}
 
 EpisodeRecord read_row(sqlite3_stmt* s) {
   EpisodeRecord r;
@@ -99,6 +121,7 @@ EpisodeRecord read_row(sqlite3_stmt* s) {
   if (sqlite3_column_type(s, 18) != SQLITE_NULL) r.sim_success = sqlite3_column_int(s, 18) != 0;
   r.sim_goal_step = sqlite3_column_int(s, 19);
   r.sim_goal_at_end = sqlite3_column_int(s, 20) != 0;
+  if (sqlite3_column_type(s, 22) != SQLITE_NULL) r.capabilities_missing = split_names(column_text(s, 22));
   return r;
 }
 }  // namespace
@@ -138,7 +161,8 @@ CampaignDb::CampaignDb(std::filesystem::path path, bool read_only) : path_(std::
   // Another process writing the same file holds the lock for one short transaction; wait for it.
   sqlite3_busy_timeout(db_.get(), kBusyTimeoutMs);
   check_or_create_schema(read_only);
-  constexpr const char* kValues = ") VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) ";
+  constexpr const char* kValues =
+      ") VALUES (?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?, ?) ";
   if (!read_only) {
     insert_ = prepare(("INSERT INTO episodes (" + std::string(kColumns) + kValues +
                        "ON CONFLICT (arm, cell, task, seed) DO NOTHING")
@@ -189,7 +213,7 @@ void CampaignDb::check_or_create_schema(bool read_only) {
     exec(kSchema);
     exec(kLossesTable);
     exec(kAttributionTable);
-    add_verdict_columns();
+    add_columns();
     exec(("INSERT INTO meta (key, value) VALUES ('schema_version', '" + std::to_string(kSchemaVersion) + "')")
              .c_str());
   } else {
@@ -202,7 +226,8 @@ void CampaignDb::check_or_create_schema(bool read_only) {
       throw CampaignError(
           path_.string() +
           ": a SQLite database but not a campaign database (no meta.schema_version); give --db another file");
-    const bool known = version == "1" || version == "2" || version == "3" || version == std::to_string(kSchemaVersion);
+    const bool known = version == "1" || version == "2" || version == "3" || version == "4" ||
+                       version == std::to_string(kSchemaVersion);
     if (!known)
       throw CampaignError(path_.string() + ": campaign database schema version " + version +
                           ", this build reads " + std::to_string(kSchemaVersion) +
@@ -210,10 +235,10 @@ void CampaignDb::check_or_create_schema(bool read_only) {
     if (version != std::to_string(kSchemaVersion) && !read_only) {  // older versions lack tables and columns
       if (version == "1") exec(kLossesTable);
       exec(kAttributionTable);
-      add_verdict_columns();
+      add_columns();
       exec(("UPDATE meta SET value = '" + std::to_string(kSchemaVersion) + "' WHERE key = 'schema_version'").c_str());
     } else if (read_only) {
-      verdict_columns_ = version == std::to_string(kSchemaVersion);
+      version_ = std::stoi(version);
     }
   }
   if (read_only) return;
@@ -234,6 +259,10 @@ void bind_record(sqlite3_stmt* s, const EpisodeRecord& r) {
   bind_arg(s, 20, std::int64_t{r.sim_goal_step});
   bind_arg(s, 21, std::int64_t{r.sim_goal_at_end});
   bind_arg(s, 22, std::int64_t{r.verdict_disagrees()});
+  if (r.capabilities_missing)
+    bind_arg(s, 23, join_names(*r.capabilities_missing));
+  else
+    sqlite3_bind_null(s, 23);
   const auto i64 = [](unsigned v) { return static_cast<std::int64_t>(v); };
   bind_arg(s, 1, r.arm);
   bind_arg(s, 2, r.cell);
@@ -322,9 +351,9 @@ std::vector<EpisodeRecord> CampaignDb::losses() const {
   return out;
 }
 
-void CampaignDb::add_verdict_columns() {
+void CampaignDb::add_columns() {
   for (const char* table : {"episodes", "infrastructure_losses"})
-    for (const AddedColumn& c : kVerdictColumns) {
+    for (const AddedColumn& c : kAddedColumns) {
       sqlite3_stmt* probe = nullptr;
       const std::string select = "SELECT " + std::string(c.name) + " FROM " + table + " LIMIT 0";
       const bool present = sqlite3_prepare_v2(db_.get(), select.c_str(), -1, &probe, nullptr) == SQLITE_OK;
@@ -333,7 +362,9 @@ void CampaignDb::add_verdict_columns() {
     }
 }
 
-const char* CampaignDb::columns() const { return verdict_columns_ ? kColumns : kColumnsBeforeVerdict; }
+const char* CampaignDb::columns() const {
+  return version_ >= 5 ? kColumns : version_ == 4 ? kColumnsBeforeMissing : kColumnsBeforeVerdict;
+}
 
 void CampaignDb::run_sql(const char* sql) {
   if (sqlite3_exec(db_.get(), sql, nullptr, nullptr, nullptr) != SQLITE_OK) fail(std::string("cannot run ") + sql);

@@ -84,6 +84,8 @@ void Scheduler::result(const ResultInfo& r, Clock::time_point now) {
   rec.outcome = to_string(r.outcome);
   rec.reason = r.reason;
   rec.evidence_path = r.evidence_path;
+  // A request the governor rejected never started, so nothing ran without anything.
+  if (r.outcome != Outcome::Rejected) rec.capabilities_missing = r.capabilities_missing;
   // "rejected": the governor refused the request itself (unknown arm, busy channel): not the agent's failure.
   rec.infrastructure = lost_to_infrastructure(r.outcome);
   rec.tick_limit = r.outcome == Outcome::BudgetExhausted;

@@ -74,6 +74,7 @@ void expect_same(const EpisodeRecord& a, const EpisodeRecord& b) {
   EXPECT_EQ(a.sim_success, b.sim_success);
   EXPECT_EQ(a.sim_goal_step, b.sim_goal_step);
   EXPECT_EQ(a.sim_goal_at_end, b.sim_goal_at_end);
+  EXPECT_EQ(a.capabilities_missing, b.capabilities_missing);
 }
 
 // The message of the exception `f` throws, or "" when it throws none of type E.
@@ -325,6 +326,39 @@ TEST_F(CampaignDbTest, AVersionThreeFileReadsItsVerdictsAsUnknownAndGainsTheColu
   const auto rows = db.rows();
   ASSERT_EQ(rows.size(), 2u);
   EXPECT_FALSE(rows[0].sim_success.has_value()) << "an episode recorded before version 4 has no verdict";
+  expect_same(rows[1], next);
+}
+
+TEST_F(CampaignDbTest, WhatAnEpisodeRanWithoutIsKeptNoneAndUnknownApart) {
+  auto db = CampaignDb::open(dir / "m.db");
+  EpisodeRecord without_two = sample("full", 1), with_all = sample("full", 2), unknown = sample("full", 3);
+  without_two.capabilities_missing = std::vector<std::string>{"vla_act", "swing_door"};
+  with_all.capabilities_missing = std::vector<std::string>{};
+  for (const auto& r : {without_two, with_all, unknown}) EXPECT_TRUE(db.record(r));
+  const auto rows = db.rows();
+  ASSERT_EQ(rows.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) expect_same(rows[i], std::vector{without_two, with_all, unknown}[i]);
+  EXPECT_EQ(first_value(db.path(), "SELECT capabilities_missing FROM episodes WHERE seed = 1"),
+            "vla_act,swing_door");
+  EXPECT_EQ(first_value(db.path(), "SELECT count(*) FROM episodes WHERE capabilities_missing IS NULL"), "1");
+}
+
+TEST_F(CampaignDbTest, AVersionFourFileReadsWhatItsEpisodesRanWithoutAsUnknown) {
+  const fs::path path = dir / "v4.db";
+  ASSERT_TRUE(make_older(path, "4",
+                         "ALTER TABLE episodes DROP COLUMN capabilities_missing;"
+                         "ALTER TABLE infrastructure_losses DROP COLUMN capabilities_missing;"));
+  const auto old_rows = CampaignDb::read_rows(path);
+  ASSERT_EQ(old_rows.size(), 1u);
+  EXPECT_FALSE(old_rows[0].capabilities_missing.has_value());
+  EXPECT_TRUE(old_rows[0].sim_success.has_value()) << "version 4's verdict columns are read";
+  auto db = CampaignDb::open(path);
+  EpisodeRecord next = sample("full", 8);
+  next.capabilities_missing = std::vector<std::string>{"vla_act"};
+  EXPECT_TRUE(db.record(next));
+  const auto rows = db.rows();
+  ASSERT_EQ(rows.size(), 2u);
+  EXPECT_FALSE(rows[0].capabilities_missing.has_value());
   expect_same(rows[1], next);
 }
 

@@ -41,7 +41,7 @@ TEST(Scheduler, IdleChannelsGetEpisodesInOrderAndResultsBecomeRecords) {
   EXPECT_TRUE(s.assign(t0).empty()) << "both channels are busy";
   EXPECT_EQ(s.pending(), 1u);
 
-  s.result({d[0].episode_id, true, 170, Outcome::Success, "goal holds", "/e/1.jsonl"}, t0 + 3s);
+  s.result({d[0].episode_id, true, 170, Outcome::Success, "goal holds", "/e/1.jsonl", {"vla_act"}}, t0 + 3s);
   EXPECT_TRUE(s.take_finished(t0 + 3s).empty()) << "waits for the channel's physics report";
   s.channel_status(2, "w0", true, d[0].episode_id, 0.42, "", t0, {150, true});
   const auto recs = s.take_finished(t0 + 3s);
@@ -62,6 +62,7 @@ TEST(Scheduler, IdleChannelsGetEpisodesInOrderAndResultsBecomeRecords) {
   EXPECT_EQ(r.sim_goal_step, 150);
   EXPECT_TRUE(r.sim_goal_at_end);
   EXPECT_FALSE(r.verdict_disagrees());
+  EXPECT_EQ(r.capabilities_missing, std::vector<std::string>{"vla_act"}) << "the arm ran without the policy";
 
   const auto d2 = s.assign(t0 + 3s);
   ASSERT_EQ(d2.size(), 1u);
@@ -77,7 +78,7 @@ TEST(Scheduler, AnIdleAnnouncementCrossingTheRequestDoesNotFreeTheChannel) {
   ASSERT_EQ(d.size(), 1u);
   s.channel_status(0, "w", true, "", 0, "", t0);  // sent before the channel saw our request
   EXPECT_TRUE(s.assign(t0).empty());
-  s.result({d[0].episode_id, false, 300, Outcome::BudgetExhausted, "", ""}, t0 + 1s);
+  s.result({d[0].episode_id, false, 300, Outcome::BudgetExhausted, "", "", {}}, t0 + 1s);
   EXPECT_TRUE(s.assign(t0 + 1s).empty()) << "free only once it says it is idle after the episode";
   s.channel_status(0, "w", true, d[0].episode_id, 0.1, "", t0);
   EXPECT_EQ(s.assign(t0 + 1s).size(), 1u);
@@ -93,7 +94,7 @@ TEST(Scheduler, AnIdleAnnouncementArrivingBeforeTheResultFreesTheChannelWithTheR
   const auto d = s.assign(t0);
   s.channel_status(0, "w", true, d[0].episode_id, 0.2, "", t0);  // the result is still on its way
   EXPECT_TRUE(s.assign(t0).empty());
-  s.result({d[0].episode_id, true, 170, Outcome::Success, "", ""}, t0 + 1s);
+  s.result({d[0].episode_id, true, 170, Outcome::Success, "", "", {}}, t0 + 1s);
   EXPECT_EQ(s.assign(t0 + 1s).size(), 1u);
   const auto recs = s.take_finished(t0 + 1s);
   ASSERT_EQ(recs.size(), 1u);
@@ -116,7 +117,7 @@ TEST(Scheduler, AnEpisodeWithoutAResultBeforeItsDeadlineIsAnInfrastructureLoss) 
   EXPECT_EQ(recs[0].outcome, "infrastructure");
   EXPECT_NE(recs[0].reason.find("no result within 40 s on channel 7 (worker w)"), std::string::npos) << recs[0].reason;
   // A late result of the lost episode is ignored; the channel serves again once it says it is idle.
-  s.result({d[0].episode_id, true, 100, Outcome::Success, "", ""}, t0 + 42s);
+  s.result({d[0].episode_id, true, 100, Outcome::Success, "", "", {}}, t0 + 42s);
   EXPECT_TRUE(s.take_finished(t0 + 50s).empty());
   EXPECT_TRUE(s.assign(t0 + 42s).empty());
   s.channel_status(7, "w", true, d[0].episode_id, 0.3, "", t0);
@@ -137,7 +138,7 @@ TEST(Scheduler, AnEpisodeTheSimulatorCannotStartEndsAtOnceWithItsReason) {
   EXPECT_FALSE(recs[0].sim_success.has_value()) << "a channel that could not run it has no verdict on it";
   // The governor still runs it until it misses the observation; it would reject a request for the channel.
   EXPECT_TRUE(s.assign(t0 + 2s).empty()) << "the governor has not ended it yet";
-  s.result({d[0].episode_id, false, 0, Outcome::Infrastructure, "no first observation", ""}, t0 + 16s);
+  s.result({d[0].episode_id, false, 0, Outcome::Infrastructure, "no first observation", "", {}}, t0 + 16s);
   EXPECT_EQ(s.assign(t0 + 16s).size(), 1u) << "the governor's result frees the channel";
 }
 
@@ -153,12 +154,12 @@ TEST(Scheduler, AChannelWhoseEpisodeTheSimulatorEndedWaitsForTheGovernorsResult)
   s.channel_status(0, "w", true, d[0].episode_id, 0, "physics failed at step 242: contact buffer overflowed", t0 + 5s);
   ASSERT_EQ(s.take_losses().size(), 1u) << "the attempt is lost and runs again";
   for (auto t = t0 + 5s; t < t0 + 15s; t += 1s) EXPECT_TRUE(s.assign(t).empty()) << "no request the governor rejects";
-  s.result({d[0].episode_id, false, 242, Outcome::Infrastructure, "no next observation", ""}, t0 + 15s);
+  s.result({d[0].episode_id, false, 242, Outcome::Infrastructure, "no next observation", "", {}}, t0 + 15s);
   const auto again = s.assign(t0 + 15s);
   ASSERT_EQ(again.size(), 1u);
   EXPECT_EQ(to_string(again[0].key), to_string(d[0].key)) << "the lost episode runs again first";
   // Without the governor's result the channel serves again after governor_release (30 s).
-  s.result({again[0].episode_id, true, 100, Outcome::Success, "", ""}, t0 + 20s);
+  s.result({again[0].episode_id, true, 100, Outcome::Success, "", "", {}}, t0 + 20s);
   s.channel_status(0, "w", true, again[0].episode_id, 1.0, "", t0 + 20s);
   const auto third = s.assign(t0 + 20s);
   ASSERT_EQ(third.size(), 1u);
@@ -174,11 +175,12 @@ TEST(Scheduler, ARejectedRequestIsFlaggedAndRecordedElsewhereEpisodesAreSkipped)
   const auto d = s.assign(t0, [](const EpisodeKey& k) { return k.seed == 1; });
   ASSERT_EQ(d.size(), 1u);
   EXPECT_EQ(d[0].key.seed, 2u) << "seed 1 was recorded by another process";
-  s.result({d[0].episode_id, false, 0, Outcome::Rejected, "unknown arm 'x'", ""}, t0);
+  s.result({d[0].episode_id, false, 0, Outcome::Rejected, "unknown arm 'x'", "", {}}, t0);
   s.channel_status(0, "w", true, d[0].episode_id, 0, "", t0);
   const auto recs = s.take_finished(t0);
   ASSERT_EQ(recs.size(), 1u);
   EXPECT_TRUE(recs[0].infrastructure);
+  EXPECT_FALSE(recs[0].capabilities_missing) << "a rejected request ran nothing, without anything or not";
 }
 
 TEST(Scheduler, TwoWorkersAnnouncingOneChannelIdAreAConflict) {
@@ -195,8 +197,8 @@ TEST(Scheduler, AMissingPhysicsReportLeavesPhysicsUnknownAfterTheWait) {
   const auto t0 = Clock::now();
   s.channel_status(0, "w", true, "", 0, "", t0);
   const auto d = s.assign(t0);
-  s.result({d[0].episode_id, true, 50, Outcome::Success, "", ""}, t0);
-  s.result({"someone-elses-episode", true, 50, Outcome::Success, "", ""}, t0);
+  s.result({d[0].episode_id, true, 50, Outcome::Success, "", "", {}}, t0);
+  s.result({"someone-elses-episode", true, 50, Outcome::Success, "", "", {}}, t0);
   EXPECT_TRUE(s.take_finished(t0 + 1s).empty());
   const auto recs = s.take_finished(t0 + 2s);
   ASSERT_EQ(recs.size(), 1u);
@@ -272,7 +274,7 @@ TEST(Scheduler, UnderTheRerunRuleALostAttemptIsKeptAndTheEpisodeRunsAgainFirst) 
   EXPECT_EQ(s.pending(), 2u);
 
   // sim1 finishes; the lost seed 2 goes before seed 3, with a new episode id.
-  s.result({d[0].episode_id, true, 100, Outcome::Success, "", ""}, t0 + 2s);
+  s.result({d[0].episode_id, true, 100, Outcome::Success, "", "", {}}, t0 + 2s);
   s.channel_status(0, "sim1", true, d[0].episode_id, 0.2, "", t0 + 2s);
   const auto next = s.assign(t0 + 2s);
   ASSERT_EQ(next.size(), 1u);
@@ -287,7 +289,7 @@ TEST(Scheduler, UnderTheRerunRuleALostAttemptIsKeptAndTheEpisodeRunsAgainFirst) 
   EXPECT_EQ(recs[1].seed, 2u);
   EXPECT_TRUE(recs[1].infrastructure);
   // A late result of the first attempt changes nothing.
-  s.result({d[1].episode_id, true, 100, Outcome::Success, "", ""}, t0 + 61s);
+  s.result({d[1].episode_id, true, 100, Outcome::Success, "", "", {}}, t0 + 61s);
   EXPECT_TRUE(s.take_finished(t0 + 70s).empty());
 }
 
@@ -296,13 +298,13 @@ TEST(Scheduler, UnderTheRerunRuleAnInfrastructureResultRunsAgainButAnAgentFailur
   const auto t0 = Clock::now();
   s.channel_status(0, "w", true, "", 0, "", t0);
   auto d = s.assign(t0);
-  s.result({d[0].episode_id, false, 0, Outcome::Rejected, "governor busy", ""}, t0);
+  s.result({d[0].episode_id, false, 0, Outcome::Rejected, "governor busy", "", {}}, t0);
   EXPECT_EQ(s.take_losses().size(), 1u);
   s.channel_status(0, "w", true, d[0].episode_id, 0, "", t0);
   d = s.assign(t0);
   ASSERT_EQ(d.size(), 1u);
   EXPECT_EQ(d[0].key.seed, 1u);
-  s.result({d[0].episode_id, false, 300, Outcome::BudgetExhausted, "", ""}, t0 + 1s);
+  s.result({d[0].episode_id, false, 300, Outcome::BudgetExhausted, "", "", {}}, t0 + 1s);
   EXPECT_TRUE(s.take_losses().empty()) << "a failure of the agent is a result, not a loss";
   s.channel_status(0, "w", true, d[0].episode_id, 0.5, "", t0 + 1s);
   const auto recs = s.take_finished(t0 + 1s);

@@ -71,6 +71,10 @@ void print_summary(const nlohmann::json& s) {
     }
     std::cout << "  infrastructure " << row["infrastructure"] << "\n";
   }
+  for (const auto& total : s["arm_totals"])
+    for (const auto& [capability, n] : total["ran_without"].items())
+      std::cout << "  warning: " << total["arm"].get<std::string>() << " ran without " << capability << " in "
+                << n << " of " << total["episodes"] << " episodes (no live instance when they started)\n";
 }
 
 }  // namespace
@@ -177,10 +181,16 @@ std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
     const bool terminal = isatty(STDERR_FILENO);
     auto last_print = Clock::now(), last_activity = Clock::now();
     std::optional<Clock::time_point> first_dispatch;
+    std::set<std::pair<std::string, std::string>> warned;  // (arm, capability) said once on stderr
     auto record = [&](const std::vector<EpisodeRecord>& records) {
       bool any = false;
       for (const auto& rec : records)
         if (db.record(rec)) {
+          for (const auto& c : rec.capabilities_missing.value_or(std::vector<std::string>{}))
+            if (!a.json && warned.emplace(rec.arm, c).second)
+              std::cerr << "\nwarning: arm " << rec.arm << " runs without " << c
+                        << ": no live instance when episode " << rec.episode_id
+                        << " started (the report counts every such episode)\n";
           progress.finished(rec.success && !rec.infrastructure, rec.infrastructure);
           tally[{rec.arm, rec.cell}].first += rec.success && !rec.infrastructure;
           ++tally[{rec.arm, rec.cell}].second;
@@ -209,7 +219,9 @@ std::optional<nlohmann::json> run_campaign(const CampaignArgs& a) {
         scheduler.channel_status(s.channel(), s.worker(), s.state() == msg::CHANNEL_IDLE, s.last_episode_id(),
                                  s.last_physics_s(), s.last_error(), now, {s.last_goal_step(), s.last_goal_at_end()});
       for (const auto& r : news.results)
-        scheduler.result({r.episode_id(), r.success(), r.steps(), convert::from_msg(r.outcome()), r.reason(), r.evidence_path()}, now);
+        scheduler.result({r.episode_id(), r.success(), r.steps(), convert::from_msg(r.outcome()), r.reason(),
+                          r.evidence_path(), r.capabilities_missing()},
+                         now);
       for (const auto& w : news.lost_workers) scheduler.worker_lost(w, now);
       for (const auto& w : news.returned_workers) scheduler.worker_back(w);
       if (!scheduler.conflict().empty()) throw std::runtime_error(scheduler.conflict());

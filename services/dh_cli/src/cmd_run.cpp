@@ -57,10 +57,21 @@ int cmd_run(const RunArgs& a) {
     return 1;
   }
   if (a.json) {
-    nlohmann::json j{{"success", res->success()}, {"steps", res->steps()}, {"evidence", res->evidence_path()},
-                     {"outcome", to_string(convert::from_msg(res->outcome()))}, {"reason", res->reason()}, {"episode_id", res->episode_id()},
-                     {"suite", a.suite}, {"task", a.task}, {"seed", a.seed}, {"arm", a.arm}, {"channel", *ch},
-                     {"budget", t.budget_steps}, {"decisions", res->decisions()}, {"refusals", res->refusals()},
+    nlohmann::json j{{"success", res->success()},
+                     {"steps", res->steps()},
+                     {"evidence", res->evidence_path()},
+                     {"outcome", to_string(convert::from_msg(res->outcome()))},
+                     {"reason", res->reason()},
+                     {"episode_id", res->episode_id()},
+                     {"suite", a.suite},
+                     {"task", a.task},
+                     {"seed", a.seed},
+                     {"arm", a.arm},
+                     {"channel", *ch},
+                     {"budget", t.budget_steps},
+                     {"decisions", res->decisions()},
+                     {"refusals", res->refusals()},
+                     {"capabilities_missing", res->capabilities_missing()},
                      {"wall_s", wall}};
     std::cout << j.dump() << "\n";
   } else {
@@ -68,6 +79,9 @@ int cmd_run(const RunArgs& a) {
               << "  steps " << res->steps() << "/" << t.budget_steps << "  outcome " << to_string(convert::from_msg(res->outcome())) << " ("
               << res->reason() << ")\n"
               << "evidence " << res->evidence_path() << "\n";
+    for (const auto& c : res->capabilities_missing())
+      std::cout << "warning: arm " << a.arm << " ran without " << c
+                << " (no live instance when it started)\n";
   }
   return 0;
 }

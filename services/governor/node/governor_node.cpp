@@ -271,6 +271,7 @@ class GovernorBinding {
       r.evidence_path(e.evidence.string());
       r.decisions(end.decisions);
       r.refusals(end.refusals);
+      r.capabilities_missing(end.capabilities_missing);
       ctx.write<port::EpisodeResult>(r);
       const auto level = end.outcome == Outcome::Rejected ? spdlog::level::warn : spdlog::level::info;
       ctx.log.log(level, "channel={} episode={} outcome={} steps={} reason={} evidence={}", e.channel, e.episode_id,

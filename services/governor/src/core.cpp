@@ -75,7 +75,7 @@ void GovernorCore::emit(std::uint32_t channel, Effects fx, Clock::time_point now
 void GovernorCore::refuse(const EpisodeRequest& r, const std::string& why, const std::filesystem::path& evidence,
                           CoreEffects& out) {
   Effects fx;
-  fx.end = EpisodeEnd{false, 0, Outcome::Rejected, why, 0, 0};
+  fx.end = EpisodeEnd{false, 0, Outcome::Rejected, why, 0, 0, {}};
   out.push_back({r.channel, r.episode_id, std::move(fx), {}, evidence});
   finished(r.episode_id);
 }

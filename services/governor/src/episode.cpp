@@ -34,8 +34,9 @@ EpisodeMachine::EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, c
                     {"library_version", spec_.library_version}, {"verifier", to_string(config_.verifier)},
                     {"goal", goal}});
   // The governor waited for these (or its ready timeout passed): the episode runs without them.
-  if (const auto missing = registry_.missing(needed_capabilities(config_, spec_)); !missing.empty())
-    evidence_.append("governor", "capabilities_missing", {{"step", 0}, {"missing", missing}});
+  capabilities_missing_ = registry_.missing(needed_capabilities(config_, spec_));
+  if (!capabilities_missing_.empty())
+    evidence_.append("governor", "capabilities_missing", {{"step", 0}, {"missing", capabilities_missing_}});
 }
 
 nlohmann::json EpisodeMachine::obs_summary(const Observation& o) const {
@@ -618,7 +619,7 @@ Effects EpisodeMachine::end(bool success, Outcome outcome_in, const std::string&
     if (success) outcome = Outcome::Success;
   }
   phase_ = Phase::Ended;
-  EpisodeEnd e{success, last_obs_.step, outcome, reason, decisions_, refusals_total_};
+  EpisodeEnd e{success, last_obs_.step, outcome, reason, decisions_, refusals_total_, capabilities_missing_};
   evidence_.append("governor", "episode_end",
                    {{"step", e.steps}, {"success", success}, {"outcome", to_string(outcome)}, {"reason", reason},
                     {"latched", latch_.latched()}, {"verdict_step", latch_.event_step()},

@@ -96,6 +96,25 @@ TEST_F(Machine, NoFirstObservationIsAnInfrastructureFailure) {
   EXPECT_EQ(fx.end->outcome, Outcome::Infrastructure);
 }
 
+// A capability of the episode's library with no live instance at the start is named in the episode's end,
+// so a campaign can say its arm ran without it (a `full` without `vla_act`).
+TEST_F(Machine, AnEpisodeEndSaysWhichCapabilitiesItRanWithout) {
+  EpisodeSpec spec{0, "ep", "put the bowl on the plate", "full", 300};
+  spec.library = {{"pick_place", {}}, {"vla_act", {}}};
+  const auto end_of = [&](EpisodeMachine& machine) {
+    return machine.on_tick(t0 + config.first_observation_timeout + 1ms).end;
+  };
+  EpisodeMachine without(spec, config, registry, *evidence, t0);
+  const auto lacking = end_of(without);
+  ASSERT_TRUE(lacking);
+  EXPECT_EQ(lacking->capabilities_missing, std::vector<std::string>{"vla_act"});
+  registry.announce(test::vla_act_info());
+  EpisodeMachine whole(spec, config, registry, *evidence, t0);
+  const auto complete = end_of(whole);
+  ASSERT_TRUE(complete);
+  EXPECT_TRUE(complete->capabilities_missing.empty());
+}
+
 TEST_F(Machine, TheSeamEndingTheEpisodeEndsItAtOnceWithTheSeamsReason) {
   Effects fx = m->on_observation(test::scene_observation(0), t0);
   fx = m->on_advice(good(fx.plan_request->request_id), t0);

@@ -155,6 +155,26 @@ void overview(const json& s, Document& doc) {
                           count(e["missing"]) + "; not recorded: " + count(e["not_recorded"]) + "."});
 }
 
+// An arm that ran without a capability it needs is another arm in effect (`full` without `vla_act` is
+// `no-vla`): said under the table, never left to the evidence.
+void ran_without(const json& total, Document& doc) {
+  const std::string arm = total["arm"];
+  const auto episodes = total["episodes"].get<unsigned>();
+  for (const auto& [capability, n] : total["ran_without"].items())
+    doc.push_back(Paragraph{fmt::format(
+        "Warning: {} ran without {} in {} of its {} episodes: no live instance of it when they started (for "
+        "`vla_act`, `dh train-policy` trains the embedded policy). Those episodes measure the arm without "
+        "it.",
+        arm, capability, count(n), episodes)});
+  if (const auto unknown = total["capabilities_unknown"].get<unsigned>(); unknown > 0)
+    doc.push_back(Paragraph{fmt::format(
+        "For {} of {}'s {} episodes the database does not say whether every capability the arm needs was "
+        "live "
+        "(lost before a result, or recorded before campaign databases kept it); their evidence does "
+        "(`capabilities_missing`).",
+        unknown, arm, episodes)});
+}
+
 void success(const json& s, const PlotResult& plots, Document& doc) {
   doc.push_back(Heading{2, "Success per arm and cell"});
   doc.push_back(Paragraph{fmt::format(
@@ -172,6 +192,7 @@ void success(const json& s, const PlotResult& plots, Document& doc) {
     t.rows.push_back(success_row(total, "all"));
   }
   doc.push_back(std::move(t));
+  for (const json& total : s["arm_totals"]) ran_without(total, doc);
   if (drawn(plots, "success.png")) doc.push_back(Image{"success.png", "Success rate per arm and cell"});
 }
 

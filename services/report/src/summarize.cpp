@@ -307,6 +307,9 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
   std::map<std::string, Execution> execution_by_arm;
   std::map<std::string, VerdictAgreement> verdict_by_arm;
   std::set<FailedKey> failed;  // the counted rows that failed
+  // Per arm: the episodes that ran without each capability it needs, and those the database does not say.
+  std::map<std::string, std::map<std::string, unsigned>> ran_without;
+  std::map<std::string, unsigned> capabilities_unknown;
   unsigned rows = 0, duplicates = 0, infrastructure = 0, sim_reported = 0;
   json disagreements = json::array();  // the simulator's own verdict against the governor's
   std::map<EvidenceStatus, unsigned> evidence;
@@ -335,6 +338,10 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
         by_magnitude[{r.arm, r.cell, p->second.magnitude_for(r.seed)}].add(r);
       wall_s[{r.arm, r.cell}].push_back(r.wall_s);
       infrastructure += r.infrastructure;
+      if (r.capabilities_missing)
+        for (const auto& c : *r.capabilities_missing) ++ran_without[r.arm][c];
+      else
+        ++capabilities_unknown[r.arm];
       sim_reported += r.sim_success.has_value();
       if (r.verdict_disagrees())
         disagreements.push_back({{"arm", r.arm}, {"cell", r.cell}, {"task", r.task}, {"seed", r.seed},
@@ -383,6 +390,8 @@ json summarize(const std::vector<Source>& sources, const ReportOptions& options)
     }
     json total = by_arm.at(arm).to_json(options);
     total["arm"] = arm;
+    total["ran_without"] = ran_without[arm];
+    total["capabilities_unknown"] = capabilities_unknown[arm];
     totals.push_back(std::move(total));
     const Latencies& l = latency_by_arm.at(arm);
     latency_by.push_back({{"arm", arm},

@@ -373,6 +373,28 @@ TEST(Summarize, EpisodesWhereTheSimulatorsVerdictDiffersFromTheGovernorsAreFlagg
   EXPECT_NE(md.find("| full | goal | 1 | 1 | success | failure | – | ep-differs |"), std::string::npos) << md;
 }
 
+// An arm that ran without a capability it needs says so per arm, in the JSON and under the success table;
+// rows that do not say (older databases) are counted apart.
+TEST(Summarize, AnArmThatRanWithoutACapabilitySaysSo) {
+  TempDir dir;
+  EpisodeRecord a = row("full", "goal", 1, 0, true, 10), b = row("full", "goal", 1, 1, false, 10),
+                c = row("full", "goal", 1, 2, true, 10), d = row("static", "goal", 1, 0, true, 10);
+  a.capabilities_missing = b.capabilities_missing = std::vector<std::string>{"vla_act"};
+  d.capabilities_missing = std::vector<std::string>{};
+  const std::vector<Source> sources{{"c.db", {a, b, c, d}}};
+  const json s = summarize(sources, options(dir.path()));
+  const json& full = s["arm_totals"][0];
+  ASSERT_EQ(full["arm"], "full");
+  EXPECT_EQ(full["ran_without"], json({{"vla_act", 2}}));
+  EXPECT_EQ(full["capabilities_unknown"], 1);
+  EXPECT_TRUE(s["arm_totals"][1]["ran_without"].empty());
+  EXPECT_EQ(s["arm_totals"][1]["capabilities_unknown"], 0);
+  const std::string md = read(render(sources, options(dir.path())).markdown);
+  EXPECT_NE(md.find("Warning: full ran without vla_act in 2 of its 3 episodes"), std::string::npos) << md;
+  EXPECT_NE(md.find("For 1 of full's 3 episodes the database does not say"), std::string::npos) << md;
+  EXPECT_EQ(md.find("static ran without"), std::string::npos) << md;
+}
+
 // Each disagreement is put down to its cause from the terms judged at the end: the goal lost by then,
 // the rests bands disagreeing with the simulator's contacts, or perception's view; older evidence that
 // does not judge the terms says unknown.

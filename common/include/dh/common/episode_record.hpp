@@ -3,6 +3,7 @@
 
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace dh {
 
@@ -33,6 +34,10 @@ struct EpisodeRecord {
   std::optional<bool> sim_success;
   int sim_goal_step = -1;  ///< the first step the goal held (-1: never, or unknown)
   bool sim_goal_at_end = false;  ///< the goal held in the state the episode ended in
+  /// Capabilities the arm needs that had no live instance when the episode started: it ran without them
+  /// (a `full` without a trained `vla_act` is `no-vla` in effect). Unknown when no result came (a lost
+  /// episode) or the row predates the record.
+  std::optional<std::vector<std::string>> capabilities_missing;
   /// The simulator and the governor disagree on the episode's success.
   bool verdict_disagrees() const { return sim_success && *sim_success != success; }
   /// The cluster its interval is clustered by: "cell/task" (a task's seeds share a layout).

@@ -43,8 +43,9 @@ Key key_of(const EpisodeRecord& r);
 /// (open one per thread or process: they coordinate through SQLite's locks).
 class CampaignDb {
  public:
-  /// 2 added infrastructure_losses, 3 attribution, 4 the simulator's verdict; older are upgraded on open.
-  static constexpr int kSchemaVersion = 4;
+  /// 2 added infrastructure_losses, 3 attribution, 4 the simulator's verdict, 5 the capabilities an episode
+  /// ran without; older are upgraded on open.
+  static constexpr int kSchemaVersion = 5;
   static constexpr int kBusyTimeoutMs = 30'000;
 
   /// Opens `path` for reading and writing, creating its folders, the file and the schema when new.
@@ -96,14 +97,15 @@ class CampaignDb {
   void check_or_create_schema(bool read_only);
   Stmt prepare(const char* sql) const;
   void run_sql(const char* sql);
-  /// Version 4's columns (the simulator's verdict) on the episodes and losses tables, where missing.
-  void add_verdict_columns();
+  /// The columns of versions 4 (the simulator's verdict) and 5 (capabilities missing) on the episodes and
+  /// losses tables, where missing.
+  void add_columns();
   /// The episode columns in read_row()'s order, as this file has them.
   const char* columns() const;
   [[noreturn]] void fail(const std::string& what) const;
 
   std::filesystem::path path_;
-  bool verdict_columns_ = true;  ///< false: a file older than version 4, opened read-only
+  int version_ = kSchemaVersion;        ///< the file's schema version (older only when opened read-only)
   std::unique_ptr<sqlite3, Close> db_;  // declared before the statements: they are finalized first
   Stmt insert_, insert_loss_, has_, get_meta_, set_meta_;
 };

@@ -33,6 +33,7 @@ struct ResultInfo {
   unsigned steps = 0;
   Outcome outcome = Outcome::GaveUp;
   std::string reason, evidence_path;
+  std::vector<std::string> capabilities_missing;  ///< what the arm ran without
 };
 
 /// What a channel reports of its last finished episode beside its physics time: the simulator's own verdict.

@@ -96,6 +96,8 @@ struct EpisodeEnd {
   Outcome outcome = Outcome::GaveUp;
   std::string reason;
   std::uint32_t decisions = 0, refusals = 0;
+  /// Capabilities the arm needs that had no live instance at the start: the episode ran without them.
+  std::vector<std::string> capabilities_missing;
 };
 
 struct Effects {
@@ -274,6 +276,7 @@ class EpisodeMachine {
   std::vector<std::string> history_;
   std::string pending_request_;
   std::uint32_t decisions_ = 0, refusals_total_ = 0;
+  std::vector<std::string> capabilities_missing_;
   int refusals_in_row_ = 0, replans_ = 0, plans_ = 0, commands_ = 0;
 };
 
