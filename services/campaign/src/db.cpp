@@ -2,7 +2,7 @@
 
 #include <sqlite3.h>
 
-#include <algorithm>
+#include "comma_list.hpp"
 
 namespace dh::campaign {
 
@@ -83,18 +83,11 @@ std::string column_text(sqlite3_stmt* s, int i) {
 }
 unsigned column_uint(sqlite3_stmt* s, int i) { return static_cast<unsigned>(sqlite3_column_int64(s, i)); }
 
-std::vector<std::string> split_names(const std::string& joined) {
+/// A stored list of names ('' none).
+std::vector<std::string> names_of(const std::string& joined) {
   std::vector<std::string> out;
-  for (std::size_t at = 0; at < joined.size();) {
-    const std::size_t comma = std::min(joined.find(',', at), joined.size());
-    out.push_back(joined.substr(at, comma - at));
-    at = comma + 1;
-  }
-  return out;
-}
-std::string join_names(const std::vector<std::string>& names) {
-  std::string out;
-  for (const auto& n : names) out += (out.empty() ? "" : ",") + n;
+  if (!joined.empty())
+    for (const auto name : split_commas(joined)) out.emplace_back(name);
   return out;
 }
 
@@ -121,7 +114,7 @@ EpisodeRecord read_row(sqlite3_stmt* s) {
   if (sqlite3_column_type(s, 18) != SQLITE_NULL) r.sim_success = sqlite3_column_int(s, 18) != 0;
   r.sim_goal_step = sqlite3_column_int(s, 19);
   r.sim_goal_at_end = sqlite3_column_int(s, 20) != 0;
-  if (sqlite3_column_type(s, 22) != SQLITE_NULL) r.capabilities_missing = split_names(column_text(s, 22));
+  if (sqlite3_column_type(s, 22) != SQLITE_NULL) r.capabilities_missing = names_of(column_text(s, 22));
   return r;
 }
 }  // namespace
@@ -260,7 +253,7 @@ void bind_record(sqlite3_stmt* s, const EpisodeRecord& r) {
   bind_arg(s, 21, std::int64_t{r.sim_goal_at_end});
   bind_arg(s, 22, std::int64_t{r.verdict_disagrees()});
   if (r.capabilities_missing)
-    bind_arg(s, 23, join_names(*r.capabilities_missing));
+    bind_arg(s, 23, join_commas(*r.capabilities_missing));
   else
     sqlite3_bind_null(s, 23);
   const auto i64 = [](unsigned v) { return static_cast<std::int64_t>(v); };

@@ -7,27 +7,13 @@
 #include <nlohmann/json.hpp>
 #include <unordered_set>
 
+#include "comma_list.hpp"
+
 namespace dh::campaign {
 
 namespace {
 constexpr std::size_t kMaxNumbers = 1'000'000;
 constexpr std::uint64_t kFirstFreshSeed = 1'000'000;
-
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t')) s.remove_suffix(1);
-  return s;
-}
-
-std::vector<std::string_view> split(std::string_view text) {
-  std::vector<std::string_view> out;
-  for (std::size_t start = 0;;) {
-    const std::size_t comma = text.find(',', start);
-    out.push_back(trim(text.substr(start, comma - start)));
-    if (comma == std::string_view::npos) return out;
-    start = comma + 1;
-  }
-}
 
 [[noreturn]] void fail(std::string_view option, const std::string& what) {
   throw PlanError(std::string(option) + ": " + what);
@@ -59,12 +45,6 @@ std::string compact(std::vector<unsigned> v) {
   return out;
 }
 
-std::string joined(const std::set<std::string>& s) {
-  std::string out;
-  for (const auto& x : s) out += (out.empty() ? "" : ",") + x;
-  return out;
-}
-
 std::uint64_t splitmix64(std::uint64_t& state) {
   std::uint64_t z = (state += 0x9e3779b97f4a7c15ULL);
   z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
@@ -80,7 +60,7 @@ std::string to_string(const EpisodeKey& k) {
 std::vector<std::string> parse_list(std::string_view text, std::string_view option) {
   if (trim(text).empty()) fail(option, "nothing given (expected e.g. a,b)");
   std::vector<std::string> out;
-  for (const auto item : split(text)) {
+  for (const auto item : split_commas(text)) {
     if (item.empty()) fail(option, "empty item in '" + std::string(text) + "'");
     if (std::find(out.begin(), out.end(), item) != out.end())
       fail(option, "'" + std::string(item) + "' is given twice");
@@ -93,7 +73,7 @@ std::vector<unsigned> parse_numbers(std::string_view text, std::string_view opti
   if (trim(text).empty()) fail(option, "nothing given (expected e.g. 1-20 or 1,3,5-7)");
   std::vector<unsigned> out;
   std::map<unsigned, std::string_view> given_by;
-  for (const auto token : split(text)) {
+  for (const auto token : split_commas(text)) {
     if (token.empty()) fail(option, "empty item in '" + std::string(text) + "'");
     const std::size_t dash = token.find('-');
     const unsigned lo = parse_number(trim(token.substr(0, dash)), token, option);
@@ -153,7 +133,8 @@ std::vector<std::string> plan_differences(const Plan& stored, const Plan& reques
   const auto names = [&](const char* field, const std::vector<std::string>& a,
                          const std::vector<std::string>& b) {
     const std::set<std::string> sa(a.begin(), a.end()), sb(b.begin(), b.end());
-    if (sa != sb) out.push_back(std::string(field) + ": stored " + joined(sa) + ", requested " + joined(sb));
+    if (sa != sb)
+      out.push_back(std::string(field) + ": stored " + join_commas(sa) + ", requested " + join_commas(sb));
   };
   const auto numbers = [&](const char* field, const std::vector<unsigned>& a,
                            const std::vector<unsigned>& b) {
