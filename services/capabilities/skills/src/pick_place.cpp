@@ -46,6 +46,14 @@ double fitting_turn(const EntityState& o, const EntityState& t) {
   }
   return best.value_or(0);
 }
+
+/// The drawer whose inside `target` is, or null: a region owned by a part of kind drawer.
+const EntityState* drawer_holding(const Observation& obs, const std::string& target) {
+  const EntityState* t = obs.entity(target);
+  if (!t || t->kind != "region" || t->owner.empty()) return nullptr;
+  const EntityState* d = obs.entity(t->owner);
+  return d && d->kind == "drawer" ? d : nullptr;
+}
 }  // namespace
 
 std::optional<Cavity> find_cavity(const Observation& obs, const std::string& target, const std::string& object) {
@@ -168,8 +176,16 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
     // Pinch the rim at the point nearest the tool; the jaw closes across the wall (radially). A mug's
     // handle (+x of its body) is avoided by at least 60°.
     double phi = std::atan2(ee.y() - c.y(), ee.x() - c.x());
-    // Into a cavity the hand follows the object in: take it on the side that faces out.
-    if (cavity_) phi = std::atan2(cavity_->out.y(), cavity_->out.x());
+    // Into a cavity the hand follows the object in: take it on the side that faces out. Into a drawer pulled
+    // out of its cabinet the hand comes down over the part left open, under the handles of the drawers
+    // above: taken on the drawer's front side, the hand's 20 cm span along the radius runs along the pull
+    // and its narrow side fits between those handles.
+    if (cavity_) {
+      phi = std::atan2(cavity_->out.y(), cavity_->out.x());
+    } else if (const EntityState* d = grasp_only_ ? nullptr : drawer_holding(obs, target_)) {
+      const Eigen::Vector2d front = front_of(*d);
+      phi = std::atan2(front.y(), front.x());
+    }
     if (o.kind == "mug") {
       const double handle = geo::tool_yaw(geo::quat(o.q));
       const double d = geo::wrap(phi - handle);
@@ -283,22 +299,60 @@ Eigen::Vector2d PickPlaceSkill::place_xy(const Observation& obs) const {
   }
   if (t.kind != "region") return best;
   // A region partly under something taller (a drawer pulled out of its cabinet): the object comes down
-  // where nothing stands over it, as far as the region allows.
+  // where nothing stands over it, as far as the region allows. Fixtures and the handles of other drawers
+  // count; regions, knobs and what rests inside do not.
+  std::vector<const EntityState*> covers;
   for (const auto& c : obs.entities) {
-    // Fixtures and the handles of other drawers count; regions, knobs and what rests inside do not.
     const bool rests_inside = inside_xy(t, {c.p[0], c.p[1]}, 0) && c.p[2] <= top_of(t);
-    if ((part_or_region(c) && !handle(c)) || c.name == object_ || top_of(c) <= top_of(t) + 0.01 || rests_inside ||
-        through_hole(c))
-      continue;
-    const double ox = c.half_extents[0] + r + 0.005 - std::abs(best.x() - c.p[0]);
-    const double oy = c.half_extents[1] + r + 0.005 - std::abs(best.y() - c.p[1]);
-    if (ox <= 0 || oy <= 0) continue;
-    if (ox < oy) best.x() += best.x() < c.p[0] ? -ox : ox;
-    else best.y() += best.y() < c.p[1] ? -oy : oy;
+    if (!((part_or_region(c) && !handle(c)) || c.name == object_ || top_of(c) <= top_of(t) + 0.01 ||
+          rests_inside || through_hole(c)))
+      covers.push_back(&c);
+  }
+  // How far the object's body at `c` reaches under `k` along x and y (either one ≤ 0: not under it).
+  const auto under = [&](const Eigen::Vector2d& c, const EntityState& k) {
+    return Eigen::Vector2d(k.half_extents[0] + r + 0.005 - std::abs(c.x() - k.p[0]),
+                           k.half_extents[1] + r + 0.005 - std::abs(c.y() - k.p[1]));
+  };
+  for (const auto* k : covers) {
+    const Eigen::Vector2d o = under(best, *k);
+    if (o.x() <= 0 || o.y() <= 0) continue;
+    if (o.x() < o.y())
+      best.x() += best.x() < k->p[0] ? -o.x() : o.x();
+    else
+      best.y() += best.y() < k->p[1] ? -o.y() : o.y();
     best.x() = std::clamp(best.x(), centre.x() - fx, centre.x() + fx);
     best.y() = std::clamp(best.y(), centre.y() - fy, centre.y() + fy);
   }
-  return best;
+  // In a drawer the hand comes down between the handles of the drawers above, which hang over the strip
+  // left open, high above the object but in the hand's way: of the places whose body is clear of the
+  // other covers (the cabinet), the one farthest from those handles.
+  std::vector<const EntityState*> handles;
+  for (const auto* k : covers)
+    if (handle(*k)) handles.push_back(k);
+  if (handles.empty() || !drawer_holding(obs, target_)) return best;
+  const auto distance = [&](const Eigen::Vector2d& c) {
+    double d = 1e9;
+    for (const auto* k : handles)
+      d = std::min(d, std::hypot(std::max(0.0, std::abs(c.x() - k->p[0]) - k->half_extents[0]),
+                                 std::max(0.0, std::abs(c.y() - k->p[1]) - k->half_extents[1])));
+    return d;
+  };
+  double best_distance = -1;
+  Eigen::Vector2d farthest = best;
+  constexpr int kGrid = 8;  // (2 kGrid + 1)² places over the free rectangle
+  for (int i = -kGrid; i <= kGrid; ++i)
+    for (int j = -kGrid; j <= kGrid; ++j) {
+      const Eigen::Vector2d c = centre + Eigen::Vector2d(fx * i / kGrid, fy * j / kGrid);
+      const bool clear = std::all_of(covers.begin(), covers.end(), [&](const EntityState* k) {
+        const Eigen::Vector2d o = under(c, *k);
+        return handle(*k) || o.x() <= 0 || o.y() <= 0;
+      });
+      if (clear && distance(c) > best_distance + 1e-9) {
+        best_distance = distance(c);
+        farthest = c;
+      }
+    }
+  return farthest;
 }
 
 double PickPlaceSkill::corridor_z(const Observation& obs, const Eigen::Vector2d& to) const {

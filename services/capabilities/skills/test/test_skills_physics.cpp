@@ -208,6 +208,28 @@ TEST_F(SkillsPhysics, SlideDrawerOpensAndCloses) {
   EXPECT_EQ(a.reason, "already in the asked state");
 }
 
+// LIBERO-10 task 3: the bottom drawer stands out 16 cm, and the handles of the two drawers above hang over
+// the strip it leaves open, 7 cm either side of its middle. The bowl is taken on the side it will face out
+// of the drawer and set down in the middle of the strip's outer half, so the 20 cm hand comes down between
+// the handles; the drawer then closes over it.
+TEST_F(SkillsPhysics, ABowlGoesIntoTheBottomDrawerBetweenTheHandlesAboveAndTheDrawerClosesOverIt) {
+  const TaskDef& t = task("long", 3);
+  for (int seed = 1; seed <= 2; ++seed) {
+    const auto a = run(t, seed, "pick_place", {{"object", "bowl"}, {"target", "cabinet_bottom_region"}});
+    ASSERT_EQ(a.state, CommandState::Completed) << "seed " << seed << " " << a.stage << ": " << a.reason;
+    const EntityState& bowl = *a.last.entity("bowl");
+    const EntityState& region = *a.last.entity("cabinet_bottom_region");
+    EXPECT_LT(bowl.p[2], region.p[2] - region.half_extents[2] + 0.01)
+        << "seed " << seed << ": on the drawer's floor";
+    EXPECT_LT(std::abs(bowl.p[1] - region.p[1]), 0.02) << "seed " << seed << ": between the handles";
+    EXPECT_FALSE(a.goal) << "the drawer is still open";
+    const auto b =
+        run(t, seed, "slide_drawer", {{"drawer", "cabinet_bottom_drawer"}, {"state", "closed"}}, {}, false);
+    EXPECT_EQ(b.state, CommandState::Completed) << "seed " << seed << " " << b.stage << ": " << b.reason;
+    EXPECT_TRUE(b.goal) << "seed " << seed << ": the bowl in the closed drawer";
+  }
+}
+
 TEST_F(SkillsPhysics, AWristAtItsLimitTurnsTheHandTheOtherWayAndTakesTheButter) {
   // long-task 2: turning the knob on leaves joint 7 near its limit, so the approach to the butter in the
   // yaw nearest the wrist's stops 5-6 cm short. The hand goes again turned by π, which the jaw's symmetry
