@@ -304,9 +304,10 @@ Eigen::Vector2d PickPlaceSkill::place_xy(const Observation& obs) const {
   std::vector<const EntityState*> covers;
   for (const auto& c : obs.entities) {
     const bool rests_inside = inside_xy(t, {c.p[0], c.p[1]}, 0) && c.p[2] <= top_of(t);
-    if (!((part_or_region(c) && !handle(c)) || c.name == object_ || top_of(c) <= top_of(t) + 0.01 ||
-          rests_inside || through_hole(c)))
-      covers.push_back(&c);
+    if ((part_or_region(c) && !handle(c)) || c.name == object_ || top_of(c) <= top_of(t) + 0.01 ||
+        rests_inside || through_hole(c))
+      continue;
+    covers.push_back(&c);
   }
   // How far the object's body at `c` reaches under `k` along x and y (either one ≤ 0: not under it).
   const auto under = [&](const Eigen::Vector2d& c, const EntityState& k) {
@@ -347,8 +348,9 @@ Eigen::Vector2d PickPlaceSkill::place_xy(const Observation& obs) const {
         const Eigen::Vector2d o = under(c, *k);
         return handle(*k) || o.x() <= 0 || o.y() <= 0;
       });
-      if (clear && distance(c) > best_distance + 1e-9) {
-        best_distance = distance(c);
+      if (!clear) continue;
+      if (const double d = distance(c); d > best_distance + 1e-9) {
+        best_distance = d;
         farthest = c;
       }
     }
