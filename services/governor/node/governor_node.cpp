@@ -123,8 +123,10 @@ class GovernorBinding {
   }
   void on(const Sample<port::CommandStatus>& m, Context& ctx) {
     const auto& s = m.msg;
-    gov::CommandStatus st{s.command_id(), s.instance(), static_cast<gov::CommandState>(s.state()), s.reason(),
-                          s.stage(), s.step(), s.steps_used(), s.progress(), static_cast<FailureCode>(s.failure())};
+    gov::CommandStatus st{s.command_id(),   s.instance(), static_cast<gov::CommandState>(s.state()),
+                          s.reason(),       s.stage(),    s.step(),
+                          s.steps_used(),   s.progress(), static_cast<FailureCode>(s.failure()),
+                          s.planned_steps()};
     carry_out(ctx, core_->on_status(s.channel(), s.episode_id(), st, gov::Clock::now()));
   }
   void on(const Sample<port::Announce>& s, Context& ctx) {

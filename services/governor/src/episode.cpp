@@ -304,7 +304,7 @@ Effects EpisodeMachine::on_status(const CommandStatus& st, Clock::time_point now
   progress_reports_.emplace_back(st.step, st.progress);
   if (!terminal) {
     await_observation(now);
-    return {};
+    return raise_budget(st);
   }
   // Decide on the observation of the step the command ended at (DDS does not order two topics).
   if (st.step > last_obs_.step) {
@@ -312,6 +312,26 @@ Effects EpisodeMachine::on_status(const CommandStatus& st, Clock::time_point now
     return {};
   }
   return finish_command(st, now, true);
+}
+
+Effects EpisodeMachine::raise_budget(const CommandStatus& st) {
+  Command& c = *running_;
+  const std::uint32_t remaining = spec_.budget_steps > c.start_step ? spec_.budget_steps - c.start_step : 0;
+  const std::uint32_t budget = raised_budget(c.budget_steps, st.planned_steps, remaining);
+  if (budget == c.budget_steps) return {};
+  evidence_.append("governor", "budget_raised",
+                   {{"step", st.step},
+                    {"command_id", c.command_id},
+                    {"planned_steps", st.planned_steps},
+                    {"from", c.budget_steps},
+                    {"to", budget}});
+  c.budget_steps = budget;
+  // At once, not at the next decision: the capability spends the old budget meanwhile. The governor is
+  // alive to say so: the lease runs a decision period from the step it has seen.
+  Effects fx;
+  fx.lease = Lease{c.command_id, std::max(c.lease_until_step, last_obs_.step + config_.decision_period),
+                   c.start_step + c.budget_steps, false};
+  return fx;
 }
 
 void EpisodeMachine::record_status(const CommandStatus& st) {

@@ -25,6 +25,12 @@ std::uint32_t command_budget(std::uint32_t cost_steps, std::uint32_t remaining_s
   return std::min(b, remaining_steps);
 }
 
+std::uint32_t raised_budget(std::uint32_t budget, std::uint32_t planned_steps,
+                            std::uint32_t remaining_at_start) {
+  if (!planned_steps) return budget;  // the plan's length not said
+  return std::max(budget, command_budget(planned_steps, remaining_at_start));
+}
+
 namespace {
 GroundingResult refuse(Refusal r, std::string why) { return {std::nullopt, r, std::move(why)}; }
 

@@ -1,7 +1,7 @@
 #include <gtest/gtest.h>
 
-
 #include "dh/gov/episode.hpp"
+#include "dh/gov/grounding.hpp"
 #include "machine_fixture.hpp"
 
 using namespace dh;
@@ -44,6 +44,54 @@ TEST_F(Machine, PlansGroundsDispatchesRenewsAndEndsOnTheLatchedVerdict) {
   for (const char* want : {"episode_start", "plan_request", "advice", "grounding", "dispatch", "command_status",
                            "decision", "episode_end"})
     EXPECT_NE(std::find(k.begin(), k.end(), want), k.end()) << want;
+}
+
+// An episode long enough that the cost model's budget is not capped by it.
+struct LongMachine : test::MachineTest {
+  void configure_spec(EpisodeSpec& s) override { s.budget_steps = 1000; }
+};
+
+TEST_F(LongMachine, APlanLongerThanTheCostModelRaisesTheBudgetAtOnceWithinTheEpisode) {
+  Effects fx = m->on_observation(test::scene_observation(0), t0);
+  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  ASSERT_TRUE(fx.command);
+  const std::uint32_t budget = fx.command->budget_steps;  // of the announced cost
+  m->on_status({"ep/c0", "pick_place@a", CommandState::Accepted, "", "", 0, 0, 0}, t0);
+  for (std::uint32_t t = 1; t <= 5; ++t) m->on_observation(test::scene_observation(t), t0);
+  // A plan that fits the budget's cost changes nothing; a status that says nothing of its plan neither.
+  fx = m->on_status({"ep/c0", "pick_place@a", CommandState::Running, "", "approach", 5, 5, 0.1,
+                     FailureCode::None, (budget - 10) * 2 / 3},
+                    t0);
+  EXPECT_TRUE(nothing(fx));
+  fx = m->on_status({"ep/c0", "pick_place@a", CommandState::Running, "", "approach", 5, 5, 0.1}, t0);
+  EXPECT_TRUE(nothing(fx));
+  // A longer plan: the budget its length would have had, at once (the capability spends meanwhile), on a
+  // lease still valid to a decision period past the step seen.
+  fx = m->on_status(
+      {"ep/c0", "pick_place@a", CommandState::Running, "", "descent", 5, 5, 0.1, FailureCode::None, budget},
+      t0);
+  ASSERT_TRUE(fx.lease);
+  EXPECT_EQ(fx.lease->command_id, "ep/c0");
+  EXPECT_EQ(fx.lease->budget_until_step, command_budget(budget, 1000));
+  EXPECT_GT(fx.lease->budget_until_step, budget);
+  EXPECT_EQ(fx.lease->valid_until_step, 15u);
+  EXPECT_FALSE(fx.lease->revoked);
+  // Never more than the episode had left when the command started, and never less than it has.
+  fx = m->on_status(
+      {"ep/c0", "pick_place@a", CommandState::Running, "", "carry", 6, 6, 0.1, FailureCode::None, 5000}, t0);
+  ASSERT_TRUE(fx.lease);
+  EXPECT_EQ(fx.lease->budget_until_step, 1000u);
+  fx = m->on_status(
+      {"ep/c0", "pick_place@a", CommandState::Running, "", "lower", 7, 7, 0.2, FailureCode::None, budget},
+      t0);
+  EXPECT_TRUE(nothing(fx));
+  // The next decision's lease keeps the raised budget, and the evidence says when and why it was raised.
+  for (std::uint32_t t = 6; t < 10; ++t) m->on_observation(test::scene_observation(t), t0);
+  fx = m->on_observation(test::scene_observation(10), t0);
+  ASSERT_TRUE(fx.lease);
+  EXPECT_EQ(fx.lease->budget_until_step, 1000u);
+  const auto k = kinds();
+  EXPECT_EQ(std::count(k.begin(), k.end(), "budget_raised"), 2);
 }
 
 TEST_F(Machine, RefusalsAreRecordedAndEndTheEpisodeAfterTheLimit) {

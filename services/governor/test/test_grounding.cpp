@@ -139,6 +139,14 @@ TEST(CommandBudget, NeverMoreThanWhatRemains) {
   EXPECT_EQ(command_budget(100, 1000), 160u);
 }
 
+TEST(CommandBudget, ALongerPlanRaisesItAndNothingLowersIt) {
+  EXPECT_EQ(raised_budget(160, 150, 1000), command_budget(150, 1000));
+  EXPECT_EQ(raised_budget(160, 150, 200), 200u) << "within what the episode had left at the start";
+  EXPECT_EQ(raised_budget(160, 90, 1000), 160u) << "a plan shorter than the cost leaves the budget";
+  EXPECT_EQ(raised_budget(160, 0, 1000), 160u) << "a status that does not say its plan leaves it";
+  EXPECT_EQ(raised_budget(250, 150, 200), 250u) << "never lowered";
+}
+
 TEST_F(Grounding, AHandHoldingSomethingElseIsRefusedButItsOwnObjectIsFine) {
   obs.contact_left = obs.contact_right = true;
   obs.gripper_opening = 0.02;

@@ -2,6 +2,8 @@
 
 #include <stdexcept>
 
+#include "dh/gov/grounding.hpp"
+
 namespace dh::inproc {
 
 CommandRunner::CommandRunner(sim::Workcell& cell, cap::HostCore& host, std::uint32_t budget_steps)
@@ -35,7 +37,15 @@ CommandOutcome CommandRunner::run(const std::string& capability, const cap::Bind
 CommandOutcome CommandRunner::run(cap::CommandStart c) {
   if (!seam_.running()) throw std::logic_error("CommandRunner::run before begin_episode or resume_episode");
   c.start_step = seam_.step();
-  const std::uint32_t budget_steps = c.budget_steps;
+  // The governor's lease without its decisions: valid through the budget, raised as the governor raises it
+  // for a plan longer than the cost model (gov::raised_budget).
+  std::uint32_t budget_steps = c.budget_steps;
+  const std::uint32_t remaining = episode_budget_ > c.start_step ? episode_budget_ - c.start_step : 0;
+  const auto lease = [&](std::uint32_t now_step) {
+    const std::uint32_t until = c.start_step + budget_steps;
+    seam_.on_lease({seam_.episode_id(), c.command_id, until, until, false}, step_time(now_step));
+    host_.on_lease(c.channel, seam_.episode_id(), c.command_id, until);
+  };
   seam_.on_lease({seam_.episode_id(), c.command_id, c.start_step + budget_steps, c.start_step + budget_steps, false},
                  step_time(c.start_step));
 
@@ -45,7 +55,13 @@ CommandOutcome CommandRunner::run(cap::CommandStart c) {
   cap::HostEffects fx = host_.on_start(c, step_time(obs.step));
   for (;;) {
     for (const auto& s : fx.statuses) {
-      if (!ended(s.state)) continue;
+      if (!ended(s.state)) {
+        if (const auto b = gov::raised_budget(budget_steps, s.planned_steps, remaining); b != budget_steps) {
+          budget_steps = b;
+          lease(s.step);
+        }
+        continue;
+      }
       out.state = s.state;
       out.failure = s.failure;
       out.reason = s.reason;

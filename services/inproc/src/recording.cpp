@@ -92,6 +92,13 @@ Recording read_recording(const std::filesystem::path& evidence) {
         c.budget_steps = e.at("budget_steps").get<std::uint32_t>();
         dispatched[id] = r.commands.size();
         r.commands.push_back(std::move(c));
+      } else if (kind == "budget_raised") {
+        const auto it = dispatched.find(e.at("command_id").get<std::string>());
+        if (it == dispatched.end())
+          bad(evidence, "the budget of command " + e.at("command_id").get<std::string>() +
+                            " was raised, but the evidence never dispatched it");
+        r.commands[it->second].budget_raises.emplace_back(e.at("step").get<std::uint32_t>(),
+                                                          e.at("to").get<std::uint32_t>());
       } else if (kind == "snapshot" && e.value("at", "") != "episode_start") {
         const auto it = dispatched.find(e.at("at").get<std::string>());
         if (it != dispatched.end())

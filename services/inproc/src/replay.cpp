@@ -233,6 +233,11 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
     report.steps = i;
     check_states(i, true);
     if (o.on_step) o.on_step(i, cell);
+    // The raises the governor made on the statuses of the steps so far reached the host before this step
+    // (a lease only ever raises a budget, so one given again changes nothing).
+    for (const RecordedCommand& c : rec.commands)
+      for (const auto& [at, budget] : c.budget_raises)
+        if (at < i) host.on_lease(0, rec.episode_id, c.id, c.start_step + budget);
     take(host.on_observation(obs, step_time(i)));
   }
   if (!o.from_command) report.verdicts_identical = verdicts == rec.verdicts;

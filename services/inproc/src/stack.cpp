@@ -189,10 +189,12 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
       const gov::Effects& fx = e.fx;
       if (fx.cancel_command)
         from_host(host_.on_cancel({kChannel, episode_id, *fx.cancel_command, e.cancel_instance}));
-      if (fx.lease)
+      if (fx.lease) {
+        host_.on_lease(kChannel, episode_id, fx.lease->command_id, fx.lease->budget_until_step);
         deliver(seam.on_lease({episode_id, fx.lease->command_id, fx.lease->valid_until_step,
                                fx.lease->budget_until_step, fx.lease->revoked},
                               now));
+      }
       if (fx.end) end = fx.end;
       if (fx.command) {
         const gov::Command& g = *fx.command;
@@ -225,7 +227,7 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
       if (s.episode_id == episode_id)  // not a command left over from an earlier episode
         from_governor(governor_.on_status(kChannel, episode_id,
                                           {s.command_id, s.instance, s.state, s.reason, s.stage, s.step,
-                                           s.steps_used, s.progress, s.failure},
+                                           s.steps_used, s.progress, s.failure, s.planned_steps},
                                           now));
     for (const auto& a : hx.actions) action = a;
   };

@@ -183,6 +183,29 @@ TEST(ReplayMidEpisode, AStateRecordedWhileCarryingRestoresBitForBit) {
   fs::remove_all(dir);
 }
 
+// long-swap 3, seed 21: the bowl's pick and place runs 320 steps, past the 274 its cost model's budget
+// gives, on the budget the governor raised for its plan. The replay gives the host those raises as the
+// governor did, and the command runs to its end again.
+TEST(ReplayRaisedBudget, ACommandPastItsFirstBudgetReplaysBitForBit) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("dh_replay_raised_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  inproc::Stack stack(paths::config_dir());
+  stack.run(find_task(load_suites(paths::config_dir()), "long-swap", 3), 21, "full", dir / "ep.jsonl");
+  const inproc::Recording rec = inproc::read_recording(dir / "ep.jsonl");
+  ASSERT_FALSE(rec.commands.empty());
+  const inproc::RecordedCommand& first = rec.commands.front();
+  ASSERT_FALSE(first.budget_raises.empty());
+  ASSERT_TRUE(first.end);
+  EXPECT_EQ(first.end->state, "completed");
+  EXPECT_GT(first.end->steps_used, first.budget_steps) << "it ran past the budget it was dispatched with";
+  const auto r = inproc::replay(dir / "ep.jsonl", {paths::config_dir(), {}, std::nullopt, false, {}});
+  EXPECT_TRUE(r.identical) << (r.first_divergence
+                                   ? std::to_string(r.first_divergence->step) + " " +
+                                         r.first_divergence->body + " " + r.first_divergence->quantity
+                                   : "");
+  fs::remove_all(dir);
+}
+
 TEST_F(Replay, AnotherBuildOrInstructionIsAFingerprintDifference) {
   const fs::path ev = copy("other_build");
   std::ifstream in(ev);

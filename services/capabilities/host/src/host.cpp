@@ -69,7 +69,8 @@ msg::CapabilityAnnounce announcement(const Descriptor& d, const std::string& ins
 
 class HostBinding {
  public:
-  using Inputs = dds::Inputs<In<port::Command>, In<port::Observation>, In<port::SceneEstimate>>;
+  using Inputs =
+      dds::Inputs<In<port::Command>, In<port::Observation>, In<port::SceneEstimate>, In<port::Lease>>;
   using Outputs = dds::Outputs<port::Action, port::CommandStatus, port::Announce>;
   using Context = dds::Context<HostBinding>;
 
@@ -126,6 +127,9 @@ class HostBinding {
   void on(const dds::Sample<port::SceneEstimate>& s, Context& ctx) {
     publish(ctx, core_->on_scene_estimate(s.msg.channel(), convert::from_msg(s.msg), Clock::now()));
   }
+  void on(const dds::Sample<port::Lease>& s, Context&) {
+    core_->on_lease(s.msg.channel(), s.msg.episode_id(), s.msg.command_id(), s.msg.budget_until_step());
+  }
   void tick(Context& ctx) { publish(ctx, core_->on_tick(Clock::now())); }
 
   // New commands are refused from here on; the announcement tells the governor to send them elsewhere.
@@ -160,6 +164,7 @@ class HostBinding {
       s.progress(r.progress);
       s.stage(r.stage);
       s.failure(static_cast<msg::FailureCode>(r.failure));
+      s.planned_steps(r.planned_steps);
       ctx.write<port::CommandStatus>(s);
       if (ended(r.state))
         ctx.log.info("channel={} command={} {} at step {} {}", r.channel, r.command_id, to_string(r.state), r.step, r.reason);

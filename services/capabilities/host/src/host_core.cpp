@@ -26,6 +26,7 @@ const Ports& HostCore::ports() {
       in_port<port::Command>("START / CANCEL for one of its instances"),
       in_port<port::Observation>("one per step"),
       in_port<port::SceneEstimate>("estimates for commands grounded in perception"),
+      in_port<port::Lease>("the running command's budget, raised when its skill plans longer than its cost"),
       out_port<port::Action>("the action answering an observation"),
       out_port<port::CommandStatus>("the command's state and reason"),
       out_port<port::Announce>(
@@ -64,6 +65,15 @@ const ServedCapability* HostCore::serving(const std::string& capability) const {
 PerceivedWorld* HostCore::world_for(const Observation& obs) {
   const auto w = worlds_.find(obs.channel);
   return w != worlds_.end() && w->second.episode() == obs.episode_id ? &w->second : nullptr;
+}
+
+void HostCore::on_lease(std::uint32_t channel, const std::string& episode_id, const std::string& command_id,
+                        std::uint32_t budget_until_step) {
+  const auto it = running_.find(channel);
+  if (it == running_.end()) return;
+  CommandStart& c = it->second.command;
+  if (c.episode_id != episode_id || c.command_id != command_id || budget_until_step <= c.start_step) return;
+  c.budget_steps = std::max(c.budget_steps, budget_until_step - c.start_step);
 }
 
 StatusReport HostCore::cancel(RunningMap::iterator it, std::string why) {
@@ -204,6 +214,7 @@ HostEffects HostCore::step(RunningMap::iterator it, const Observation& observed,
   if (s.stage != r.stage || obs.step % period == 0) {
     r.stage = s.stage;
     fx.statuses.push_back(status(r, CommandState::Running, "", obs.step, r.steps_used, s.stage, s.progress));
+    fx.statuses.back().planned_steps = static_cast<std::uint32_t>(s.planned_steps);
   }
   return fx;
 }

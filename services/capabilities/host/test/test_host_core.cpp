@@ -144,6 +144,25 @@ TEST_F(HostCoreTest, SpendsNoMoreThanTheCommandBudget) {
   EXPECT_NE(fx.statuses[0].reason.find("budget of 3"), std::string::npos);
 }
 
+TEST_F(HostCoreTest, ALeaseRaisesTheBudgetOfItsOwnCommandOnly) {
+  core.on_observation(obs(0), t0);
+  auto fx = core.on_start(start("c1", 0, 3, {{"steps", 50}}), t0);
+  int actions = static_cast<int>(fx.actions.size());
+  core.on_lease(3, "e1", "c0", 20);  // another command's
+  core.on_lease(3, "e2", "c1", 20);  // another episode's
+  core.on_lease(4, "e1", "c1", 20);  // another channel's
+  core.on_lease(3, "e1", "c1", 6);
+  core.on_lease(3, "e1", "c1", 4);  // an older lease does not lower it again
+  for (std::uint32_t s = 1; s <= 6; ++s) {
+    fx = core.on_observation(obs(s), t0);
+    actions += static_cast<int>(fx.actions.size());
+  }
+  EXPECT_EQ(actions, 6);
+  ASSERT_EQ(fx.statuses.size(), 1u);
+  EXPECT_EQ(fx.statuses[0].state, CommandState::Expired);
+  EXPECT_NE(fx.statuses[0].reason.find("budget of 6"), std::string::npos) << fx.statuses[0].reason;
+}
+
 TEST_F(HostCoreTest, RefusesAtItsCheckAndAMalformedTheta) {
   core.on_observation(obs(0), t0);
   auto c = start("c1", 0);
@@ -241,7 +260,8 @@ TEST_F(HostCoreTest, PerceivedCommandsWaitForAFrameThenRefuse) {
 TEST_F(HostCoreTest, DeclaresItsPorts) {
   std::set<std::string> in, out;
   for (const auto& p : HostCore::ports()) (p.direction == PortDirection::In ? in : out).insert(std::string(p.topic));
-  EXPECT_EQ(in, (std::set<std::string>{"rt/dh/command", "rt/dh/observation", "rt/dh/perception/scene"}));
+  EXPECT_EQ(in, (std::set<std::string>{"rt/dh/command", "rt/dh/observation", "rt/dh/perception/scene",
+                                       "rt/dh/lease"}));
   EXPECT_EQ(out, (std::set<std::string>{"rt/dh/action", "rt/dh/command/status", "rt/dh/capability/announce"}));
 }
 

@@ -44,11 +44,36 @@ void ArticulatedSkill::begin(const Observation& obs, const Eigen::Vector3d& grip
   d_ = d;
   cost_ = cost;
   total_steps_ = 0;
+  committed_ = 0;
   stage_ = Stage::Approach;
   // From above, come down clear of whatever stands near the part (another handle, the fixture's top).
   Eigen::Vector3d start = grip_tool_ + approach_;
   if (approach_.head<2>().norm() < 1e-9) start.z() = clear_height(obs, start, 0.03, 0.03, part_);
   m_.go(obs, start, q_, steps(d_.approach));
+  commit(m_.steps());
+}
+
+int ArticulatedSkill::steps_after() const {
+  const int close = grasps() ? steps(d_.close) : 0, release = grasps() ? steps(d_.release) : 0;
+  const int move =
+      std::max(1, cost_ - steps(d_.approach) - steps(d_.descent) - close - release - steps(d_.retreat));
+  const int via_leg = via_ ? steps(d_.descent / 2) : 0;  // the descent's second leg, from over the handle
+  switch (stage_) {
+    case Stage::Approach:
+      return steps(d_.descent) + via_leg + close + move + release + steps(d_.retreat);
+    case Stage::Descent:
+      return via_leg + close + move + release + steps(d_.retreat);
+    case Stage::Close:
+      return move + release + steps(d_.retreat);
+    case Stage::Move:
+      return release + steps(d_.retreat);
+    case Stage::Release:
+      return steps(d_.retreat);
+    case Stage::Retreat:
+    case Stage::Done:
+      return 0;
+  }
+  return 0;
 }
 
 SkillStep ArticulatedSkill::next(const Observation& obs) {
@@ -70,19 +95,23 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
         stage_ = Stage::Descent;
         const Eigen::Vector3d next = via_ ? *via_ : grip_tool_;
         m_.go(obs, next, q_, steps(d_.descent * std::max(1.0, (m_.to() - next).norm() / approach_.norm())));
+        commit(m_.steps());
       }
       break;
     case Stage::Descent:
       if (m_.done() && via_) {
         m_.go(obs, grip_tool_, q_, steps(d_.descent / 2));
+        commit(m_.steps());
         via_.reset();
       } else if (m_.done()) {
         if (grasps()) {
           stage_ = Stage::Close;
           m_.hold(obs, steps(d_.close));
+          commit(m_.steps());
         } else {
           stage_ = Stage::Move;
           begin_move(obs);
+          commit(move_steps());
         }
       }
       break;
@@ -91,6 +120,7 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
         if (obs.gripper_opening < robot::kJawShutM) return fail(FailureCode::HandleMissed, "handle missed: the jaw closed on nothing");
         stage_ = Stage::Move;
         begin_move(obs);
+        commit(move_steps());
       }
       break;
     case Stage::Move:
@@ -99,6 +129,7 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
       if (m_.done()) {
         stage_ = Stage::Retreat;
         m_.go(obs, geo::vec(obs.ee_p) + retreat_, geo::quat(obs.ee_q), steps(d_.retreat));
+        commit(m_.steps());
       }
       break;
     case Stage::Retreat:
@@ -121,13 +152,15 @@ SkillStep ArticulatedSkill::next(const Observation& obs) {
         stage_ = Stage::Retreat;
         m_.go(obs, geo::vec(obs.ee_p) + retreat_, geo::quat(obs.ee_q), steps(d_.retreat));
       }
+      commit(m_.steps());
     }
   }
   static constexpr const char* names[] = {"approach", "descent", "close", "move", "release", "retreat", "done"};
   out.stage = names[static_cast<int>(stage_)];
   if (stage_ == Stage::Done) return completed_step();
   ++total_steps_;
-  out.progress = std::min(1.0, static_cast<double>(total_steps_) / cost_);
+  out.planned_steps = committed_ + steps_after();
+  out.progress = std::min(1.0, static_cast<double>(total_steps_) / out.planned_steps);
   if (stage_ == Stage::Move) {
     out.action = move_action;
     return out;

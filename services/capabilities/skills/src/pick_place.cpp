@@ -165,6 +165,7 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
   target_ = arg(args, "target");
   cavity_ = grasp_only_ ? std::nullopt : find_cavity(obs, target_, object_);
   total_steps_ = 0;
+  committed_ = 0;
   turned_back_ = false;
   const EntityState& o = *obs.entity(object_);
   const Eigen::Vector3d c = geo::vec(o.p);
@@ -442,8 +443,33 @@ void PickPlaceSkill::enter(Stage s, const Observation& obs) {
       m_.go(obs, ee + Eigen::Vector3d(0, 0, p_.retreat_height), eq, steps(p_.retreat_steps));
       break;
     case Stage::Done:
-      break;
+      return;
   }
+  committed_ += m_.steps();
+}
+
+int PickPlaceSkill::steps_after(Stage s) const {
+  // θ's steps of each stage, in the order this command runs them (a cavity's are slower: enter()).
+  const int into = steps(p_.lower_steps * (cavity_ ? 2 : 1));
+  std::vector<std::pair<Stage, int>> plan{{Stage::Approach, steps(p_.approach_steps)},
+                                          {Stage::Descent, steps(p_.descent_steps)},
+                                          {Stage::Close, steps(p_.close_steps)}};
+  if (!grasp_only_) {
+    plan.insert(plan.end(), {{Stage::Lift, steps(p_.lift_steps)},
+                             {Stage::Carry, steps(p_.carry_max_steps)},
+                             {Stage::Lower, into}});
+    if (cavity_) plan.emplace_back(Stage::Insert, into);
+    plan.emplace_back(Stage::Release, steps(p_.release_steps));
+    if (cavity_) plan.emplace_back(Stage::Withdraw, into);
+    plan.emplace_back(Stage::Retreat, steps(p_.retreat_steps));
+  }
+  int after = 0;
+  bool past = false;
+  for (const auto& [stage, n] : plan) {
+    if (past) after += n;
+    past = past || stage == s;
+  }
+  return after;
 }
 
 Eigen::Vector2d PickPlaceSkill::entry_xy() const {
@@ -520,7 +546,8 @@ SkillStep PickPlaceSkill::next(const Observation& obs) {
                       stage_ == Stage::Lower || stage_ == Stage::Insert;
   out.action = m_.advance(obs, closed ? kGripClose : kGripOpen);
   out.stage = stage_name(stage_);
-  out.progress = std::min(1.0, static_cast<double>(total_steps_) / cost_steps());
+  out.planned_steps = committed_ + steps_after(stage_);
+  out.progress = std::min(1.0, static_cast<double>(total_steps_) / out.planned_steps);
   return out;
 }
 

@@ -6,8 +6,10 @@
 
 #include "dh/cap/descriptor.hpp"
 #include "dh/cap/library.hpp"
+#include "dh/cap/pick_place.hpp"
 #include "dh/common/geometry.hpp"
 #include "dh/common/paths.hpp"
+#include "dh/gov/grounding.hpp"
 #include "dh/inproc/bus.hpp"
 #include "dh/sim/scene.hpp"
 
@@ -227,6 +229,28 @@ TEST_F(SkillsPhysics, ABowlGoesIntoTheBottomDrawerBetweenTheHandlesAboveAndTheDr
         run(t, seed, "slide_drawer", {{"drawer", "cabinet_bottom_drawer"}, {"state", "closed"}}, {}, false);
     EXPECT_EQ(b.state, CommandState::Completed) << "seed " << seed << " " << b.stage << ": " << b.reason;
     EXPECT_TRUE(b.goal) << "seed " << seed << ": the bowl in the closed drawer";
+  }
+}
+
+TEST_F(SkillsPhysics, ABowlByTheWineRackGoesIntoTheDrawerOnTheBudgetItsLongerPlanRaises) {
+  // long-swap 3 stands the bowl by the wine rack: the hand comes down from over the rack and carries the
+  // bowl over the cabinet, a plan far longer than pick_place's θ cost. The command starts on the budget the
+  // governor gives that cost; each stage's plan raises it (gov::raised_budget), as the governor does.
+  const TaskDef& t = task("long-swap", 3);
+  const cap::Theta& theta = library.at("pick_place");
+  const auto budget = gov::command_budget(cap::PickPlaceSkill(theta).cost_steps(), t.budget_steps);
+  for (int seed : {21, 22}) {
+    cell(t).reset(seed, t.goal);
+    inproc::CommandRunner runner(cell(t), *host, t.budget_steps);
+    runner.begin_episode("long-swap/3/" + std::to_string(seed) + "/" + std::to_string(++episodes));
+    const auto r =
+        runner.run("pick_place", {{"object", "bowl"}, {"target", "cabinet_bottom_region"}}, theta, budget);
+    ASSERT_EQ(r.state, CommandState::Completed) << "seed " << seed << " " << r.stage << ": " << r.reason;
+    EXPECT_GT(r.steps, budget) << "seed " << seed << ": the plan ran past the cost model's budget";
+    const EntityState& bowl = *r.last.entity("bowl");
+    const EntityState& region = *r.last.entity("cabinet_bottom_region");
+    EXPECT_LT(bowl.p[2], region.p[2] - region.half_extents[2] + 0.01)
+        << "seed " << seed << ": on the drawer's floor";
   }
 }
 

@@ -220,6 +220,8 @@ class EpisodeMachine {
   static Effects then(const Effects& first, Effects next);
   /// Decides on the running command's end; `unrecorded`: its status is recorded after the decision.
   Effects finish_command(const CommandStatus& st, Clock::time_point now, bool unrecorded);
+  /// The lease with the running command's budget raised to its capability's plan (raised_budget), if it is.
+  Effects raise_budget(const CommandStatus& st);
   void record_status(const CommandStatus& st);
   /// Folds the progress reports of steps before `step` (through it, with `through`) into last_progress_.
   void take_progress(std::uint32_t step, bool through);

@@ -53,5 +53,11 @@ GroundingResult ground(const GroundingInput& in);
 /// expected duration × 1.1 + 0.5 s; analytic skills stretch their stages with the path's length and
 /// height, so the nominal cost needs the wider margin.)
 std::uint32_t command_budget(std::uint32_t cost_steps, std::uint32_t remaining_steps);
+/// A running command's budget once its capability planned `planned_steps` in all from the state it met: the
+/// budget that plan's length would have had at dispatch, when that is more than `budget`, within the
+/// `remaining_at_start` steps the episode had then. The plan counts each stage as planned at its entry, not
+/// the time it took, so the budget follows a longer path and never a stalled one.
+std::uint32_t raised_budget(std::uint32_t budget, std::uint32_t planned_steps,
+                            std::uint32_t remaining_at_start);
 
 }  // namespace dh::gov

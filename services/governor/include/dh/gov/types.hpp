@@ -69,6 +69,9 @@ struct CommandStatus {
   std::uint32_t step = 0, steps_used = 0;
   double progress = 0;
   FailureCode failure = FailureCode::None;
+  /// The steps the capability's plan needs in all, as it stands (0: not said): a plan longer than the cost
+  /// model raises the command's budget (raised_budget).
+  std::uint32_t planned_steps = 0;
 };
 
 }  // namespace dh::gov

@@ -52,6 +52,9 @@ struct RecordedCommand {
   std::string id, capability, version;
   nlohmann::json args, theta;
   std::uint32_t start_step = 0, budget_steps = 0;
+  /// The governor's raises of the budget for a plan longer than the cost model: (the step of the status
+  /// that said the plan, the budget from then on), in order (its budget_raised records).
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> budget_raises;
   std::optional<RecordedEnd> end;  ///< none when the governor moved on before the command ended
   /// The governor's episode machine just after the dispatch (its evidence's snapshot record); none in
   /// evidence written before snapshots were recorded.

@@ -63,6 +63,7 @@ struct StatusReport {
   std::uint32_t step = 0, steps_used = 0;
   double progress = 0;
   FailureCode failure = FailureCode::None;  ///< why it failed (Failed only)
+  std::uint32_t planned_steps = 0;          ///< SkillStep::planned_steps (Running only)
 };
 
 struct ActionOut {
@@ -97,6 +98,10 @@ class HostCore {
 
   HostEffects on_start(const CommandStart& c, Clock::time_point now);
   HostEffects on_cancel(const CommandCancel& c);
+  /// The governor's lease for a channel's command: the command may spend up to `budget_until_step` when that
+  /// is more than its budget (the governor raised it for a plan longer than the cost model).
+  void on_lease(std::uint32_t channel, const std::string& episode_id, const std::string& command_id,
+                std::uint32_t budget_until_step);
   HostEffects on_observation(const Observation& obs, Clock::time_point now);
   HostEffects on_scene_estimate(std::uint32_t channel, const SceneEstimate& e, Clock::time_point now);
   /// Commands waiting for a frame past the perception limit give up.

@@ -74,6 +74,8 @@ class ArticulatedSkill : public Skill {
   /// Jaw command while moving (closed on a handle, or a closed fist sweeping a lever).
   virtual double move_grip() const { return kGripClose; }
   virtual bool grasps() const { return true; }  ///< Close and Release stages run
+  /// The steps the move was planned for on entering Move (its motion's, unless it keeps its own count).
+  virtual int move_steps() const { return m_.steps(); }
 
   struct Durations {
     double approach = 30, descent = 20, close = 8, release = 8, retreat = 20;
@@ -95,6 +97,13 @@ class ArticulatedSkill : public Skill {
   Eigen::Vector3d retreat_{0, 0, 0};     ///< the retreat's displacement
   Durations d_;
   int total_steps_ = 0, cost_ = 1;
+
+ private:
+  /// Counts the stage just entered at the steps it was planned for (SkillStep::planned_steps).
+  void commit(int planned) { committed_ += planned; }
+  /// θ's steps for the stages after the current one: the move's share is what cost_ leaves the others.
+  int steps_after() const;
+  int committed_ = 0;
 };
 
 class SlideDrawerSkill : public ArticulatedSkill {
@@ -148,6 +157,7 @@ class SwingDoorSkill : public ArticulatedSkill {
   Eigen::Vector2d hinge_{0, 0};
   double radius_ = 0, phi0_ = 0, sweep_ = 0, z_ = 0, yaw0_ = 0;
   int swing_step_ = 0, swing_steps_ = 1;
+  int move_steps() const override { return swing_steps_; }
 };
 
 }  // namespace dh::cap

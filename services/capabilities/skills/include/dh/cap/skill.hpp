@@ -29,6 +29,10 @@ struct SkillStep {
   std::string stage;
   std::string reason;
   double progress = 0;
+  /// The steps the skill's plan needs in all, as it stands: its stages entered, as long as each was planned
+  /// at its entry (a path over something tall is longer than θ says), and θ's steps for those not begun.
+  /// 0: its cost_steps(). It grows only when a stage is planned longer than θ, never with time spent.
+  int planned_steps = 0;
   FailureCode failure = FailureCode::None;  ///< set with Failed
 };
 
