@@ -46,8 +46,7 @@ CommandOutcome CommandRunner::run(cap::CommandStart c) {
     seam_.on_lease({seam_.episode_id(), c.command_id, until, until, false}, step_time(now_step));
     host_.on_lease(c.channel, seam_.episode_id(), c.command_id, until);
   };
-  seam_.on_lease({seam_.episode_id(), c.command_id, c.start_step + budget_steps, c.start_step + budget_steps, false},
-                 step_time(c.start_step));
+  lease(c.start_step);  // the host learns of the command only at its start, below
 
   CommandOutcome out;
   Observation obs = seam_.observation();

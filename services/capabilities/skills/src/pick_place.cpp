@@ -166,6 +166,7 @@ void PickPlaceSkill::start(const Bindings& args, const Observation& obs, const S
   cavity_ = grasp_only_ ? std::nullopt : find_cavity(obs, target_, object_);
   total_steps_ = 0;
   committed_ = 0;
+  plan_steps_after();
   turned_back_ = false;
   const EntityState& o = *obs.entity(object_);
   const Eigen::Vector3d c = geo::vec(o.p);
@@ -448,7 +449,7 @@ void PickPlaceSkill::enter(Stage s, const Observation& obs) {
   committed_ += m_.steps();
 }
 
-int PickPlaceSkill::steps_after(Stage s) const {
+void PickPlaceSkill::plan_steps_after() {
   // θ's steps of each stage, in the order this command runs them (a cavity's are slower: enter()).
   const int into = steps(p_.lower_steps * (cavity_ ? 2 : 1));
   std::vector<std::pair<Stage, int>> plan{{Stage::Approach, steps(p_.approach_steps)},
@@ -463,13 +464,12 @@ int PickPlaceSkill::steps_after(Stage s) const {
     if (cavity_) plan.emplace_back(Stage::Withdraw, into);
     plan.emplace_back(Stage::Retreat, steps(p_.retreat_steps));
   }
+  steps_after_.fill(0);  // Done, and stages this plan skips
   int after = 0;
-  bool past = false;
-  for (const auto& [stage, n] : plan) {
-    if (past) after += n;
-    past = past || stage == s;
+  for (auto it = plan.rbegin(); it != plan.rend(); ++it) {
+    steps_after_[static_cast<int>(it->first)] = after;
+    after += it->second;
   }
-  return after;
 }
 
 Eigen::Vector2d PickPlaceSkill::entry_xy() const {
@@ -546,7 +546,7 @@ SkillStep PickPlaceSkill::next(const Observation& obs) {
                       stage_ == Stage::Lower || stage_ == Stage::Insert;
   out.action = m_.advance(obs, closed ? kGripClose : kGripOpen);
   out.stage = stage_name(stage_);
-  out.planned_steps = committed_ + steps_after(stage_);
+  out.planned_steps = committed_ + steps_after_[static_cast<int>(stage_)];
   out.progress = std::min(1.0, static_cast<double>(total_steps_) / out.planned_steps);
   return out;
 }

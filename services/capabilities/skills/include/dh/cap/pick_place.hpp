@@ -8,6 +8,8 @@
 // it goes on from the lift.
 #pragma once
 
+#include <array>
+
 #include "dh/cap/motion.hpp"
 #include "dh/cap/skill.hpp"
 
@@ -65,14 +67,16 @@ class PickPlaceSkill : public Skill {
   bool leans(const Eigen::Vector2d& from_base) const;
   Eigen::Quaterniond lean(const Eigen::Quaterniond& q, const Eigen::Vector2d& from_base) const;
   double corridor_z(const Observation& obs, const Eigen::Vector2d& to) const;
-  /// θ's steps for the stages after `s` in this command's plan (SkillStep::planned_steps).
-  int steps_after(Stage s) const;
+  /// Fills steps_after_ for this command's plan, whose stages start() has settled.
+  void plan_steps_after();
 
   PickPlaceParams p_;
   std::string object_, target_;
   Stage stage_ = Stage::Done;
   int total_steps_ = 0;
   int committed_ = 0;  ///< steps of the stages entered, as planned at their entry
+  /// By stage: θ's steps of the stages after it in this command's plan (SkillStep::planned_steps).
+  std::array<int, static_cast<int>(Stage::Done) + 1> steps_after_{};
   Motion m_;
   Eigen::Vector3d grasp_{0, 0, 0};      ///< tool position at the grasp
   Eigen::Quaterniond grasp_q_;          ///< tool orientation at the grasp
