@@ -3,11 +3,20 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <nlohmann/json.hpp>
 #include <set>
+#include <stdexcept>
 
 #include "dh/common/config.hpp"
 
 namespace dh {
+
+// A snapshot's fields under their own names.
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(PerceivedEntity, name, p, half_extents, confidence, yaw, kind, category,
+                                   colour)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(PerceivedPart::Rider, name, p, q)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(PerceivedPart, name, joint, confidence, riders)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(SceneEstimate, episode_id, step, looked_for, seen, parts)
 
 PerceptionLimits perception_limits(const ConfigNode& section) {
   PerceptionLimits l;
@@ -178,6 +187,47 @@ std::optional<Unperceived> PerceivedWorld::view(Observation& obs, const std::vec
   }
   obs.entities = std::move(kept);
   return std::nullopt;
+}
+
+nlohmann::json PerceivedWorld::state() const {
+  using nlohmann::json;
+  json seen = json::object();
+  for (const auto& [name, s] : seen_)
+    seen[name] = {{"entity", s.entity}, {"step", s.step}, {"released", s.released}};
+  json riders = json::array();
+  for (const auto& [name, r] : riders_) riders.push_back(r);
+  return {{"episode", episode_},
+          {"latest", latest_ ? json(*latest_) : json(nullptr)},
+          {"seen", std::move(seen)},
+          {"riders", std::move(riders)},
+          {"joints", joints_},
+          {"parts_step", parts_step_ ? json(*parts_step_) : json(nullptr)},
+          {"held", held_ ? json(*held_) : json(nullptr)},
+          {"held_offset", held_offset_},
+          {"tool", tool_ ? json(*tool_) : json(nullptr)}};
+}
+
+PerceivedWorld PerceivedWorld::from_state(const nlohmann::json& j, PerceptionLimits limits) {
+  PerceivedWorld w(limits);
+  try {
+    w.episode_ = j.at("episode").get<std::string>();
+    if (!j.at("latest").is_null()) w.latest_ = j.at("latest").get<SceneEstimate>();
+    for (const auto& [name, s] : j.at("seen").items())
+      w.seen_[name] = {s.at("entity").get<PerceivedEntity>(), s.at("step").get<std::uint32_t>(),
+                       s.at("released").get<bool>()};
+    for (const auto& r : j.at("riders")) {
+      auto rider = r.get<PerceivedPart::Rider>();
+      w.riders_[rider.name] = std::move(rider);
+    }
+    w.joints_ = j.at("joints").get<std::map<std::string, double>>();
+    if (!j.at("parts_step").is_null()) w.parts_step_ = j.at("parts_step").get<std::uint32_t>();
+    if (!j.at("held").is_null()) w.held_ = j.at("held").get<std::string>();
+    w.held_offset_ = j.at("held_offset").get<std::array<double, 3>>();
+    if (!j.at("tool").is_null()) w.tool_ = j.at("tool").get<std::array<double, 3>>();
+  } catch (const nlohmann::json::exception& e) {
+    throw std::invalid_argument(std::string("a perceived world's state that cannot be read: ") + e.what());
+  }
+  return w;
 }
 
 }  // namespace dh

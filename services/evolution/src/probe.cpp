@@ -98,9 +98,11 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
                                 std::to_string(rec.commands.size()) + " command(s), numbered from 0");
   const inproc::RecordedCommand& k = rec.commands[o.command];
   const auto arms = load_arms(o.config_dir / "governor.yaml");
-  if (find_arm(arms, rec.arm).grounding == "perception")
-    throw std::invalid_argument("command " + k.id +
-                                " was grounded in perception estimates, which a probe does not re-make");
+  if (find_arm(arms, rec.arm).grounding == "perception" && !o.rest)
+    throw std::invalid_argument(
+        "command " + k.id +
+        " was grounded in perception estimates, which a probe of the command alone does not "
+        "re-make; --rest runs the rest of the episode with perception on the in-process bus");
   const std::vector<cap::CapabilityDef> defs = cap::all_capabilities();
   const cap::CapabilityDef* def = cap::find_capability(defs, k.capability);
   if (!def)

@@ -476,3 +476,29 @@ TEST(CommandEffect, FollowsTheArguments) {
   EXPECT_TRUE(evo::command_effect({{"object", "bowl"}}, goal).empty()) << "a recovery: its completion";
   EXPECT_TRUE(evo::command_effect({}, goal).empty());
 }
+
+// An episode grounded in perception is probed with the rest of its episode, perception on the bus: the
+// command alone would run without the estimates its host took in, so that is refused, naming --rest.
+TEST(ProbePerception, AnEpisodeGroundedInPerceptionIsProbedWithTheRestOfItsEpisode) {
+  const fs::path dir = fs::path(::testing::TempDir()) / ("dh_probe_perception_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  inproc::Stack stack(paths::config_dir());
+  const auto suites = load_suites(paths::config_dir());
+  const auto recorded = stack.run(find_task(suites, "goal", 8), 21, "full-perception", dir / "ep.jsonl");
+  ASSERT_TRUE(recorded.success) << recorded.reason;
+  evo::ProbeOptions o{paths::config_dir(), {}, 0, std::nullopt, false, {}};
+  try {
+    evo::probe(dir / "ep.jsonl", o);
+    FAIL() << "a command grounded in perception was probed alone";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("--rest"), std::string::npos) << e.what();
+  }
+  o.rest = true;
+  const evo::ProbeReport r = evo::probe(dir / "ep.jsonl", o);
+  ASSERT_TRUE(r.rest);
+  EXPECT_TRUE(r.rest->success) << r.rest->reason;
+  EXPECT_TRUE(r.effect_held) << r.effect;
+  ASSERT_TRUE(r.rest->recorded);
+  EXPECT_TRUE(r.rest->recorded->success);
+  fs::remove_all(dir);
+}

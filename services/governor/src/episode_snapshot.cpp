@@ -10,6 +10,7 @@
 namespace dh {
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(EntityState, name, kind, p, q, half_extents, joint, category, colour,
                                    owner, relation)
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(GoalTerm, predicate, args, part, lo, hi)
 }  // namespace dh
 
 namespace dh::gov {
@@ -19,7 +20,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(Advice, request_id, refused, capability, args
                                    done, rest, injected)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(CommandStatus, command_id, instance, state, reason, stage, step,
                                    steps_used, progress, failure)
-// A command's perception limits are left out: a snapshot under perception grounding is not restored.
+// A command's perception limits are an optional, stored beside it (limits_state).
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(Command, command_id, capability, instance, version, args, theta,
                                    start_step, budget_steps, lease_until_step, decision_period)
 
@@ -61,6 +62,16 @@ Observation observation_from(const json& j) {
   return o;
 }
 
+json limits_state(const PerceptionLimits& l) {
+  return {
+      {"max_age_steps", l.max_age_steps}, {"min_confidence", l.min_confidence}, {"wait_ms", l.wait.count()}};
+}
+
+PerceptionLimits limits_from(const json& j) {
+  return {j.at("max_age_steps"), j.at("min_confidence"),
+          std::chrono::milliseconds(j.at("wait_ms").get<std::int64_t>())};
+}
+
 json spec_state(const EpisodeSpec& s) {
   const PlannerErrorRates& e = s.planner_errors;
   json j{{"episode_id", s.episode_id},
@@ -71,13 +82,11 @@ json spec_state(const EpisodeSpec& s) {
          {"library", s.library},
          {"library_costs", s.library_costs},
          {"error_seed", s.error_seed},
-         {"planner_errors", {e.wrong_capability, e.wrong_argument, e.dropped_step, e.repeated_step}}};
+         {"planner_errors", {e.wrong_capability, e.wrong_argument, e.dropped_step, e.repeated_step}},
+         {"goal", s.goal}};
   if (s.decision_period) j["decision_period"] = *s.decision_period;
   if (s.grounding) j["grounding"] = *s.grounding;
-  if (s.perception)
-    j["perception"] = {{"max_age_steps", s.perception->max_age_steps},
-                       {"min_confidence", s.perception->min_confidence},
-                       {"wait_ms", s.perception->wait.count()}};
+  if (s.perception) j["perception"] = limits_state(*s.perception);
   return j;
 }
 
@@ -93,13 +102,10 @@ EpisodeSpec spec_from(const json& j) {
   s.error_seed = j.at("error_seed");
   const json& e = j.at("planner_errors");
   s.planner_errors = {e.at(0), e.at(1), e.at(2), e.at(3)};
+  s.goal = j.at("goal").get<std::vector<GoalTerm>>();
   if (j.contains("decision_period")) s.decision_period = j.at("decision_period").get<std::uint32_t>();
   if (j.contains("grounding")) s.grounding = j.at("grounding").get<std::string>();
-  if (j.contains("perception")) {
-    const json& p = j.at("perception");
-    s.perception = PerceptionLimits{p.at("max_age_steps"), p.at("min_confidence"),
-                                    std::chrono::milliseconds(p.at("wait_ms").get<std::int64_t>())};
-  }
+  if (j.contains("perception")) s.perception = limits_from(j.at("perception"));
   return s;
 }
 
@@ -111,6 +117,18 @@ json optional_state(const std::optional<T>& v) {
 template <class T>
 std::optional<T> optional_from(const json& j) {
   return j.is_null() ? std::nullopt : std::optional<T>(j.get<T>());
+}
+
+json command_state(const std::optional<Command>& c) {
+  json j = optional_state(c);
+  if (c && c->perception) j["perception"] = limits_state(*c->perception);
+  return j;
+}
+
+std::optional<Command> command_from(const json& j) {
+  std::optional<Command> c = optional_from<Command>(j);
+  if (c && j.contains("perception")) c->perception = limits_from(j.at("perception"));
+  return c;
 }
 
 std::int64_t left_ns(Clock::time_point until, Clock::time_point now) {
@@ -142,7 +160,7 @@ MachineSnapshot EpisodeMachine::snapshot(Clock::time_point now) const {
          {"tried", tried_},
          {"recoveries", recoveries_},
          {"recovering", recovering_},
-         {"running", optional_state(running_)},
+         {"running", command_state(running_)},
          {"deferred_end", optional_state(deferred_end_)},
          {"acknowledged", acknowledged_},
          {"last_progress", last_progress_},
@@ -159,7 +177,11 @@ MachineSnapshot EpisodeMachine::snapshot(Clock::time_point now) const {
          {"replans", replans_},
          {"plans", plans_},
          {"commands", commands_}};
-  if (world_) s["perceived_world"] = "not recorded";
+  if (world_) s["perceived_world"] = world_->state();
+  if (perceived_) {
+    const PerceivedVerdict::State v = perceived_->state();
+    s["perceived_verdict"] = {{"value", v.value}, {"run", v.run}, {"last_step", optional_state(v.last_step)}};
+  }
   return {std::move(s),
           {{"deadline", left_ns(deadline_, now)},
            {"deadline_what", deadline_what_},
@@ -191,11 +213,19 @@ std::unique_ptr<EpisodeMachine> EpisodeMachine::restore(const MachineSnapshot& s
   spec.channel = channel;
   const json& s = snap.state;
   try {
-    if (s.contains("perceived_world") || config.perception)
-      throw std::invalid_argument(
-          "the snapshot of " + spec.episode_id +
-          " was taken under perception grounding, whose perceived world it does not hold");
+    if (s.contains("perceived_world") != config.perception.has_value())
+      throw std::invalid_argument("the snapshot of " + spec.episode_id + " was taken grounding in " +
+                                  (s.contains("perceived_world") ? "perception" : "state") +
+                                  ", and its arm now grounds in " +
+                                  (config.perception ? "perception" : "state"));
     std::unique_ptr<EpisodeMachine> m(new EpisodeMachine(std::move(spec), config, registry, evidence));
+    if (config.perception)
+      m->world_ = PerceivedWorld::from_state(s.at("perceived_world"), *config.perception);
+    if (s.contains("perceived_verdict")) {
+      const json& v = s.at("perceived_verdict");
+      m->perceived_.emplace(m->spec_.goal, config.verdict_frames);
+      m->perceived_->restore({v.at("value"), v.at("run"), optional_from<std::uint32_t>(v.at("last_step"))});
+    }
     m->phase_ = static_cast<Phase>(s.at("phase").get<int>());
     m->deadline_what_ = snap.waits.at("deadline_what");
     m->deadline_wait_ = s.at("deadline_wait");
@@ -214,7 +244,7 @@ std::unique_ptr<EpisodeMachine> EpisodeMachine::restore(const MachineSnapshot& s
     m->tried_ = s.at("tried").get<std::map<std::string, std::set<std::string>>>();
     m->recoveries_ = s.at("recoveries").get<std::map<std::string, int>>();
     m->recovering_ = s.at("recovering");
-    m->running_ = optional_from<Command>(s.at("running"));
+    m->running_ = command_from(s.at("running"));
     m->deferred_end_ = optional_from<CommandStatus>(s.at("deferred_end"));
     m->acknowledged_ = s.at("acknowledged");
     m->last_progress_ = s.at("last_progress");

@@ -2,6 +2,8 @@
 // while held; missing, stale or never-seen estimates are named.
 #include <gtest/gtest.h>
 
+#include <nlohmann/json.hpp>
+
 #include "dh/common/perceived_world.hpp"
 #include "fixtures.hpp"
 
@@ -359,6 +361,30 @@ TEST(PerceivedWorld, AFittedPartTakesItsJointValueAndCarriesItsRegionsTheCalibra
   obs = observed();
   ASSERT_FALSE(no_parts.view(obs, {}));
   EXPECT_EQ(obs.entity("unit_drawer")->joint, 0);
+}
+
+TEST(PerceivedWorld, ItsStateRestoresAWorldThatViewsAndGoesOnAsTheOriginal) {
+  PerceivedWorld w{PerceptionLimits{}};
+  SceneEstimate e = estimate(4);
+  e.parts.push_back({"drawer", 0.12, 0.9, {{"drawer", {0.3, 0.1, 0.2}, {0.9, 0, 0, 0.43589}}}});
+  w.on_estimate(e);
+  w.track(holding_at(5, {0.01, -0.14, 0.03}));  // the jaw closes on the bowl
+  const nlohmann::json state = w.state();
+  PerceivedWorld back = PerceivedWorld::from_state(state, PerceptionLimits{});
+  EXPECT_EQ(back.state(), state);
+  EXPECT_EQ(back.episode(), "ep");
+  for (PerceivedWorld* x : {&w, &back}) x->track(holding_at(6, {0.2, 0.1, 0.15}));
+  Observation a = holding_at(6, {0.2, 0.1, 0.15}), b = a;
+  a.entities.push_back(test::entity("drawer", {0, 0, 0}, {0.1, 0.1, 0.1}));
+  b.entities = a.entities;
+  ASSERT_FALSE(w.view(a, {"bowl"}));
+  ASSERT_FALSE(back.view(b, {"bowl"}));
+  ASSERT_NE(a.entity("bowl"), nullptr);
+  EXPECT_EQ(a.entity("bowl")->p, b.entity("bowl")->p) << "carried with the tool in both";
+  EXPECT_EQ(a.entity("drawer")->joint, 0.12);
+  EXPECT_EQ(b.entity("drawer")->joint, 0.12);
+  EXPECT_EQ(b.entity("drawer")->p, a.entity("drawer")->p);
+  EXPECT_THROW(PerceivedWorld::from_state({{"episode", "ep"}}, PerceptionLimits{}), std::invalid_argument);
 }
 
 }  // namespace

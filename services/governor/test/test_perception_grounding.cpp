@@ -118,4 +118,53 @@ TEST_F(PerceptionMachine, NoFrameWithinTheWaitIsARefusalWithItsReason) {
   EXPECT_TRUE(recorded);
 }
 
+// The perceived world and the perceived verdict's frames are in the snapshot: a machine restored from it
+// goes on as the original does, the held bowl carried with the tool.
+struct PerceptionVerdictMachine : PerceptionMachine {
+  void configure_spec(EpisodeSpec& s) override { s.goal = {{"On", {"bowl", "plate"}}}; }
+};
+
+TEST_F(PerceptionVerdictMachine, ASnapshotHoldsThePerceivedWorldAndTheVerdictsFramesAndRestoresThem) {
+  m->on_observation(test::scene_observation(0), t0);
+  Effects fx = m->on_scene_estimate(estimate(0), t0);
+  ASSERT_TRUE(fx.plan_request);
+  fx = m->on_advice(good(fx.plan_request->request_id), t0);
+  ASSERT_TRUE(fx.command);
+  ASSERT_TRUE(fx.command->perception) << "the command grounds in perception";
+  Observation held = test::scene_observation(1);  // the jaw closed over the perceived bowl
+  held.ee_p = {0.01, -0.14, 0.03};
+  held.contact_left = held.contact_right = true;
+  held.gripper_opening = 0.05;
+  m->on_observation(held, t0);
+  m->on_scene_estimate(estimate(1), t0);
+
+  const MachineSnapshot s = m->snapshot(t0);
+  ASSERT_TRUE(s.state.contains("perceived_world"));
+  EXPECT_EQ(s.state["perceived_world"]["held"], "bowl");
+  EXPECT_EQ(s.state["perceived_world"]["latest"]["step"], 1);
+  ASSERT_TRUE(s.state.contains("perceived_verdict"));
+  EXPECT_EQ(s.state["perceived_verdict"]["last_step"], 1);
+  EXPECT_EQ(s.state["running"]["perception"]["max_age_steps"], 20) << "the command's limits go with it";
+
+  EvidenceWriter other(file.string() + ".restored");
+  const auto restored = EpisodeMachine::restore(s, 0, config, registry, other, t0);
+  EXPECT_EQ(restored->snapshot(t0).state, s.state);
+  Observation carried = held;  // the tool carries the bowl towards the plate
+  carried.step = 2;
+  carried.ee_p = {0.0, 0.1, 0.12};
+  for (EpisodeMachine* x : {m.get(), restored.get()}) {
+    x->on_observation(carried, t0);
+    x->on_scene_estimate(estimate(2), t0);
+  }
+  const nlohmann::json after = m->snapshot(t0).state;
+  EXPECT_EQ(restored->snapshot(t0).state, after);
+  EXPECT_NE(after["perceived_world"], s.state["perceived_world"]) << "the events moved the perceived bowl";
+
+  GovernorConfig in_state = config;
+  in_state.perception.reset();
+  EXPECT_THROW(EpisodeMachine::restore(s, 0, in_state, registry, other, t0), std::invalid_argument)
+      << "a snapshot taken grounding in perception, restored under an arm that grounds in state";
+  std::filesystem::remove(file.string() + ".restored");
+}
+
 }  // namespace

@@ -47,7 +47,8 @@ void write_resumed_heading(const Recording& rec, std::uint32_t command, std::uin
 }  // namespace
 
 Stack::Stack(const std::filesystem::path& config_dir, const std::filesystem::path& library_dir)
-    : config_(gov::load_config(config_dir / "governor.yaml")),
+    : config_dir_(config_dir),
+      config_(gov::load_config(config_dir / "governor.yaml")),
       arms_(load_arms(config_dir / "governor.yaml")),
       governor_(config_, arms_,
                 // Every capability is served before the first request: nothing to wait for.
@@ -74,9 +75,23 @@ void Stack::add_capability(cap::CapabilityDef def, const std::filesystem::path& 
   host_.serve({std::move(def), info.instance});
 }
 
+sim::Workcell& Stack::cell_for(const TaskDef& task, std::uint64_t seed, const std::string& robot,
+                               bool perceives) {
+  if (!perceives) return cells_.get(task, seed, robot).cell;
+  if (!perception_) {
+    perception_ = std::make_unique<BusPerception>(config_dir_);
+    seen_cells_ =
+        std::make_unique<sim::WorkcellCache>([p = perception_.get()](sim::SceneSpec& s) { p->dress(s); });
+  }
+  return seen_cells_->get(task, seed, robot).cell;
+}
+
 EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::string& arm,
                           const std::filesystem::path& evidence_path, const StepTap& tap) {
-  sim::Workcell& cell = cells_.get(task, seed, robot_).cell;
+  // The arm's settings travel in the request, as `dh campaign` sends them.
+  const gov::GovernorConfig settings = gov::for_arm(config_, find_arm(arms_, arm));
+  const bool perceives = settings.perception.has_value();
+  sim::Workcell& cell = cell_for(task, seed, robot_, perceives);
   cell.reset(seed, task.goal);
   std::filesystem::remove(evidence_path);
   // Unique per run: the host core keeps a channel's keyframes for as long as its episode id stays the same.
@@ -99,25 +114,26 @@ EpisodeOutcome Stack::run(const TaskDef& task, std::uint64_t seed, const std::st
   request.evidence = evidence_path;
   request.planner_errors = planner_errors_;
   request.goal = sim::goal_terms(cell.scene(), task.goal);  // as `dh campaign` resolves it
-  // The arm's settings travel in the request, as `dh campaign` sends them.
-  const gov::GovernorConfig settings = gov::for_arm(config_, find_arm(arms_, arm));
   request.decision_period = settings.decision_period;
-  request.grounding = settings.perception ? "perception" : "state";
+  request.grounding = perceives ? "perception" : "state";
   request.perception = settings.perception_limits;
   sim::SeamCore seam(kChannel, kBusSeam);
   const cap::Clock::time_point now = step_time(0);
   const Observation obs = *seam.start(cell, episode_id, task.budget_steps, goal_text(task.goal), now,
                                       std::filesystem::path(evidence_path).replace_extension(".steps"))
                                .observation;
-  return drive({cell, seam, obs, now, episode_id, evidence_path, tap, false}, [&] {
-    auto fx = governor_.on_request(request, now);
-    // In process nothing else can be the cause: a refused request (an unknown arm, an arm that grounds
-    // from perception) is the caller's configuration error, not an episode's outcome.
-    for (const auto& e : fx)
-      if (e.fx.end && e.fx.end->outcome == Outcome::Rejected)
-        throw ConfigError("episode " + episode_id + ": " + e.fx.end->reason);
-    return fx;
-  });
+  if (perceives) perception_->begin(episode_id, task, cell, now);
+  return drive(
+      {cell, seam, obs, now, episode_id, evidence_path, tap, false, perceives ? perception_.get() : nullptr},
+      [&] {
+        auto fx = governor_.on_request(request, now);
+        // In process nothing else can be the cause: a refused request (an unknown arm, say) is the caller's
+        // configuration error, not an episode's outcome.
+        for (const auto& e : fx)
+          if (e.fx.end && e.fx.end->outcome == Outcome::Rejected)
+            throw ConfigError("episode " + episode_id + ": " + e.fx.end->reason);
+        return fx;
+      });
 }
 
 EpisodeOutcome Stack::resume(const Resume& r, const std::filesystem::path& evidence_path,
@@ -134,23 +150,36 @@ EpisodeOutcome Stack::resume(const Resume& r, const std::filesystem::path& evide
   if (!from)
     throw EvidenceError(rec.evidence.string() + ": no state recorded at the start of command " + k.id +
                         " (its lease never reached the seam, so it never ran)");
-  sim::Workcell& cell = cells_.get(r.task, rec.seed, rec.robot).cell;
+  const gov::EpisodeSpec recorded = gov::snapshot_spec(*k.snapshot);
+  const bool perceives = recorded.grounding == "perception";
+  sim::Workcell& cell = cell_for(r.task, rec.seed, rec.robot, perceives);
   cell.reset(rec.seed, r.task.goal);
   host_ = cap::HostCore(served_);  // the earlier commands' keyframes only, not those of a run before
   restore_host(host_, cell, rec, r.states, r.command, "inproc");
+  if (perceives) {
+    if (!recorded.perception || !k.snapshot->state.contains("perceived_world"))
+      throw EvidenceError(rec.evidence.string() + ": the snapshot at the dispatch of " + k.id +
+                          " grounds in perception but holds no perceived world (evidence of an older build)");
+    // The host takes in the estimates and observations the governor does: the snapshot's world is its too.
+    host_.restore_world(
+        kChannel, PerceivedWorld::from_state(k.snapshot->state.at("perceived_world"), *recorded.perception));
+  }
   sim::SeamCore seam(kChannel, kBusSeam);
   const cap::Clock::time_point now = step_time(from->step);
   const Observation obs =
       *seam.resume(cell, rec.episode_id, rec.budget_steps, goal_text(r.task.goal), *from, now).observation;
-  const gov::EpisodeSpec recorded = gov::snapshot_spec(*k.snapshot);
+  // Perception looks afresh from the resumed step: its own schedule of looks is not in the evidence.
+  if (perceives) perception_->begin(rec.episode_id, r.task, cell, now);
   const std::string version = r.library ? r.library->version : recorded.library_version;
   const auto& library = r.library ? r.library->theta : recorded.library;
   const auto& costs = r.library ? r.library->cost_steps : recorded.library_costs;
   write_resumed_heading(rec, r.command, from->step, evidence_path);
-  return drive({cell, seam, obs, now, rec.episode_id, evidence_path, tap, true}, [&] {
-    return governor_.resume(kChannel, *k.snapshot, evidence_path, version, library, costs, r.budget_steps,
-                            now);
-  });
+  return drive({cell, seam, obs, now, rec.episode_id, evidence_path, tap, true,
+                perceives ? perception_.get() : nullptr},
+               [&] {
+                 return governor_.resume(kChannel, *k.snapshot, evidence_path, version, library, costs,
+                                         r.budget_steps, now);
+               });
 }
 
 EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>& first) {
@@ -199,9 +228,18 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
       if (fx.command) {
         const gov::Command& g = *fx.command;
         dispatched[g.command_id] = g;
-        cap::CommandStart c{
-            kChannel, episode_id,   g.command_id,   g.capability,      g.instance,           g.args,
-            g.theta,  g.start_step, g.budget_steps, g.decision_period, cap::Grounding::State};
+        cap::CommandStart c{kChannel,
+                            episode_id,
+                            g.command_id,
+                            g.capability,
+                            g.instance,
+                            g.args,
+                            g.theta,
+                            g.start_step,
+                            g.budget_steps,
+                            g.decision_period,
+                            g.perception ? cap::Grounding::Perception : cap::Grounding::State,
+                            g.perception.value_or(PerceptionLimits{})};
         from_host(host_.on_start(c, now));
       }
       if (fx.plan_request) {
@@ -220,6 +258,13 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
         for (const auto& s : a.rest) adv.rest.push_back({s.capability, s.args});
         from_governor(governor_.on_advice(kChannel, episode_id, adv, now));
       }
+    }
+  };
+  // The perception service's estimates go to the governor and to the host, as the scene topic carries them.
+  const auto perceived = [&](const std::vector<SceneEstimate>& estimates) {
+    for (const auto& e : estimates) {
+      from_governor(governor_.on_scene_estimate(kChannel, e, now));
+      from_host(host_.on_scene_estimate(kChannel, e, now));
     }
   };
   from_host = [&](cap::HostEffects hx) {
@@ -247,16 +292,26 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
           action.reset();
           from_host(host_.on_observation(obs, now));
         }
+        // Perception sees the step after the others did: over DDS its frame comes after the observation.
+        if (ep.perception) perceived(ep.perception->on_observation(obs, now));
       }
       // Nothing moves this step: wait, as a stalled channel would, for the governor's next deadline (a
-      // deadline acts by ending the episode or by changing what runs, so a few waits settle it).
-      for (int waits = 0; !end && !(action && action->step == obs.step); ++waits) {
+      // deadline acts by ending the episode or by changing what runs, so a few waits settle it). A robot
+      // standing still is looked at again meanwhile, as the perception service does.
+      for (int deadlines = 0; !end && !(action && action->step == obs.step);) {
         const auto deadline = governor_.deadline(kChannel);
-        if (waits == 4 || !deadline)
+        if (deadlines == 4 || !deadline)
           throw std::logic_error("episode " + episode_id + " stands still at step " +
                                  std::to_string(obs.step) +
                                  ": no action and no end after the governor's deadlines");
-        now = std::max(now, *deadline);
+        if (ep.perception && *deadline > now + ep.perception->still_every()) {
+          now += ep.perception->still_every();
+        } else {
+          now = std::max(now, *deadline);
+          ++deadlines;
+        }
+        if (ep.perception) perceived(ep.perception->on_tick(now, obs.step));
+        if (end || (action && action->step == obs.step)) break;
         from_host(host_.on_tick(now));
         from_governor(governor_.on_tick(now));
         deliver(seam.on_tick(now));

@@ -9,9 +9,9 @@
 // median and 95th percentile, and how often a named state (open, closed, on, off) read from the fitted
 // value differs from the one the true value is in: a false state (the fit says open, truth does not)
 // and a missed one. And the fit's time per frame, one thread.
-#include <CLI/CLI.hpp>
 #include <mujoco/mujoco.h>
 
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -29,11 +29,11 @@
 #include "dh/common/stats.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/perception/part_fit.hpp"
+#include "dh/perception/rendered_frame.hpp"
 #include "dh/perception/scene_entities.hpp"
 #include "dh/sim/camera.hpp"
 #include "dh/sim/rgbd.hpp"
 #include "dh/sim/workcell_cache.hpp"
-#include "rendered_frame.hpp"
 
 namespace {
 
@@ -109,7 +109,7 @@ int main(int argc, char** argv) {
               truth[part.name] = q;
             }
             mj_forward(m, d);
-            const perception::RgbdFrame frame = perception::tools::rendered_frame(rig, 0, m, d);
+            const perception::RgbdFrame frame = perception::rendered_frame(rig, 0, m, d);
             if (!save_dir.empty()) {
               std::filesystem::create_directories(save_dir);
               cv::Mat bgr;

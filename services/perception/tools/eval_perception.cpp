@@ -7,15 +7,14 @@
 // 95th percentile (3-D and horizontal); and the pipeline's time per frame (segmentation + estimation,
 // one thread), p50 and p99.
 #include <CLI/CLI.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <map>
 #include <nlohmann/json.hpp>
-#include <filesystem>
-#include <fstream>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -26,11 +25,11 @@
 #include "dh/common/suite.hpp"
 #include "dh/perception/colour_segmenter.hpp"
 #include "dh/perception/estimate.hpp"
+#include "dh/perception/rendered_frame.hpp"
 #include "dh/perception/scene_entities.hpp"
 #include "dh/sim/camera.hpp"
 #include "dh/sim/rgbd.hpp"
 #include "dh/sim/workcell_cache.hpp"
-#include "rendered_frame.hpp"
 
 namespace {
 
@@ -102,7 +101,8 @@ int main(int argc, char** argv) {
             rig = std::make_unique<sim::CameraRig>(*cell, std::vector<std::string>{"workcell"}, 640, 480);
           }
           cell->reset(seed, task.goal);
-          const perception::RgbdFrame frame = perception::tools::rendered_frame(*rig, 0, cell->model(), cell->data());
+          const perception::RgbdFrame frame =
+              perception::rendered_frame(*rig, 0, cell->model(), cell->data());
           if (!save_dir.empty()) {
             std::filesystem::create_directories(save_dir);
             cv::Mat bgr;

@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cstdint>
 #include <map>
+#include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -111,6 +112,13 @@ class PerceivedWorld {
     bool released = false;  ///< let go by the jaw there, not seen there by a frame since
   };
   std::optional<Placement> placement(const std::string& name) const;
+
+  /// Everything taken in so far, for an episode's snapshot: the latest frame, each object's place and
+  /// where it came from, the fitted parts, the held object and the tool. Doubles round-trip exactly.
+  nlohmann::json state() const;
+  /// The world `state()` gave, under `limits` (the episode's); throws std::invalid_argument naming what
+  /// cannot be read.
+  static PerceivedWorld from_state(const nlohmann::json& state, PerceptionLimits limits);
 
  private:
   struct Seen {

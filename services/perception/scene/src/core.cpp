@@ -1,6 +1,33 @@
 #include "dh/perception/core.hpp"
 
+#include <cmath>
+
 namespace dh::perception {
+
+SceneEstimate scene_estimate(const SceneOut& out) {
+  SceneEstimate e{out.episode_id, out.step, out.looked_for, {}, {}};
+  for (const EntityEstimate& x : out.seen) {
+    PerceivedEntity p{x.entity,
+                      {x.centroid.x(), x.centroid.y(), x.centroid.z() - x.size.z() / 2},
+                      {x.size.x() / 2, x.size.y() / 2, x.size.z() / 2},
+                      x.confidence,
+                      std::atan2(x.axes(1, 0), x.axes(0, 0))};
+    if (const auto id = out.identities.find(x.entity); id != out.identities.end()) {
+      p.kind = id->second.kind;
+      p.category = id->second.category;
+      p.colour = id->second.colour;
+    }
+    e.seen.push_back(std::move(p));
+  }
+  for (const PartEstimate& x : out.parts) {
+    PerceivedPart part{x.name, x.joint, x.confidence, {}};
+    const Eigen::Quaterniond q(x.world_from_part.rotation());
+    for (const auto& [name, at] : x.riders)
+      part.riders.push_back({name, {at.x(), at.y(), at.z()}, {q.w(), q.x(), q.y(), q.z()}});
+    e.parts.push_back(std::move(part));
+  }
+  return e;
+}
 
 PerceptionCore::PerceptionCore(CoreSettings settings, ObjectsOf objects_of, PartsOf parts_of, Segmenter& segmenter,
                                CloudParams cloud)

@@ -63,7 +63,8 @@ struct ProbeReport {
 /// Probes command `options.command` of the episode recorded at `evidence` (with its .steps and .states
 /// beside it). Throws inproc::EvidenceError naming the file for missing or corrupt recordings,
 /// std::invalid_argument for a command number out of range or a command the probe cannot re-run (one
-/// grounded in perception, or a capability that is not an analytic or recovery skill of this build),
+/// grounded in perception without `rest`, or a capability that is not an analytic or recovery skill of
+/// this build),
 /// cap's ConfigError for a candidate library that does not load; with `rest`, EvidenceError for evidence
 /// without the governor's snapshot at K. A candidate θ whose cost exceeds what
 /// the episode had left is refused, as the governor refuses it, without running.

@@ -160,13 +160,13 @@ class EpisodeMachine {
   /// Ends waits whose computed deadline passed (planner, acknowledgement, stalled steps).
   Effects on_tick(Clock::time_point now);
 
-  /// The machine's state at `now`. Under perception grounding the perceived world is not in it, and the
-  /// snapshot says so (`perceived_world: "not recorded"`); restore refuses such a snapshot.
+  /// The machine's state at `now`; under perception grounding with it the perceived world and the
+  /// perceived verdict's frames.
   MachineSnapshot snapshot(Clock::time_point now) const;
   /// A machine on `channel` in the state `s` was taken in, its waits counted from `now`, writing from now
   /// on to `evidence` (it records nothing itself). `config` is the episode's configuration (the arm's and
-  /// the request's, as the governor made it). Throws std::invalid_argument naming what is missing or not
-  /// restorable.
+  /// the request's, as the governor made it; its grounding must be the snapshot's). Throws
+  /// std::invalid_argument naming what is missing or not restorable.
   static std::unique_ptr<EpisodeMachine> restore(const MachineSnapshot& s, std::uint32_t channel,
                                                  const GovernorConfig& config, const Registry& registry,
                                                  EvidenceWriter& evidence, Clock::time_point now);

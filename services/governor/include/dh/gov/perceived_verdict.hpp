@@ -61,6 +61,19 @@ class PerceivedVerdict {
 
   bool value() const { return value_; }
 
+  /// What the frames so far left, for an episode's snapshot.
+  struct State {
+    bool value = false;
+    std::uint32_t run = 0;
+    std::optional<std::uint32_t> last_step;
+  };
+  State state() const { return {value_, run_, last_step_}; }
+  void restore(const State& s) {
+    value_ = s.value;
+    run_ = s.run;
+    last_step_ = s.last_step;
+  }
+
  private:
   std::vector<GoalTerm> goal_;
   std::uint32_t frames_;

@@ -1,6 +1,7 @@
 // The whole stack in one process, without DDS, on the in-process bus (bus.hpp): the governor's core
 // (gov::GovernorCore, as dh_governor runs it), the rules planner, the capability host core serving every
-// capability, and the seam over a MuJoCo workcell — the cores the services run, in lock-step. For
+// capability, the seam over a MuJoCo workcell and, for arms that ground from perception, the perception
+// service's core (bus_perception.hpp) — the cores the services run, in lock-step. For
 // developing skills and rules, training and in-process tests; campaign figures come from `dh campaign`
 // over DDS.
 #pragma once
@@ -20,6 +21,7 @@
 #include "dh/common/arms.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/gov/core.hpp"
+#include "dh/inproc/bus_perception.hpp"
 #include "dh/inproc/recording.hpp"
 #include "dh/planner/core.hpp"
 #include "dh/sim/seam_core.hpp"
@@ -91,10 +93,15 @@ class Stack {
     std::filesystem::path evidence;
     const StepTap& tap;
     bool governor_saw_obs = false;     ///< a resumed governor decided on `obs` before its snapshot
+    BusPerception* perception = nullptr;  ///< set when the episode grounds from perception
   };
+  /// The workcell of `task` and `seed` for an episode; one that perceives is compiled with the RGB-D
+  /// cameras, and perception is made ready for it.
+  sim::Workcell& cell_for(const TaskDef& task, std::uint64_t seed, const std::string& robot, bool perceives);
   /// Drives an episode to its end over the bus; `first` gives the governor's effects that start it.
   EpisodeOutcome drive(Episode episode, const std::function<gov::CoreEffects()>& first);
 
+  std::filesystem::path config_dir_;
   gov::GovernorConfig config_;  ///< configs/governor.yaml: the arms' settings the requests carry
   std::map<std::string, ArmSpec> arms_;
   gov::GovernorCore governor_;  ///< every episode on channel 0
@@ -106,6 +113,8 @@ class Stack {
   PlannerErrorRates planner_errors_;
   std::string robot_;
   sim::WorkcellCache cells_;
+  std::unique_ptr<BusPerception> perception_;       ///< made for the first episode that perceives
+  std::unique_ptr<sim::WorkcellCache> seen_cells_;  ///< its workcells, with the RGB-D cameras
 };
 
 }  // namespace dh::inproc

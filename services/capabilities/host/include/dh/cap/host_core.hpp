@@ -104,6 +104,11 @@ class HostCore {
                 std::uint32_t budget_until_step);
   HostEffects on_observation(const Observation& obs, Clock::time_point now);
   HostEffects on_scene_estimate(std::uint32_t channel, const SceneEstimate& e, Clock::time_point now);
+  /// A resumed episode's perceived world on `channel`, as its governor's snapshot holds it: what the
+  /// estimates before the resumed step left (the host takes in the same estimates and observations).
+  void restore_world(std::uint32_t channel, PerceivedWorld world) {
+    worlds_.insert_or_assign(channel, std::move(world));
+  }
   /// Commands waiting for a frame past the perception limit give up.
   HostEffects on_tick(Clock::time_point now);
 

@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "dh/common/perceived_world.hpp"
 #include "dh/common/ports.hpp"
 #include "dh/perception/scene_entities.hpp"
 
@@ -70,6 +71,10 @@ struct SceneOut {
   std::vector<PartEstimate> parts;      ///< every part looked at, in the scene's order (confidence 0: not seen)
   double latency_ms = 0;                ///< segmentation and estimation, or the parts' fit, of this frame
 };
+
+/// The estimate as the governor and the capability hosts take it in (what the scene topic carries, read
+/// back): each box by its bottom centre, half extents and yaw; each part's riders with the part's rotation.
+SceneEstimate scene_estimate(const SceneOut& out);
 
 struct Note {
   enum class Level { Info, Warn, Error } level = Level::Info;
