@@ -27,6 +27,16 @@ PerceptionLimits perception_limits(const ConfigNode& section) {
   return l;
 }
 
+nlohmann::json limits_json(const PerceptionLimits& l) {
+  return {
+      {"max_age_steps", l.max_age_steps}, {"min_confidence", l.min_confidence}, {"wait_ms", l.wait.count()}};
+}
+
+PerceptionLimits limits_from(const nlohmann::json& j) {
+  return {j.at("max_age_steps"), j.at("min_confidence"),
+          std::chrono::milliseconds(j.at("wait_ms").get<std::int64_t>())};
+}
+
 namespace {
 constexpr double kHeldMarginM = 0.03;  ///< how far outside a footprint the jaw may close and still hold it
 constexpr double kHandOverMarginM = 0.05;  ///< around a footprint, the hand hides part of the object
@@ -46,9 +56,20 @@ bool tool_over(const std::array<double, 3>& tool, const PerceivedEntity& e, doub
 }
 }  // namespace
 
+nlohmann::json estimate_json(const SceneEstimate& e) { return e; }
+
+SceneEstimate estimate_from(const nlohmann::json& j) {
+  try {
+    return j.get<SceneEstimate>();
+  } catch (const nlohmann::json::exception& e) {
+    throw std::invalid_argument(std::string("a scene estimate that cannot be read: ") + e.what());
+  }
+}
+
 void PerceivedWorld::on_estimate(const SceneEstimate& e) {
   if (!episode_.empty() && episode_ != e.episode_id) *this = PerceivedWorld(limits_);
   episode_ = e.episode_id;
+  ++frames_;
   if (!e.parts.empty() && (!parts_step_ || e.step >= *parts_step_)) {
     parts_step_ = e.step;
     for (const auto& part : e.parts) {
@@ -204,7 +225,8 @@ nlohmann::json PerceivedWorld::state() const {
           {"parts_step", parts_step_ ? json(*parts_step_) : json(nullptr)},
           {"held", held_ ? json(*held_) : json(nullptr)},
           {"held_offset", held_offset_},
-          {"tool", tool_ ? json(*tool_) : json(nullptr)}};
+          {"tool", tool_ ? json(*tool_) : json(nullptr)},
+          {"frames", frames_}};
 }
 
 PerceivedWorld PerceivedWorld::from_state(const nlohmann::json& j, PerceptionLimits limits) {
@@ -224,6 +246,7 @@ PerceivedWorld PerceivedWorld::from_state(const nlohmann::json& j, PerceptionLim
     if (!j.at("held").is_null()) w.held_ = j.at("held").get<std::string>();
     w.held_offset_ = j.at("held_offset").get<std::array<double, 3>>();
     if (!j.at("tool").is_null()) w.tool_ = j.at("tool").get<std::array<double, 3>>();
+    w.frames_ = j.at("frames").get<std::uint32_t>();
   } catch (const nlohmann::json::exception& e) {
     throw std::invalid_argument(std::string("a perceived world's state that cannot be read: ") + e.what());
   }

@@ -44,11 +44,9 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
     EXPECT_EQ(r.recorded_steps, row.steps) << row.evidence_path;
     identical += r.identical;
     compared += r.actions_compared;
-    if (row.arm == "full-perception") {
-      EXPECT_TRUE(r.recorded_only.size() > 0 || r.recorded_steps == 0) << "perception-grounded commands are not re-run";
-    } else {
-      EXPECT_EQ(r.actions_compared, r.recorded_steps) << row.evidence_path << ": every action from a skill again";
-    }
+    // Perception-grounded skills act again on the estimates the governor recorded.
+    EXPECT_EQ(r.actions_compared, r.recorded_steps)
+        << row.evidence_path << ": every action from a skill again";
     // From the state recorded at a command's start (with the keyframes the commands before it left in the
     // host): the same again. One command per episode, rotating through them, keeps the cost linear in steps.
     if (r.commands > 1) {

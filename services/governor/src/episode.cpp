@@ -27,12 +27,18 @@ EpisodeMachine::EpisodeMachine(EpisodeSpec spec, const GovernorConfig& config, c
   deadline_what_ = "first observation from the simulator channel";
   deadline_wait_ = "first_observation";
   capability_wait_until_ = now + config_.ack_timeout;
-  evidence_.append("governor", "episode_start",
-                   {{"episode_id", spec_.episode_id}, {"channel", spec_.channel},
-                    {"instruction", spec_.instruction}, {"arm", spec_.arm},
-                    {"budget_steps", spec_.budget_steps}, {"decision_period", config_.decision_period},
-                    {"library_version", spec_.library_version}, {"verifier", to_string(config_.verifier)},
-                    {"goal", goal}});
+  nlohmann::json start{{"episode_id", spec_.episode_id},
+                       {"channel", spec_.channel},
+                       {"instruction", spec_.instruction},
+                       {"arm", spec_.arm},
+                       {"budget_steps", spec_.budget_steps},
+                       {"decision_period", config_.decision_period},
+                       {"library_version", spec_.library_version},
+                       {"verifier", to_string(config_.verifier)},
+                       {"goal", goal},
+                       {"grounding", config_.perception ? "perception" : "state"}};
+  if (config_.perception) start["perception"] = limits_json(*config_.perception);
+  evidence_.append("governor", "episode_start", std::move(start));
   // The governor waited for these (or its ready timeout passed): the episode runs without them.
   capabilities_missing_ = registry_.missing(needed_capabilities(config_, spec_));
   if (!capabilities_missing_.empty())
@@ -99,6 +105,9 @@ Effects EpisodeMachine::on_scene_estimate(const SceneEstimate& estimate, Clock::
   arrived_ = std::chrono::steady_clock::now();
   if (!world_ || estimate.episode_id != spec_.episode_id || phase_ == Phase::Ended) return {};
   world_->on_estimate(estimate);
+  // Every estimate, in the order taken in: dh replay gives a re-run skill's world the same ones.
+  evidence_.append("governor", "scene_estimate",
+                   {{"step", last_obs_.step}, {"estimate", estimate_json(estimate)}});
   // The verdict counts frames of the objects; a parts camera's frame only updates the parts it reads.
   if (perceived_ && have_obs_ && !estimate.looked_for.empty() && world_->latest() &&
       world_->latest()->step == estimate.step) {

@@ -20,7 +20,7 @@ NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(Advice, request_id, refused, capability, args
                                    done, rest, injected)
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(CommandStatus, command_id, instance, state, reason, stage, step,
                                    steps_used, progress, failure)
-// A command's perception limits are an optional, stored beside it (limits_state).
+// A command's perception limits are an optional, stored beside it (limits_json).
 NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(Command, command_id, capability, instance, version, args, theta,
                                    start_step, budget_steps, lease_until_step, decision_period)
 
@@ -62,16 +62,6 @@ Observation observation_from(const json& j) {
   return o;
 }
 
-json limits_state(const PerceptionLimits& l) {
-  return {
-      {"max_age_steps", l.max_age_steps}, {"min_confidence", l.min_confidence}, {"wait_ms", l.wait.count()}};
-}
-
-PerceptionLimits limits_from(const json& j) {
-  return {j.at("max_age_steps"), j.at("min_confidence"),
-          std::chrono::milliseconds(j.at("wait_ms").get<std::int64_t>())};
-}
-
 json spec_state(const EpisodeSpec& s) {
   const PlannerErrorRates& e = s.planner_errors;
   json j{{"episode_id", s.episode_id},
@@ -86,7 +76,7 @@ json spec_state(const EpisodeSpec& s) {
          {"goal", s.goal}};
   if (s.decision_period) j["decision_period"] = *s.decision_period;
   if (s.grounding) j["grounding"] = *s.grounding;
-  if (s.perception) j["perception"] = limits_state(*s.perception);
+  if (s.perception) j["perception"] = limits_json(*s.perception);
   return j;
 }
 
@@ -121,7 +111,7 @@ std::optional<T> optional_from(const json& j) {
 
 json command_state(const std::optional<Command>& c) {
   json j = optional_state(c);
-  if (c && c->perception) j["perception"] = limits_state(*c->perception);
+  if (c && c->perception) j["perception"] = limits_json(*c->perception);
   return j;
 }
 

@@ -72,7 +72,8 @@ CommandOutcome CommandRunner::run(cap::CommandStart c) {
       throw std::logic_error("command " + c.command_id + " neither acted nor ended at step " +
                              std::to_string(obs.step));
     const cap::ActionOut& a = fx.actions.back();
-    const sim::SeamEffects sx = seam_.on_action({a.episode_id, a.command_id, a.step, a.a}, step_time(a.step));
+    const sim::SeamEffects sx =
+        seam_.on_action({a.episode_id, a.command_id, a.step, a.a, a.frames}, step_time(a.step));
     for (const auto& e : sx.events) {
       out.safety_events += e.kind == SeamEventKind::SafetyHold;
       out.speed_limited += e.kind == SeamEventKind::SpeedLimited;

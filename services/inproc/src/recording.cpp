@@ -76,6 +76,9 @@ Recording read_recording(const std::filesystem::path& evidence) {
         r.budget_steps = e.at("budget_steps").get<std::uint32_t>();
         r.instruction = e.value("instruction", "");
         r.decision_period = e.value("decision_period", 10u);
+        if (e.value("grounding", "state") == "perception") r.perception = limits_from(e.at("perception"));
+      } else if (kind == "scene_estimate") {
+        r.estimates.push_back(estimate_from(e.at("estimate")));
       } else if (kind == "grounding" && e.value("result", "") == "grounded") {
         RecordedCommand& c = grounded[e.at("command_id").get<std::string>()];
         c.id = e.at("command_id").get<std::string>();
@@ -120,6 +123,8 @@ Recording read_recording(const std::filesystem::path& evidence) {
     }
   } catch (const json::exception& e) {
     bad(evidence, std::string("a record lacks a field a re-run needs: ") + e.what());
+  } catch (const std::invalid_argument& e) {
+    bad(evidence, e.what());
   }
   if (!request || !start)
     bad(evidence, "no episode_request or episode_start record (not a governor's evidence?)");
@@ -158,7 +163,8 @@ cap::CommandStart command_start(const Recording& rec, const RecordedCommand& c, 
                            at,
                            c.budget_steps,
                            rec.decision_period,
-                           cap::Grounding::State};
+                           rec.perception ? cap::Grounding::Perception : cap::Grounding::State,
+                           rec.perception.value_or(PerceptionLimits{})};
 }
 
 void restore_host(cap::HostCore& host, sim::Workcell& cell, const Recording& rec, const sim::StateLog& states,

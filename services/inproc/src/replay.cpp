@@ -86,7 +86,11 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
   sim::Workcell cell(sim::load_task_scene(task, rec.seed, rec.robot));
   const std::vector<cap::CapabilityDef> defs = cap::all_capabilities();
   const auto arms = load_arms(o.config_dir / "governor.yaml");
+  // A skill grounded in perception runs again on the estimates the governor recorded, each given to the
+  // host before the step whose action had taken it in (the step log's frames). From a command's start the
+  // host's perceived world is not re-made, and evidence older than recorded estimates has none.
   const bool perception = find_arm(arms, rec.arm).grounding == "perception";
+  const bool remade = perception && rec.perception && !o.from_command;
 
   ReplayReport report;
   report.episode_id = rec.episode_id;
@@ -130,14 +134,20 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
   std::vector<cap::ServedCapability> served;
   for (const auto& c : rec.commands) {
     by_id[c.id] = &c;
-    if (perception)
-      report.recorded_only.push_back(c.capability + " (grounded in perception estimates, which the replay does not re-make)");
+    if (perception && !remade)
+      report.recorded_only.push_back(
+          c.capability +
+          (o.from_command
+               ? " (grounded in perception: from a command's start its perceived world is not re-made)"
+               : " (grounded in perception, in evidence that did not record the estimates)"));
     else if (!cap::find_capability(defs, c.capability))
       report.recorded_only.push_back(c.capability + " " + c.version + " (not an analytic or recovery skill of this build)");
   }
   for (const auto& d : defs) served.push_back({d, d.name + "@replay"});
   cap::HostCore host(served);
-  const auto rerun = [&](const RecordedCommand& c) { return !perception && cap::find_capability(defs, c.capability); };
+  const auto rerun = [&](const RecordedCommand& c) {
+    return (!perception || remade) && cap::find_capability(defs, c.capability);
+  };
 
   // With --from-command K: the seam resumes from the state recorded at K's start, and the last step to
   // replay is the last one K's actions led to.
@@ -195,6 +205,17 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
   const auto take = [&](const cap::HostEffects& fx) {
     for (const auto& a : fx.actions) action = a;
   };
+  // The recorded estimates the re-run skill of the action after step `i` had taken in, given before it.
+  std::size_t fed = 0;
+  const auto perceive = [&](std::uint32_t i) {
+    if (!remade || i + 1 >= log.records.size()) return;
+    const sim::StepRecord& next_action = log.records[i + 1];
+    const auto c = by_id.find(next_action.command_id);
+    if (c == by_id.end() || !rerun(*c->second)) return;
+    for (; fed < next_action.frames && fed < rec.estimates.size(); ++fed)
+      take(host.on_scene_estimate(0, rec.estimates[fed], step_time(i)));
+  };
+  perceive(first);
   take(host.on_observation(obs, step_time(first)));
   for (std::uint32_t i = first + 1; i <= last; ++i) {
     const sim::StepRecord& r = log.records[i];
@@ -238,6 +259,7 @@ ReplayReport replay(const std::filesystem::path& evidence, const ReplayOptions& 
     for (const RecordedCommand& c : rec.commands)
       for (const auto& [at, budget] : c.budget_raises)
         if (at < i) host.on_lease(0, rec.episode_id, c.id, c.start_step + budget);
+    perceive(i);
     take(host.on_observation(obs, step_time(i)));
   }
   if (!o.from_command) report.verdicts_identical = verdicts == rec.verdicts;

@@ -318,7 +318,7 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
       }
       if (end || fresh) continue;
       if (tap.on_action) tap.on_action(obs, dispatched[action->command_id].capability, action->a);
-      sim::ActionIn applied{action->episode_id, action->command_id, action->step, action->a};
+      sim::ActionIn applied{action->episode_id, action->command_id, action->step, action->a, action->frames};
       if (tap.perturb) tap.perturb(applied.a);
       action.reset();
       deliver(seam.on_action(applied, now));

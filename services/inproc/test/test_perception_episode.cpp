@@ -1,7 +1,7 @@
 // An arm that grounds from perception on the in-process bus: the perception service's core looks at the
 // bus's workcell through its RGB-D camera, the governor plans and grounds on what it saw, every run of the
-// same episode takes the same steps, and the episode resumes from a command's start with the perceived
-// world its snapshot holds.
+// same episode takes the same steps, its skills act again on the recorded estimates in a replay, and the
+// episode resumes from a command's start with the perceived world its snapshot holds.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -9,6 +9,7 @@
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
 #include "dh/inproc/recording.hpp"
+#include "dh/inproc/replay.hpp"
 #include "dh/inproc/stack.hpp"
 #include "dh/sim/state_log.hpp"
 
@@ -33,7 +34,7 @@ std::vector<std::string> trace(const fs::path& evidence) {
 
 }  // namespace
 
-TEST(PerceptionEpisode, GroundsOnWhatTheCameraSawTakesTheSameStepsEveryRunAndResumesFromACommand) {
+TEST(PerceptionEpisode, GroundsOnWhatTheCameraSawTakesTheSameStepsEveryRunReplaysAndResumesFromACommand) {
   const fs::path dir = fs::path(::testing::TempDir()) / ("dh_perception_episode_" + std::to_string(getpid()));
   fs::remove_all(dir);
   const auto suites = load_suites(paths::config_dir());
@@ -57,6 +58,12 @@ TEST(PerceptionEpisode, GroundsOnWhatTheCameraSawTakesTheSameStepsEveryRunAndRes
   EXPECT_EQ(second.decisions, first.decisions);
   EXPECT_EQ(trace(dir / "b.jsonl"), trace(dir / "a.jsonl"))
       << "the bus renders and estimates the same every run";
+
+  // Replayed, the skills act again on the recorded estimates, each given when the recording took it in.
+  const auto replayed = inproc::replay(dir / "a.jsonl", {paths::config_dir(), {}, std::nullopt, false, {}});
+  EXPECT_TRUE(replayed.identical);
+  EXPECT_EQ(replayed.actions_compared, first.steps) << "every action from a skill again";
+  EXPECT_TRUE(replayed.recorded_only.empty());
 
   // From the last command's start: the governor and the host take the perceived world the snapshot holds,
   // perception looks afresh from there.

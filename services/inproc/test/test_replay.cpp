@@ -88,7 +88,7 @@ TEST_F(Replay, AnAlteredActionIsTheFirstDivergenceWithItsBodyAndQuantity) {
   ASSERT_GT(log.records.size(), 41u);
   std::fstream f(*dir / "altered.steps", std::ios::in | std::ios::out | std::ios::binary);
   std::size_t at = 24 + 2 + log.header.build.size();
-  const std::size_t fixed = 4 + 8 + 4 * log.records[0].digest.joints.size() + 16 + 56 + 2;
+  const std::size_t fixed = 4 + 8 + 4 * log.records[0].digest.joints.size() + 16 + 56 + 4 + 2;
   for (std::size_t i = 0; i < 40; ++i) at += fixed + log.records[i].command_id.size();
   const double changed = log.records[40].action[2] + 0.25;
   f.seekp(static_cast<std::streamoff>(at + 4 + 8 + 4 * log.records[0].digest.joints.size() + 16 + 2 * 8));

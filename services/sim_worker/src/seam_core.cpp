@@ -211,7 +211,8 @@ void SeamCore::ended_by_seam(SeamEffects& fx, std::string why, std::string comma
 void SeamCore::observe(SeamEffects& fx, const ActionIn* applied) {
   if (log_)
     log_->append({step_, applied ? applied->command_id : std::string(),
-                  applied ? applied->a : std::array<double, 7>{}, cell_->recordable()->digest()});
+                  applied ? applied->a : std::array<double, 7>{}, cell_->recordable()->digest(),
+                  applied ? applied->frames : 0});
   observation_ = cell_->observe();
   observation_.channel = channel_;
   observation_.episode_id = episode_;

@@ -8,7 +8,8 @@ namespace dh::sim {
 namespace {
 
 constexpr char kMagic1[8] = {'D', 'H', 'S', 'T', 'E', 'P', 'S', '1'};  // no build in the header
-constexpr char kMagic[8] = {'D', 'H', 'S', 'T', 'E', 'P', 'S', '2'};
+constexpr char kMagic2[8] = {'D', 'H', 'S', 'T', 'E', 'P', 'S', '2'};  // no frames in the records
+constexpr char kMagic[8] = {'D', 'H', 'S', 'T', 'E', 'P', 'S', '3'};
 constexpr const char* kWhere = "the simulator worker writes it beside the evidence; copy it there from the worker's host";
 using binlog::put;
 
@@ -38,12 +39,13 @@ void StepLogWriter::append(const StepRecord& r) {
   for (auto h : r.digest.joints) put(out, h);
   for (auto h : r.digest.aux) put(out, h);
   for (double a : r.action) put(out, a);
+  put(out, r.frames);
   binlog::put_string(out, r.command_id);
   binlog::append(file_, out);
 }
 
 StepLog read_step_log(const std::filesystem::path& path) {
-  const auto [bytes, version] = binlog::read_versions(path, "step log", {kMagic1, kMagic}, kWhere);
+  const auto [bytes, version] = binlog::read_versions(path, "step log", {kMagic1, kMagic2, kMagic}, kWhere);
   binlog::Cursor c{bytes, sizeof kMagic};
   StepLog log;
   std::uint16_t n = 0;
@@ -60,6 +62,7 @@ StepLog read_step_log(const std::filesystem::path& path) {
     for (auto& h : r.digest.joints) ok = ok && c.get(h);
     for (auto& h : r.digest.aux) ok = ok && c.get(h);
     for (auto& a : r.action) ok = ok && c.get(a);
+    if (version > 1) ok = ok && c.get(r.frames);
     ok = ok && c.get(n) && c.at + n <= bytes.size();
     if (!ok) break;
     r.command_id.assign(bytes.data() + c.at, n);

@@ -279,7 +279,7 @@ TEST_F(SeamCoreTest, WritesAStepLogThatReadsBackAsWritten) {
   seam.start(*cell, "ep", 300, "goal", t0, file);
   lease("c0", 10, t0);
   ASSERT_TRUE(seam.on_action({"ep", "c0", 0, {0.5, 0, 0, 0, 0, 0, 1}}, t0).observation);
-  ASSERT_TRUE(seam.on_action({"ep", "c0", 1, {0, 0.5, 0, 0, 0, 0, 1}}, t0).observation);
+  ASSERT_TRUE(seam.on_action({"ep", "c0", 1, {0, 0.5, 0, 0, 0, 0, 1}, 7}, t0).observation);
   const sim::StateDigest after = cell->digest();
   seam.end();
 
@@ -292,16 +292,33 @@ TEST_F(SeamCoreTest, WritesAStepLogThatReadsBackAsWritten) {
   EXPECT_EQ(log.records[0].digest, reset);
   EXPECT_EQ(log.records[2].command_id, "c0");
   EXPECT_EQ(log.records[2].action[1], 0.5);
+  EXPECT_EQ(log.records[2].frames, 7u) << "the estimates the action's capability had taken in";
   EXPECT_EQ(log.records[2].digest, after);
   EXPECT_NE(reset.state, after.state);
   EXPECT_NE(reset.joints, after.joints);
   EXPECT_EQ(log.header.build, build_info().str());
 
-  // A step log written before the header named the build (DHSTEPS1) reads the same, with no build.
+  // A step log written before its records held the frames (DHSTEPS2), and before the header named the
+  // build (DHSTEPS1), reads the same, with no frames and no build.
   {
     std::ifstream in(file, std::ios::binary);
     std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     const std::size_t at = 8 + 8 + 4 + 4;  // magic, model hash, MuJoCo version, joints
+    // Each record: step, state hash, the joints' hashes, aux, the action, then the frames this drops.
+    std::size_t r = at + 2 + build_info().str().size();
+    for (const auto& rec : log.records) {
+      r += 4 + 8 + 4 * rec.digest.joints.size() + 16 + 56;
+      bytes.erase(r, 4);
+      r += 2 + rec.command_id.size();
+    }
+    bytes[7] = '2';
+    const auto v2 = file.parent_path() / "seam_core_test_v2.steps";
+    std::ofstream(v2, std::ios::binary) << bytes;
+    const sim::StepLog older = sim::read_step_log(v2);
+    ASSERT_EQ(older.records.size(), 3u);
+    EXPECT_EQ(older.records[2].frames, 0u);
+    EXPECT_EQ(older.records[2].digest, after);
+    EXPECT_EQ(older.header.build, build_info().str());
     bytes[7] = '1';
     bytes.erase(at, 2 + build_info().str().size());
     const auto v1 = file.parent_path() / "seam_core_test_v1.steps";

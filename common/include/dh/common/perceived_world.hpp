@@ -65,6 +65,9 @@ struct PerceptionLimits {
 /// The `perception:` section of configs/governor.yaml ({max_age_steps, min_confidence, wait_ms}); throws
 /// ConfigError naming the key.
 PerceptionLimits perception_limits(const ConfigNode& section);
+/// The same fields in evidence and snapshots, and read back (throws nlohmann::json's exceptions).
+nlohmann::json limits_json(const PerceptionLimits& l);
+PerceptionLimits limits_from(const nlohmann::json& j);
 
 /// Why the perceived world cannot serve a step.
 struct Unperceived {
@@ -91,6 +94,8 @@ class PerceivedWorld {
   const std::optional<SceneEstimate>& latest() const { return latest_; }
   /// The episode of the frames taken in; empty before the first.
   const std::string& episode() const { return episode_; }
+  /// How many of the episode's estimates it has taken in (older frames too), in the order they came.
+  std::uint32_t frames() const { return frames_; }
 
   /// The hand at one control step: the object the closed jaw takes moves with the tool from that step,
   /// and what it lets go stays where it was let go. Call it with every observation: the hand is tracked
@@ -140,6 +145,12 @@ class PerceivedWorld {
   std::optional<std::string> held_;          ///< the object moving with the tool
   std::array<double, 3> held_offset_{};      ///< its bottom centre relative to the tool
   std::optional<std::array<double, 3>> tool_;  ///< the tool's position at the latest observation tracked
+  std::uint32_t frames_ = 0;
 };
+
+/// An estimate in an episode's evidence (`scene_estimate` records), and read back; the latter throws
+/// std::invalid_argument naming what cannot be read.
+nlohmann::json estimate_json(const SceneEstimate& e);
+SceneEstimate estimate_from(const nlohmann::json& j);
 
 }  // namespace dh

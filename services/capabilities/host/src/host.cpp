@@ -176,6 +176,7 @@ class HostBinding {
       a.command_id(x.command_id);
       a.step(x.step);
       std::copy_n(x.a.begin(), 7, a.a().begin());
+      a.frames(x.frames);
       ctx.write<port::Action>(a);
     }
   }

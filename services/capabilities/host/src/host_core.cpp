@@ -208,7 +208,8 @@ HostEffects HostCore::step(RunningMap::iterator it, const Observation& observed,
     running_.erase(it);
     return fx;
   }
-  fx.actions.push_back({obs.channel, obs.episode_id, r.command.command_id, obs.step, s.action});
+  fx.actions.push_back({obs.channel, obs.episode_id, r.command.command_id, obs.step, s.action,
+                        perceived && world ? world->frames() : 0});
   ++r.steps_used;
   const std::uint32_t period = std::max<std::uint32_t>(1, r.command.decision_period);
   if (s.stage != r.stage || obs.step % period == 0) {

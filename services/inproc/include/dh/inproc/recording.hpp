@@ -86,6 +86,11 @@ struct Recording {
   unsigned task = 0;
   std::uint64_t seed = 0;
   std::uint32_t budget_steps = 0, decision_period = 10;
+  /// Set when the episode grounded in perception, with its limits on estimates (episode_start).
+  std::optional<PerceptionLimits> perception;
+  /// The scene estimates the governor took in, in order (scene_estimate records); evidence written
+  /// before they were recorded has none.
+  std::vector<SceneEstimate> estimates;
   std::vector<RecordedCommand> commands;   ///< in dispatch order
   std::map<std::uint32_t, bool> verdicts;  ///< step -> value of each predicate change
   std::optional<RecordedEpisodeEnd> end;   ///< none: the evidence stops before the episode's end

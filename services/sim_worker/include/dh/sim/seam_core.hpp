@@ -55,6 +55,7 @@ struct ActionIn {
   std::string episode_id, command_id;
   std::uint32_t step = 0;  ///< the step of the observation it answers
   std::array<double, 7> a{};
+  std::uint32_t frames = 0;  ///< the estimates its capability's perceived world had taken in (step log)
 };
 
 struct VerdictChange {

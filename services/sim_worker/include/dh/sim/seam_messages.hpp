@@ -18,7 +18,7 @@ inline LeaseGrant from_msg(const msg::Lease& l) {
 }
 
 inline ActionIn from_msg(const msg::Action& a) {
-  ActionIn in{a.episode_id(), a.command_id(), a.step(), {}};
+  ActionIn in{a.episode_id(), a.command_id(), a.step(), {}, a.frames()};
   std::copy_n(a.a().begin(), in.a.size(), in.a.begin());
   return in;
 }

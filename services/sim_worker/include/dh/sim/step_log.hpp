@@ -32,6 +32,9 @@ struct StepRecord {
   std::string command_id;        ///< whose action was applied to reach this step; empty at step 0
   std::array<double, 7> action{};  ///< as admitted, before the physics clamps it
   StateDigest digest;
+  /// The scene estimates the perceived world of the action's capability had taken in (perception
+  /// grounding; 0 otherwise, and in DHSTEPS1 and 2 files).
+  std::uint32_t frames = 0;
 };
 
 struct StepLogHeader {

@@ -71,6 +71,7 @@ struct ActionOut {
   std::string episode_id, command_id;
   std::uint32_t step = 0;  ///< the step of the observation it answers
   std::array<double, 7> a{};
+  std::uint32_t frames = 0;  ///< under perception grounding: the estimates its world had taken in
 };
 
 /// What one event made the core do, in order: statuses first (an end is reported before any new action).
