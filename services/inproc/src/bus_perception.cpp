@@ -12,6 +12,7 @@
 #include "dh/perception/rendered_frame.hpp"
 #include "dh/perception/scene_entities.hpp"
 #include "dh/sim/camera.hpp"
+#include "dh/sim/rgbd.hpp"
 #include "dh/sim/scene.hpp"
 
 namespace dh::inproc {
@@ -21,19 +22,25 @@ struct BusPerception::Impl {
   perception::CoreSettings settings;  // the service's defaults, as deploy/*.yaml run it
   perception::ColourSegmenter segmenter;
   perception::CloudParams cloud;
-  // Declared before the rigs: a rig's GPU state is freed on the context, so the rigs go first.
+  // A rig's GPU state lives in the context: each render and the rigs' end make it current first, since
+  // another stack's context may have been made current on this thread since.
   std::unique_ptr<sim::GlContext> gl;
   std::map<std::string, std::unique_ptr<sim::CameraRig>> rigs;  ///< by camera, for `cell`'s model
   std::unique_ptr<perception::PerceptionCore> core;             ///< the current episode's
   const sim::Workcell* cell = nullptr;
   std::string episode_id;
 
+  ~Impl() {
+    if (!gl) return;
+    gl->make_current();
+    rigs.clear();
+    gl->release();
+  }
+
   /// A frame of `camera` showing the cell now.
   perception::RgbdFrame render(const std::string& camera) {
-    if (!gl) {
-      gl = std::make_unique<sim::GlContext>();
-      gl->make_current();
-    }
+    if (!gl) gl = std::make_unique<sim::GlContext>();
+    gl->make_current();
     auto& rig = rigs[camera];
     if (!rig || rig->model() != cell->model()) {
       const auto specs = cameras.for_scene(cell->scene().name);

@@ -9,14 +9,13 @@
 #include <chrono>
 #include <filesystem>
 #include <memory>
-#include <optional>
 #include <string>
 #include <vector>
 
 #include "dh/cap/host_core.hpp"
 #include "dh/common/perceived_world.hpp"
 #include "dh/common/suite.hpp"
-#include "dh/sim/rgbd.hpp"
+#include "dh/sim/scene.hpp"
 #include "dh/sim/workcell.hpp"
 
 namespace dh::inproc {
