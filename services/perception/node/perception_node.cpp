@@ -154,7 +154,7 @@ class PerceptionBinding {
       p.entity(x.entity);
       p.centroid({x.centroid.x(), x.centroid.y(), x.centroid.z()});
       p.size({x.size.x(), x.size.y(), x.size.z()});
-      p.yaw(std::atan2(x.axes(1, 0), x.axes(0, 0)));
+      p.yaw(x.yaw());
       p.confidence(x.confidence);
       p.points(static_cast<std::uint32_t>(x.points));
       if (const auto id = e.identities.find(x.entity); id != e.identities.end()) {

@@ -1,7 +1,5 @@
 #include "dh/perception/core.hpp"
 
-#include <cmath>
-
 namespace dh::perception {
 
 SceneEstimate scene_estimate(const SceneOut& out) {
@@ -11,7 +9,7 @@ SceneEstimate scene_estimate(const SceneOut& out) {
                       {x.centroid.x(), x.centroid.y(), x.centroid.z() - x.size.z() / 2},
                       {x.size.x() / 2, x.size.y() / 2, x.size.z() / 2},
                       x.confidence,
-                      std::atan2(x.axes(1, 0), x.axes(0, 0))};
+                      x.yaw()};
     if (const auto id = out.identities.find(x.entity); id != out.identities.end()) {
       p.kind = id->second.kind;
       p.category = id->second.category;

@@ -3,12 +3,12 @@
 // PCL does the filtering inside estimate.cpp; nothing here exposes it.
 #pragma once
 
+#include <Eigen/Core>
+#include <cmath>
 #include <cstddef>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <Eigen/Core>
 
 #include "dh/perception/frame.hpp"
 #include "dh/perception/masks.hpp"
@@ -28,6 +28,8 @@ struct EntityEstimate {
   double confidence = 0;
   std::size_t points = 0;  ///< points in the kept cluster (after the voxel grid)
   double stamp_s = 0;      ///< the frame's stamp
+  /// The box's x axis turned about world z (rad): the yaw the scene topic and the perceived world carry.
+  double yaw() const { return std::atan2(axes(1, 0), axes(0, 0)); }
 };
 
 enum class BoxFit {
