@@ -1,10 +1,11 @@
 #include "dh/common/dds.hpp"
 
-#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
-
 #include <cstdlib>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/topic/ContentFilteredTopic.hpp>
 #include <filesystem>
 
+#include "dh/common/dds_addressee.hpp"
 #include "dh/common/paths.hpp"
 
 namespace dh::dds {
@@ -168,6 +169,10 @@ Participant::Participant(const std::string& name) {
   qos.name(name);
   participant_ = factory->create_participant(domain_id(), qos);
   if (!participant_) throw std::runtime_error("cannot create DDS participant " + name);
+  // Registered everywhere: a reader's filter is evaluated by the writer's participant (dds_addressee.hpp).
+  if (participant_->register_content_filter_factory(kAddresseeFilter, &AddresseeFilterFactory::instance()) !=
+      ReturnCode_t::RETCODE_OK)
+    throw std::runtime_error("cannot register the content filter " + std::string(kAddresseeFilter));
   publisher_ = participant_->create_publisher(fdds::PUBLISHER_QOS_DEFAULT);
   subscriber_ = participant_->create_subscriber(fdds::SUBSCRIBER_QOS_DEFAULT);
   if (!publisher_ || !subscriber_) throw std::runtime_error("cannot create publisher/subscriber");
@@ -186,6 +191,18 @@ fdds::Topic* Participant::topic(const std::string& name, fdds::TypeSupport type)
   fdds::Topic* t = participant_->create_topic(name, type.get_type_name(), fdds::TOPIC_QOS_DEFAULT);
   if (!t) throw std::runtime_error("cannot create topic " + name);
   topics_[name] = t;
+  return t;
+}
+
+fdds::TopicDescription* Participant::addressed(const std::string& name, fdds::TypeSupport type) {
+  fdds::Topic* related = topic(name, type);
+  std::lock_guard lock(mutex_);
+  const std::string filtered = name + "|addressed";
+  if (auto it = filtered_.find(filtered); it != filtered_.end()) return it->second;
+  fdds::ContentFilteredTopic* t = participant_->create_contentfilteredtopic(
+      filtered, related, kAddresseeExpression, {participant_address(participant_->guid())}, kAddresseeFilter);
+  if (!t) throw std::runtime_error("cannot filter topic " + name + " by addressee");
+  filtered_[filtered] = t;
   return t;
 }
 

@@ -111,6 +111,7 @@ class GovernorBinding {
     carry_out(ctx, core_->on_request(from_msg(r), gov::Clock::now()));
   }
   void on(const Sample<port::Observation>& s, Context& ctx) {
+    if (s.msg.again()) return;  // a step said again for a starting command's capability: seen already
     carry_out(ctx, core_->on_observation(convert::from_msg(s.msg), gov::Clock::now()));
   }
   void on(const Sample<port::Advice>& s, Context& ctx) {

@@ -54,7 +54,8 @@ perception::RgbdFrame to_frame(const msg::RgbdFrame& m) {
 /// perception::PerceptionCore's binding: message conversions, the segmenter and the scene source.
 class PerceptionBinding {
  public:
-  using Inputs = dds::Inputs<In<port::EpisodeRequest>, In<port::EpisodeResult>, In<port::Observation>, In<port::Rgbd>>;
+  using Inputs = dds::Inputs<In<port::EpisodeRequest>, In<port::EpisodeResult>,
+                             In<port::Observation, dds::kAddressed>, In<port::Rgbd>>;
   using Outputs = dds::Outputs<port::RgbdRequest, port::SceneEstimate>;
   using Context = dds::Context<PerceptionBinding>;
 
@@ -116,6 +117,7 @@ class PerceptionBinding {
   }
   void on(const Sample<port::EpisodeResult>& s, Context&) { core_->on_result(s.msg.channel(), s.msg.episode_id()); }
   void on(const Sample<port::Observation>& s, Context& ctx) {
+    if (s.msg.again()) return;  // a step said again for a starting command's capability: seen already
     carry(ctx, core_->on_observation(s.msg.channel(), s.msg.episode_id(), s.msg.step(), Clock::now()));
   }
   void on(const Sample<port::Rgbd>& s, Context& ctx) {

@@ -4,7 +4,10 @@
 //         rt/dh/action          (Action)    one 7-d action per step, lock-step
 //         rt/dh/lease           (Lease, deadline 1 s) the governor's grant for the running command
 //         rt/dh/episode/result  (Episode)   the channel goes idle
-// Writes  rt/dh/observation     (Observation) after reset (step 0) and after every applied action
+// Writes  rt/dh/observation     (Observation) after reset (step 0) and after every applied action, for
+//                                           the participant whose action it was (dds_addressee.hpp; every
+//                                           reader under perception grounding); a command's start step
+//                                           again, for every reader, when its first lease comes
 //         rt/dh/verdict         (Verdict)   every change of the task predicate
 //         rt/dh/seam/event      (Status)    rejected actions and safety corrections, with reasons
 //         rt/dh/sim/channel     (Episode)   idle/running per channel, so clients find a free one
@@ -25,9 +28,10 @@
 // lease waits for one before it is refused), --abandon-after-s (a running episode that has had no applied
 // action, lease or request for this long is abandoned: its governor is gone; the channel goes idle and
 // says why), --name, --runs-dir (each episode's step log, for `dh replay`, goes to <runs>/evidence/
-// <episode>.steps beside the governor's evidence; default DH_RUNS_DIR or ./runs), --cameras agentview,wrist (default none: nothing is rendered), --camera-every N
-// (steps, default 5), --camera-size S (S x S pixels, default 224). Each channel renders on its own
-// thread with its own OpenGL context (EGL surfaceless); without one the worker does not start.
+// <episode>.steps beside the governor's evidence; default DH_RUNS_DIR or ./runs), --cameras agentview,wrist
+// (default none: nothing is rendered), --camera-every N (steps, default 5), --camera-size S (S x S pixels,
+// default 224). Each channel renders on its own thread with its own OpenGL context (EGL surfaceless); without
+// one the worker does not start.
 // --rgbd-every N (steps, default 0 = only on request) also publishes every RGB-D camera's frame at
 // episode start and every N steps, before that step's observation.
 #include <mujoco/mujoco.h>
@@ -40,6 +44,7 @@
 #include <set>
 
 #include "dh/common/convert.hpp"
+#include "dh/common/dds_addressee.hpp"
 #include "dh/common/dds_shell.hpp"
 #include "dh/common/paths.hpp"
 #include "dh/common/suite.hpp"
@@ -49,8 +54,8 @@
 #include "dh/msg/episodePubSubTypes.h"
 #include "dh/msg/robotPubSubTypes.h"
 #include "dh/sim/camera.hpp"
-#include "dh/sim/rgbd_frame_msg.hpp"
 #include "dh/sim/rgbd.hpp"
+#include "dh/sim/rgbd_frame_msg.hpp"
 #include "dh/sim/seam_core.hpp"
 #include "dh/sim/seam_messages.hpp"
 #include "dh/sim/workcell.hpp"
@@ -197,7 +202,9 @@ class Channel {
                 dds::kLeaseDeadlineSec);
   }
   void on(const dds::Sample<port::Action>& s, Context&) {
-    publish(core_.on_action(sim::from_msg(s.msg), Clock::now()));
+    sim::ActionIn a = sim::from_msg(s.msg);
+    a.from = dds::participant_address(s.writer);
+    publish(core_.on_action(a, Clock::now()));
   }
   void on(const dds::Sample<port::EpisodeResult>& s, Context&) {
     const msg::EpisodeResult& r = s.msg;
@@ -272,6 +279,9 @@ class Channel {
     }
     render_s_ = 0;
     images_ = 0;
+    // Under perception grounding every capability host's perceived world follows each step (grasps and
+    // releases), so every step goes to every reader.
+    to_everyone_ = r.grounding() != "state";
     sim::SeamEffects fx;
     try {
       fx = core_.start(*reset, r.episode_id(), r.budget_steps(), predicate, Clock::now(),
@@ -302,11 +312,18 @@ class Channel {
       v.value(fx.verdict->value);
       ctx_.write<port::Verdict>(v);
     }
+    if (fx.again) {
+      msg::Observation o = convert::to_msg(*fx.again, id_, core_.episode_id());
+      o.again(true);
+      ctx_.write<port::Observation>(o);
+    }
     if (fx.observation) {
       if (rig_ && core_.step() % render_.every == 0) publish_images();
       if (render_.rgbd_every && core_.step() % render_.rgbd_every == 0)
         for (const auto& c : render_.rgbd->cameras) publish_rgbd(c.camera.name, "");
-      ctx_.write<port::Observation>(convert::to_msg(*fx.observation, id_, core_.episode_id()));
+      msg::Observation o = convert::to_msg(*fx.observation, id_, core_.episode_id());
+      if (!to_everyone_) o.addressee(fx.to);
+      ctx_.write<port::Observation>(o);
     }
     if (fx.ended) {
       log_.error("channel={} episode={} {}", id_, core_.episode_id(), *fx.ended);
@@ -450,6 +467,7 @@ class Channel {
   std::uint32_t images_ = 0;
   sim::WorkcellCache cells_;
   std::string last_episode_, last_error_;
+  bool to_everyone_ = true;                  ///< the running episode's steps go to every reader (see handle)
   double reset_s_ = 0, last_physics_s_ = 0;  ///< wall time inside MuJoCo: the reset, the last episode in all
   std::uint32_t last_steps_ = 0;
   std::int32_t last_goal_step_ = -1;  ///< the simulator's own verdict on the last episode (-1: goal never held)

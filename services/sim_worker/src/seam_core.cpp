@@ -90,8 +90,10 @@ SeamEffects SeamCore::on_lease(const LeaseGrant& l, SeamClock::time_point now) {
   if (!running() || l.episode_id != episode_) return {};
   // A command's first lease comes before any of its actions can apply (admission needs it): the state
   // now is the one the command starts from. Leases are rewritten, so only a new command id counts.
-  if (states_ && !l.revoked && started_.insert(l.command_id).second) {
-    states_->append({step_, l.command_id, cell_->recordable()->physics_state()});
+  std::optional<Observation> again;
+  if (!l.revoked && started_.insert(l.command_id).second) {
+    if (states_) states_->append({step_, l.command_id, cell_->recordable()->physics_state()});
+    again = observation_;
   }
   // The governor has moved on from a command it revokes or whose lease it gives to another.
   if (l.revoked)
@@ -107,7 +109,9 @@ SeamEffects SeamCore::on_lease(const LeaseGrant& l, SeamClock::time_point now) {
   });
   lease_ = {true, l.command_id, l.valid_until_step, l.budget_until_step, l.revoked, false};
   lease_at_ = last_sign_of_life_ = now;
-  return admit(now);
+  SeamEffects fx = admit(now);
+  fx.again = std::move(again);
+  return fx;
 }
 
 SeamEffects SeamCore::on_action(const ActionIn& a, SeamClock::time_point now) {
@@ -224,6 +228,7 @@ void SeamCore::observe(SeamEffects& fx, const ActionIn* applied) {
     fx.verdict = VerdictChange{step_, predicate_text_, predicate_};
   }
   fx.observation = observation_;
+  fx.to = applied ? applied->from : std::string();
 }
 
 }  // namespace dh::sim

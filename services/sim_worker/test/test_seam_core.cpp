@@ -84,6 +84,41 @@ TEST_F(SeamCoreTest, AppliesALeasedActionAndGivesTheNextStep) {
   EXPECT_EQ(seam.held(), 0u);
 }
 
+// Observations go to whom they are for (dds_addressee.hpp): a step to the sender of the action that led to
+// it; a command's start step again, once, when its first lease comes, for a capability that was not sent it.
+TEST_F(SeamCoreTest, AStepIsForTheSenderOfItsActionAndACommandsStartIsSaidAgainAtItsFirstLease) {
+  auto fx = lease("c0", 10, t0);
+  ASSERT_TRUE(fx.again) << "c0 starts on step 0";
+  EXPECT_EQ(fx.again->step, 0u);
+  EXPECT_EQ(fx.again->episode_id, "ep");
+  EXPECT_FALSE(fx.observation);
+  EXPECT_FALSE(lease("c0", 12, t0 + 10ms).again) << "a rewritten lease starts nothing";
+
+  fx = seam.on_action({"ep", "c0", 0, {0, 0, 0, 0, 0, 0, -1}, 0, "host-a"}, t0 + 20ms);
+  ASSERT_TRUE(fx.observation);
+  EXPECT_EQ(fx.to, "host-a");
+  EXPECT_FALSE(fx.again);
+
+  fx = lease("c1", 12, t0 + 30ms);
+  ASSERT_TRUE(fx.again) << "c1 starts on step 1";
+  EXPECT_EQ(fx.again->step, 1u);
+  EXPECT_EQ(fx.again->ee_p, seam.observation().ee_p);
+  fx = seam.on_action({"ep", "c1", 1, {0, 0, 0, 0, 0, 0, -1}, 0, "host-b"}, t0 + 40ms);
+  ASSERT_TRUE(fx.observation);
+  EXPECT_EQ(fx.to, "host-b");
+}
+
+// An action that overtook its command's first lease applies with that lease: the start is said again first.
+TEST_F(SeamCoreTest, AnActionThatOvertookItsFirstLeaseComesAfterTheStartSaidAgain) {
+  EXPECT_FALSE(seam.on_action({"ep", "c0", 0, {0, 0, 0, 0, 0, 0, -1}, 0, "host-a"}, t0).observation);
+  const auto fx = lease("c0", 10, t0 + 5ms);
+  ASSERT_TRUE(fx.again);
+  ASSERT_TRUE(fx.observation);
+  EXPECT_EQ(fx.again->step, 0u);
+  EXPECT_EQ(fx.observation->step, 1u);
+  EXPECT_EQ(fx.to, "host-a");
+}
+
 // Suspect 1: the lease topic's deadline fired while the lease was valid by step. The action used to be
 // refused and nothing re-sent it; now it waits for the writer and goes when the writer is heard.
 TEST_F(SeamCoreTest, ASilentLeaseWriterHoldsAStepValidActionUntilItIsHeardAgain) {

@@ -67,6 +67,8 @@ class Participant {
   fdds::Subscriber* subscriber() const { return subscriber_; }
   /// The topic `name` of `type`, created once.
   fdds::Topic* topic(const std::string& name, fdds::TypeSupport type);
+  /// The topic `name` seen through the addressee filter (dds_addressee.hpp), created once.
+  fdds::TopicDescription* addressed(const std::string& name, fdds::TypeSupport type);
 
  private:
   fdds::DomainParticipant* participant_ = nullptr;
@@ -74,6 +76,7 @@ class Participant {
   fdds::Subscriber* subscriber_ = nullptr;
   std::mutex mutex_;
   std::map<std::string, fdds::Topic*> topics_;
+  std::map<std::string, fdds::TopicDescription*> filtered_;
 };
 
 template <class PubSub>
@@ -132,13 +135,15 @@ class Reader : public fdds::DataReaderListener {
     std::function<void(const fdds::RequestedDeadlineMissedStatus&)> on_deadline;
   };
 
-  Reader(Participant& p, const std::string& topic, Qos qos, Callbacks cb)
+  /// `addressed`: only the samples for this participant or for everyone (dds_addressee.hpp).
+  Reader(Participant& p, const std::string& topic, Qos qos, Callbacks cb, bool addressed = false)
       : participant_(p), cb_(std::move(cb)) {
     fdds::StatusMask mask = fdds::StatusMask::data_available();
     if (cb_.on_liveliness) mask << fdds::StatusMask::liveliness_changed();
     if (cb_.on_deadline) mask << fdds::StatusMask::requested_deadline_missed();
-    reader_ = p.subscriber()->create_datareader(p.topic(topic, fdds::TypeSupport(new PubSub())),
-                                                qos_for(qos).reader, this, mask);
+    fdds::TypeSupport type(new PubSub());
+    fdds::TopicDescription* t = addressed ? p.addressed(topic, type) : p.topic(topic, type);
+    reader_ = p.subscriber()->create_datareader(t, qos_for(qos).reader, this, mask);
     if (!reader_) throw std::runtime_error("cannot create a reader on " + topic);
   }
   ~Reader() override {

@@ -77,6 +77,7 @@ enum InputFlags : unsigned {
   kLiveliness = 1,  ///< LivelinessChanged events (a writer's lease kept or lost)
   kDeadline = 2,    ///< DeadlineMissed events
   kSkipOwn = 4,     ///< samples this process wrote itself (the tag is also an output) are dropped
+  kAddressed = 8,   ///< only the samples for this process or for everyone (observations: dds_addressee.hpp)
 };
 
 template <class Tag, unsigned F = kPlain>
@@ -434,8 +435,8 @@ class Shell {
           q.push(DeadlineMissed<Tag>{s.last_instance_handle});
         }
       };
-    std::get<detail::ReaderSlot<I>>(readers_).reader.emplace(*ctx_.participant_, std::string(Tag::topic), Tag::qos,
-                                                             std::move(cb));
+    std::get<detail::ReaderSlot<I>>(readers_).reader.emplace(
+        *ctx_.participant_, std::string(Tag::topic), Tag::qos, std::move(cb), (I::flags & kAddressed) != 0);
   }
 
   template <class Ins>

@@ -69,8 +69,8 @@ msg::CapabilityAnnounce announcement(const Descriptor& d, const std::string& ins
 
 class HostBinding {
  public:
-  using Inputs =
-      dds::Inputs<In<port::Command>, In<port::Observation>, In<port::SceneEstimate>, In<port::Lease>>;
+  using Inputs = dds::Inputs<In<port::Command>, In<port::Observation, dds::kAddressed>,
+                             In<port::SceneEstimate>, In<port::Lease>>;
   using Outputs = dds::Outputs<port::Action, port::CommandStatus, port::Announce>;
   using Context = dds::Context<HostBinding>;
 

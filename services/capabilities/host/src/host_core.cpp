@@ -24,7 +24,8 @@ HostCore::HostCore(const std::vector<ServedCapability>& served) : served_(served
 const Ports& HostCore::ports() {
   static const Ports p{
       in_port<port::Command>("START / CANCEL for one of its instances"),
-      in_port<port::Observation>("one per step"),
+      in_port<port::Observation>(
+          "the steps of its commands, every command's start, every step when perceiving"),
       in_port<port::SceneEstimate>("estimates for commands grounded in perception"),
       in_port<port::Lease>("the running command's budget, raised when its skill plans longer than its cost"),
       out_port<port::Action>("the action answering an observation"),
@@ -138,6 +139,9 @@ HostEffects HostCore::on_tick(Clock::time_point now) {
 
 HostEffects HostCore::on_observation(const Observation& obs, Clock::time_point now) {
   auto& last = last_obs_[obs.channel];
+  // A command's start step is said again to every host (SeamEffects::again); one that had it has done with
+  // it.
+  if (last.episode_id == obs.episode_id && last.step == obs.step && !obs.episode_id.empty()) return {};
   if (last.episode_id != obs.episode_id) keyframes_.erase(obs.channel);
   last = obs;
   take_keyframe(obs);

@@ -231,6 +231,26 @@ TEST_F(HostCoreTest, AKeyframeIsTheStartStepsPoseWhicheverComesFirst) {
   EXPECT_EQ(core.keyframes(3)[1].step, 6u);
 }
 
+// Over DDS a host is sent only the steps of its own commands and every command's start step, said again to
+// every host when the command's first lease reaches the seam (processes.md, "Who gets an observation"): it
+// starts on the start step said again, keeps the episode's keyframes from the starts, and answers a step
+// once however often it comes.
+TEST_F(HostCoreTest, WithOnlyItsOwnStepsAndEveryStartSaidAgainItActsOnceAndKeepsTheKeyframes) {
+  core.on_observation(obs(0), t0);  // step 0 is for everyone
+  CommandStart other = start("other", 0);
+  other.instance = "scripted@another-host";
+  EXPECT_TRUE(core.on_start(other, t0).actions.empty());  // another host's command: a keyframe at step 0
+  // Steps 1-6 went to the other host. The next command starts on step 7, which this host has not had.
+  auto fx = core.on_start(start("c1", 7, 20, {{"steps", 2}}), t0);
+  EXPECT_TRUE(fx.actions.empty());
+  fx = core.on_observation(obs(7), t0);  // step 7 said again
+  ASSERT_EQ(fx.actions.size(), 1u);
+  EXPECT_EQ(fx.actions[0].step, 7u);
+  EXPECT_EQ(Scripted::keyframes_seen, 2u) << "the starts at steps 0 and 7";
+  EXPECT_TRUE(core.on_observation(obs(7), t0).actions.empty()) << "the start said again after it was sent";
+  EXPECT_EQ(core.on_observation(obs(8), t0).actions.size(), 1u);
+}
+
 TEST_F(HostCoreTest, ADrainingCoreRefusesNewCommandsAndFinishesRunningOnes) {
   core.on_observation(obs(0), t0);
   core.on_start(start("c1", 0, 20, {{"steps", 2}}), t0);

@@ -56,6 +56,8 @@ struct ActionIn {
   std::uint32_t step = 0;  ///< the step of the observation it answers
   std::array<double, 7> a{};
   std::uint32_t frames = 0;  ///< the estimates its capability's perceived world had taken in (step log)
+  std::string
+      from{};  ///< who sent it, as the shell addresses it: the step it leads to is for them (SeamEffects::to)
 };
 
 struct VerdictChange {
@@ -68,7 +70,11 @@ struct VerdictChange {
 struct SeamEffects {
   std::vector<SeamEvent> events;
   std::optional<VerdictChange> verdict;     ///< the task predicate changed at `observation`
+  /// The current step again, before anything else: a command starts on it (its first lease came), and its
+  /// capability may not have been sent it (the shell sends it to every reader).
+  std::optional<Observation> again;
   std::optional<Observation> observation;   ///< a new step: the episode started or an action was applied
+  std::string to;  ///< whom `observation` is for: ActionIn::from of the action applied; "" for everyone
   std::optional<std::string> ended;  ///< the seam ended the episode itself (physics failed, abandoned);
                                      ///< an Ended event in `events` says so to the governor
 };
@@ -141,7 +147,7 @@ class SeamCore {
   Observation observation_;
   std::unique_ptr<StepLogWriter> log_;
   std::unique_ptr<StateLogWriter> states_;
-  std::set<std::string> started_;  ///< the commands whose start the state log holds
+  std::set<std::string> started_;  ///< the commands whose first lease came (whose start the state log holds)
   std::set<std::string> handed_over_;  ///< commands revoked or superseded by another's lease
   std::size_t stragglers_ = 0;
   bool predicate_ = false;
