@@ -139,8 +139,7 @@ HostEffects HostCore::on_tick(Clock::time_point now) {
 
 HostEffects HostCore::on_observation(const Observation& obs, Clock::time_point now) {
   auto& last = last_obs_[obs.channel];
-  // A command's start step is said again to every host (SeamEffects::again); one that had it has done with
-  // it.
+  // A command's start step is said again to every host (SeamEffects::again): a host that had it drops it.
   if (last.episode_id == obs.episode_id && last.step == obs.step && !obs.episode_id.empty()) return {};
   if (last.episode_id != obs.episode_id) keyframes_.erase(obs.channel);
   last = obs;
