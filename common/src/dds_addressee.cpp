@@ -20,14 +20,12 @@ constexpr std::size_t kHeaderBytes = 4;   // CDR encapsulation: representation i
 constexpr std::size_t kChannelBytes = 4;  // @key unsigned long channel
 }  // namespace
 
-std::string participant_address(const eprosima::fastrtps::rtps::InstanceHandle_t& writer) {
-  std::uint8_t b[kPrefixBytes];
-  for (std::size_t i = 0; i < kPrefixBytes; ++i) b[i] = writer.value[i];
-  return hex(b, kPrefixBytes);
-}
-
 std::string participant_address(const eprosima::fastrtps::rtps::GUID_t& entity) {
   return hex(entity.guidPrefix.value, kPrefixBytes);
+}
+
+std::string participant_address(const eprosima::fastrtps::rtps::InstanceHandle_t& writer) {
+  return participant_address(eprosima::fastrtps::rtps::iHandle2GUID(writer));
 }
 
 std::optional<std::string_view> addressee_in(const std::uint8_t* data, std::size_t length) {
