@@ -13,7 +13,6 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <set>
-#include <sstream>
 
 #include "../integration/episode_request.hpp"
 #include "../integration/harness.hpp"
@@ -33,13 +32,6 @@ using Clock = std::chrono::steady_clock;
 namespace fs = std::filesystem;
 
 namespace {
-
-std::string read_file(const fs::path& f) {
-  std::ifstream in(f);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 double percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
@@ -230,7 +222,7 @@ TEST(RgbdE2E, SimWorkerAnswersARequestWithAMetricFrameOfTheChannelsCurrentStep) 
   itest::IsolatedEnv env;
   cli::Deployment sim({itest::service("sim_worker")}, paths::bin_dir(), env.runs / "logs");
   Client c;
-  ASSERT_TRUE(c.wait_sim_ready()) << read_file(env.runs / "logs/sim_worker.log");
+  ASSERT_TRUE(c.wait_sim_ready()) << itest::read_text(env.runs / "logs/sim_worker.log");
 
   // Before any episode there is no state to show: an error frame, at once.
   const auto early = c.request(0, "workcell", "early");
@@ -243,7 +235,7 @@ TEST(RgbdE2E, SimWorkerAnswersARequestWithAMetricFrameOfTheChannelsCurrentStep) 
   ASSERT_TRUE(c.start(kBudget));
   for (int i = 0; i < 5; ++i) ASSERT_TRUE(c.step(kBudget));
   const auto f = c.request(0, "workcell", "r1");
-  ASSERT_TRUE(f.has_value()) << read_file(env.runs / "logs/sim_worker.log");
+  ASSERT_TRUE(f.has_value()) << itest::read_text(env.runs / "logs/sim_worker.log");
   EXPECT_EQ(f->error(), "");
   EXPECT_EQ(f->request_id(), "r1");
   EXPECT_EQ(f->camera(), "workcell");
@@ -332,7 +324,7 @@ TEST(RgbdE2E, WithoutRequestsSimWorkerRendersNothing) {
   auto sim = std::make_unique<cli::Deployment>(std::vector<cli::ServiceSpec>{itest::service("sim_worker")},
                                                paths::bin_dir(), env.runs / "logs");
   Client c;
-  ASSERT_TRUE(c.wait_sim_ready()) << read_file(env.runs / "logs/sim_worker.log");
+  ASSERT_TRUE(c.wait_sim_ready()) << itest::read_text(env.runs / "logs/sim_worker.log");
   constexpr std::uint32_t kBudget = 200, kSteps = 60;
   ASSERT_TRUE(c.start(kBudget));
   auto t0 = Clock::now();
@@ -340,7 +332,7 @@ TEST(RgbdE2E, WithoutRequestsSimWorkerRendersNothing) {
   const double plain = kSteps / std::chrono::duration<double>(Clock::now() - t0).count();
   std::this_thread::sleep_for(300ms);
   EXPECT_EQ(c.frames_received(), 0u) << "frames without a request";
-  const std::string log = read_file(env.runs / "logs/sim_worker.log");
+  const std::string log = itest::read_text(env.runs / "logs/sim_worker.log");
   EXPECT_EQ(log.find("OpenGL context for RGB-D"), std::string::npos)
       << "an OpenGL context without a request: " << log;
   EXPECT_NE(log.find("RGB-D cameras on request: workcell"), std::string::npos) << log;
@@ -353,7 +345,7 @@ TEST(RgbdE2E, WithoutRequestsSimWorkerRendersNothing) {
       "lock-step rate: %.1f steps/s without requests, %.1f steps/s with a 640x480 RGB-D frame per step\n",
       plain, asked);
   sim.reset();  // the worker reports its render and publish times as it ends
-  const std::string end_log = read_file(env.runs / "logs/sim_worker.log");
+  const std::string end_log = itest::read_text(env.runs / "logs/sim_worker.log");
   const auto at = end_log.find("RGB-D frames,");
   ASSERT_NE(at, std::string::npos) << end_log;
   const auto line_start = end_log.rfind("channel=", at);
@@ -368,7 +360,7 @@ TEST(RgbdE2E, RgbdEveryPublishesFramesAtEpisodeStartAndEveryNSteps) {
           itest::service("sim_worker", {"--rgbd-every", "5", "--cameras", "agentview"})},
       paths::bin_dir(), env.runs / "logs");
   Client c;
-  ASSERT_TRUE(c.wait_sim_ready()) << read_file(env.runs / "logs/sim_worker.log");
+  ASSERT_TRUE(c.wait_sim_ready()) << itest::read_text(env.runs / "logs/sim_worker.log");
   // Our reader has matched the worker's writer; give the writer the moment it takes to match our reader
   // (frames are volatile: one written before that is not for us).
   std::this_thread::sleep_for(500ms);
@@ -393,7 +385,7 @@ TEST(RgbdE2E, RgbdEveryPublishesFramesAtEpisodeStartAndEveryNSteps) {
   for (const auto s : steps) std::printf(" %u", s);
   std::printf("\n");
   sim.reset();
-  const std::string log = read_file(env.runs / "logs/sim_worker.log");
+  const std::string log = itest::read_text(env.runs / "logs/sim_worker.log");
   // Every RGB-D camera of configs/cameras.yaml at steps 0, 5 and 10.
   const auto cameras = sim::load_cameras_config(paths::config_dir() / "cameras.yaml").cameras.size();
   EXPECT_NE(log.find("channel=0 " + std::to_string(3 * cameras) + " RGB-D frames"), std::string::npos) << log;
@@ -429,12 +421,13 @@ TEST(RgbdE2E, FramesPlayerPlaysARecordedFolderFrameByFrameOnRequest) {
   cli::Deployment player({itest::service("frames_player", {"--folder", rec.string(), "--channel", "3"})},
                          paths::bin_dir(), env.runs / "logs");
   Client c;
-  ASSERT_TRUE(c.wait_player_ready()) << read_file(env.runs / "logs/frames_player.log");
+  ASSERT_TRUE(c.wait_player_ready()) << itest::read_text(env.runs / "logs/frames_player.log");
   EXPECT_FALSE(c.request(0, "workcell", "other-channel", 1s).has_value())
       << "answered another channel's request";
   for (int i = 0; i < 4; ++i) {
     const auto f = c.request(3, "workcell", "p" + std::to_string(i));
-    ASSERT_TRUE(f.has_value()) << "request " << i << ": " << read_file(env.runs / "logs/frames_player.log");
+    ASSERT_TRUE(f.has_value()) << "request " << i << ": "
+                               << itest::read_text(env.runs / "logs/frames_player.log");
     const int k = i % 3;  // in order, then again from the first
     EXPECT_EQ(f->error(), "");
     EXPECT_EQ(f->channel(), 3u);
@@ -470,7 +463,7 @@ TEST(RgbdE2E, FramesPlayerAtARateAndAnUndecodableFrameAnsweredWithItsName) {
   cli::Deployment player({itest::service("frames_player", {"--folder", rec.string(), "--rate-hz", "20"})},
                          paths::bin_dir(), env.runs / "logs");
   Client c;
-  ASSERT_TRUE(c.wait_player_ready()) << read_file(env.runs / "logs/frames_player.log");
+  ASSERT_TRUE(c.wait_player_ready()) << itest::read_text(env.runs / "logs/frames_player.log");
   std::vector<msg::RgbdFrame> got;
   ASSERT_TRUE(c.poll(10s,
                      [&] {
@@ -509,7 +502,7 @@ TEST(RgbdE2E, FramesPlayerRefusesABrokenFolderNamingTheFile) {
   std::vector<std::string> exited;
   while ((exited = player.exited()).empty() && Clock::now() - t0 < 15s) std::this_thread::sleep_for(50ms);
   ASSERT_EQ(exited, std::vector<std::string>{"frames_player"}) << "frames_player kept running";
-  const std::string log = read_file(env.runs / "logs/frames_player.log");
+  const std::string log = itest::read_text(env.runs / "logs/frames_player.log");
   EXPECT_NE(log.find((rec / "color/000001.png").string()), std::string::npos) << log;
   EXPECT_NE(log.find("no depth image"), std::string::npos) << log;
 }

@@ -11,7 +11,9 @@
 #include <condition_variable>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <functional>
+#include <iterator>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -49,6 +51,12 @@ struct IsolatedEnv {
     if (lock_fd >= 0) close(lock_fd);
   }
 };
+
+/// A file's whole text ("" when it cannot be read): a service's log, say.
+inline std::string read_text(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
 
 inline cli::ServiceSpec service(const std::string& name, std::vector<std::string> args = {}) {
   return {name, name, std::move(args)};

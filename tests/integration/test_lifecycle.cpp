@@ -225,10 +225,7 @@ namespace dh {
 using namespace std::chrono_literals;
 namespace {
 
-std::string read_text(const std::filesystem::path& file) {
-  std::ifstream in(file);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
+using itest::read_text;
 
 }  // namespace
 

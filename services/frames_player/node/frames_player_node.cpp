@@ -18,6 +18,7 @@
 #include "dh/common/log.hpp"
 #include "dh/common/service.hpp"
 #include "dh/common/topics.hpp"
+#include "dh/frames/rate_schedule.hpp"
 #include "dh/frames/recording.hpp"
 #include "dh/msg/cameraPubSubTypes.h"
 
@@ -121,9 +122,7 @@ int run(int argc, char** argv) {
   std::optional<Player> player;
   std::optional<dds::Reader<msg::RgbdRequestPubSubType>> in;
   EventQueue<msg::RgbdRequest> requests;
-  const auto period = rate_hz > 0 ? std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1 / rate_hz))
-                                  : Clock::duration::zero();
-  auto next_tick = Clock::now();
+  frames::RateSchedule schedule(rate_hz);
   ManagedService service;
   service.transitions.configure = [&] {
     frames::Recording rec = frames::open_recording(folder);
@@ -151,7 +150,7 @@ int run(int argc, char** argv) {
                    {}});
     log->info("playing as channel={} camera={} on {} domain={}{}", channel, cam, topics::kRgbd, dds::domain_id(),
               rate_hz > 0 ? " at " + std::to_string(rate_hz) + " Hz" : std::string(", on request"));
-    next_tick = Clock::now() + period;
+    schedule.start(Clock::now());
   };
   service.transitions.deactivate = [&] {
     in.reset();
@@ -164,16 +163,9 @@ int run(int argc, char** argv) {
     participant.reset();
   };
   service.step = [&] {
-    auto wait = std::chrono::milliseconds(100);
-    if (rate_hz > 0)
-      wait = std::clamp(std::chrono::duration_cast<std::chrono::milliseconds>(next_tick - Clock::now()),
-                        std::chrono::milliseconds(0), wait);
-    if (auto r = requests.pop(wait)) player->publish(r->request_id(), rate_hz <= 0);
-    if (rate_hz > 0 && Clock::now() >= next_tick) {
-      player->publish("", true);
-      next_tick += period;
-      if (next_tick < Clock::now()) next_tick = Clock::now() + period;  // fell behind: do not burst
-    }
+    if (auto r = requests.pop(schedule.wait(Clock::now(), std::chrono::milliseconds(100))))
+      player->publish(r->request_id(), rate_hz <= 0);
+    if (schedule.due(Clock::now())) player->publish("", true);
   };
   return run_managed(*log, std::move(service));
 }

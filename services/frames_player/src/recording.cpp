@@ -54,43 +54,58 @@ double either(const ConfigNode& n, const std::string& key, const std::string& al
   return v;
 }
 
-void read_intrinsics(const fs::path& file, Recording& rec) {
+}  // namespace
+
+CameraFile read_camera_file(const fs::path& file, bool intrinsics_required) {
   if (!fs::exists(file))
-    throw FramesError(file.string() +
-                      ": missing (a recording needs intrinsics.yaml beside color/ and depth/)");
-  const ConfigNode n = ConfigNode::load_file(file);
-  if (!n.raw().IsMap())
-    throw FramesError(file.string() + ": expected a YAML map of intrinsics (fx, fy, cx, cy, ...)");
-  const int width = n.get<int>("width"), height = n.get<int>("height");
-  if (width < 1) n.fail("width", "must be a positive integer");
-  if (height < 1) n.fail("height", "must be a positive integer");
-  rec.K.width = width;
-  rec.K.height = height;
-  rec.K.fx = positive(n, "fx");
-  rec.K.fy = positive(n, "fy");
-  rec.K.cx = either(n, "cx", "ppx");
-  rec.K.cy = either(n, "cy", "ppy");
-  if (n.has("depth_scale")) rec.depth_scale = positive(n, "depth_scale");
-  if (n.has("camera")) {
-    rec.camera = n.get<std::string>("camera");
-    if (rec.camera.empty()) n.fail("camera", "must not be empty");
-  }
-  if (n.has("pose")) {
-    const ConfigNode p = n.child("pose");
-    const auto pos = p.get<std::vector<double>>("position");
-    if (pos.size() != 3) p.fail("position", "expected 3 numbers [x, y, z] (m)");
-    const auto q = p.get<std::vector<double>>("orientation");
-    if (q.size() != 4) p.fail("orientation", "expected 4 numbers [w, x, y, z] (a unit quaternion)");
-    const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
-    if (!(std::abs(norm - 1) <= 0.01))
-      p.fail("orientation", "is not a unit quaternion [w, x, y, z] (norm " + std::to_string(norm) + ")");
-    for (int i = 0; i < 3; ++i) rec.position[i] = pos[i];
-    for (int i = 0; i < 4; ++i) rec.orientation[i] = q[i] / norm;
-    rec.has_pose = true;
+    throw FramesError(file.string() + ": missing (" +
+                      (intrinsics_required ? "a recording needs intrinsics.yaml beside color/ and depth/"
+                                           : "a camera's file: its name, pose and, optionally, intrinsics") +
+                      ")");
+  try {
+    const ConfigNode n = ConfigNode::load_file(file);
+    if (!n.raw().IsMap())
+      throw FramesError(file.string() + ": expected a YAML map of intrinsics (fx, fy, cx, cy, ...)");
+    CameraFile c;
+    int given = 0;
+    for (const char* key : {"width", "height", "fx", "fy"}) given += n.has(key);
+    given += n.has("cx") || n.has("ppx");
+    given += n.has("cy") || n.has("ppy");
+    if (intrinsics_required || given > 0) {
+      const int width = n.get<int>("width"), height = n.get<int>("height");
+      if (width < 1) n.fail("width", "must be a positive integer");
+      if (height < 1) n.fail("height", "must be a positive integer");
+      c.K.width = width;
+      c.K.height = height;
+      c.K.fx = positive(n, "fx");
+      c.K.fy = positive(n, "fy");
+      c.K.cx = either(n, "cx", "ppx");
+      c.K.cy = either(n, "cy", "ppy");
+      c.has_intrinsics = true;
+    }
+    if (n.has("depth_scale")) c.depth_scale = positive(n, "depth_scale");
+    if (n.has("camera")) {
+      c.camera = n.get<std::string>("camera");
+      if (c.camera.empty()) n.fail("camera", "must not be empty");
+    }
+    if (n.has("pose")) {
+      const ConfigNode p = n.child("pose");
+      const auto pos = p.get<std::vector<double>>("position");
+      if (pos.size() != 3) p.fail("position", "expected 3 numbers [x, y, z] (m)");
+      const auto q = p.get<std::vector<double>>("orientation");
+      if (q.size() != 4) p.fail("orientation", "expected 4 numbers [w, x, y, z] (a unit quaternion)");
+      const double norm = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+      if (!(std::abs(norm - 1) <= 0.01))
+        p.fail("orientation", "is not a unit quaternion [w, x, y, z] (norm " + std::to_string(norm) + ")");
+      for (int i = 0; i < 3; ++i) c.position[i] = pos[i];
+      for (int i = 0; i < 4; ++i) c.orientation[i] = q[i] / norm;
+      c.has_pose = true;
+    }
+    return c;
+  } catch (const ConfigError& e) {
+    throw FramesError(e.what());
   }
 }
-
-}  // namespace
 
 Recording open_recording(const fs::path& folder) {
   if (!fs::is_directory(folder))
@@ -98,11 +113,7 @@ Recording open_recording(const fs::path& folder) {
                       " (a recording is a folder with intrinsics.yaml, color/ and depth/)");
   Recording rec;
   rec.folder = folder;
-  try {
-    read_intrinsics(folder / kIntrinsicsFile, rec);
-  } catch (const ConfigError& e) {
-    throw FramesError(e.what());
-  }
+  static_cast<CameraFile&>(rec) = read_camera_file(folder / kIntrinsicsFile, true);
   const fs::path color_dir = folder / kColorDir, depth_dir = folder / kDepthDir;
   for (const auto& d : {color_dir, depth_dir})
     if (!fs::is_directory(d))

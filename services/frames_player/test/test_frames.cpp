@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "dh/frames/rate_schedule.hpp"
 #include "dh/frames/recording.hpp"
 
 namespace dh {
@@ -273,6 +274,28 @@ TEST(FramesFolder, BadImagesAreNamed) {
     cv::imwrite((f.dir() / "depth/0.png").string(), cv::Mat(kH, kW, CV_16UC3, cv::Scalar(0)));
     expect_refused(f.dir(), {(f.dir() / "depth/0.png").string(), "16-bit 3-channel"});
   }
+}
+
+TEST(RateSchedule, AFrameEveryPeriodWaitsNoLongerThanTheNextAndNeverBursts) {
+  using namespace std::chrono_literals;
+  const auto t0 = frames::RateSchedule::Clock::time_point{} + 1h;
+  frames::RateSchedule off(0);
+  off.start(t0);
+  EXPECT_FALSE(off.due(t0 + 10s));
+  EXPECT_EQ(off.wait(t0, 100ms), 100ms);
+  frames::RateSchedule r(20);  // every 50 ms
+  r.start(t0);
+  EXPECT_EQ(r.wait(t0, 100ms), 50ms);
+  EXPECT_EQ(r.wait(t0 + 30ms, 10ms), 10ms);
+  EXPECT_FALSE(r.due(t0 + 49ms));
+  EXPECT_TRUE(r.due(t0 + 50ms));
+  EXPECT_FALSE(r.due(t0 + 60ms));
+  EXPECT_EQ(r.wait(t0 + 60ms, 100ms), 40ms);
+  // Three periods late: one frame, and the next a period from now, not three at once.
+  EXPECT_TRUE(r.due(t0 + 250ms));
+  EXPECT_FALSE(r.due(t0 + 251ms));
+  EXPECT_TRUE(r.due(t0 + 300ms));
+  EXPECT_EQ(r.wait(t0 + 400ms, 100ms), 0ms);
 }
 
 }  // namespace

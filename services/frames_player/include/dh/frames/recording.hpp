@@ -37,19 +37,33 @@ struct Intrinsics {
   int width = 0, height = 0;
 };
 
-struct Recording {
-  struct Entry {
-    std::string stem;
-    std::filesystem::path color, depth;
-  };
-  std::filesystem::path folder;
+/// A camera's file, `intrinsics.yaml` (README.md): the intrinsics, the name to publish as, the depth
+/// scale and where the camera is. A live source may leave the intrinsics out (`has_intrinsics` false)
+/// and take them from its device; given, all six (width, height, fx, fy, cx, cy) must be.
+struct CameraFile {
+  bool has_intrinsics = false;
   Intrinsics K;
   double depth_scale = 0.001;  ///< metres per raw depth unit
   std::string camera = kDefaultCamera;
   bool has_pose = false;
   std::array<double, 3> position{};               ///< world_from_camera translation (m)
   std::array<double, 4> orientation{1, 0, 0, 0};  ///< world_from_camera rotation, unit quaternion w x y z
-  std::vector<Entry> frames;                      ///< by stem, lexicographic
+};
+
+/// Reads a camera's file. Throws FramesError naming the file and the key for: a missing or malformed
+/// file, a missing or mistyped key, non-positive fx, fy, width, height or depth_scale, some of the six
+/// intrinsics without the others, or a malformed pose (position not 3 numbers, orientation not 4
+/// numbers of norm 1 +- 1 %).
+CameraFile read_camera_file(const std::filesystem::path& file, bool intrinsics_required);
+
+/// A recording is its folder's camera file (intrinsics always given) and its frames.
+struct Recording : CameraFile {
+  struct Entry {
+    std::string stem;
+    std::filesystem::path color, depth;
+  };
+  std::filesystem::path folder;
+  std::vector<Entry> frames;  ///< by stem, lexicographic
 };
 
 /// Reads intrinsics.yaml and pairs color/ and depth/ PNGs by stem, without decoding any image.
