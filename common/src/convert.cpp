@@ -178,6 +178,14 @@ PlannerError from_msg(msg::PlannerError e) {
 
 msg::PlannerError to_msg(PlannerError e) { return static_cast<msg::PlannerError>(static_cast<int>(e)); }
 
+PlannerRefusal from_msg(msg::PlannerRefusal r) {
+  const auto v = static_cast<int>(r);
+  return v >= 0 && v <= static_cast<int>(PlannerRefusal::Malformed) ? static_cast<PlannerRefusal>(v)
+                                                                    : PlannerRefusal::None;
+}
+
+msg::PlannerRefusal to_msg(PlannerRefusal r) { return static_cast<msg::PlannerRefusal>(static_cast<int>(r)); }
+
 std::map<std::string, double> from_msg(const std::vector<msg::Param>& p) {
   std::map<std::string, double> out;
   for (const auto& x : p) out[x.name()] = x.value();

@@ -97,6 +97,14 @@ TEST(Attribution, OneConstructedEpisodePerLayer) {
   EXPECT_EQ(Evidence().add("deadline_missed", {{"wait", "observation"}}).end().label(), "context");
   EXPECT_EQ(Evidence().add("refusal", {{"refusal", "perception"}}).end().label(), "context");
   EXPECT_EQ(Evidence().add("deadline_missed", {{"wait", "planner"}}).end().label(), "planner_unavailable");
+  EXPECT_EQ(Evidence().add("refusal", {{"refusal", "planner_unavailable"}}).end().label(),
+            "planner_unavailable")
+      << "the model server could not be asked";
+  EXPECT_EQ(Evidence().add("refusal", {{"refusal", "planner_malformed"}}).end().label(),
+            "planner_unavailable")
+      << "its reply could not be read, repair included";
+  EXPECT_EQ(Evidence().add("refusal", {{"refusal", "planner_refused"}}).end().label(), "planning")
+      << "it read the request and gave no step";
   EXPECT_EQ(Evidence().add("refusal", {{"refusal", "unresolved_entity"}}).end().label(), "planning");
   EXPECT_EQ(Evidence().add("refusal", {{"refusal", "precondition"}}).end().label(), "grounding");
   EXPECT_EQ(Evidence().add("refusal", {{"refusal", "budget"}}).end().label(), "budget");

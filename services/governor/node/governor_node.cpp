@@ -120,6 +120,7 @@ class GovernorBinding {
                     a.reason(), a.backend(), a.done(), {}};
     for (const auto& st : a.rest()) adv.rest.push_back({st.capability(), convert::from_msg(st.args())});
     adv.injected = convert::from_msg(a.injected());
+    adv.why = convert::from_msg(a.refusal());
     carry_out(ctx, core_->on_advice(a.channel(), a.episode_id(), adv, gov::Clock::now()));
   }
   void on(const Sample<port::CommandStatus>& m, Context& ctx) {

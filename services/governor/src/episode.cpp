@@ -248,7 +248,9 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
       return end(false, Outcome::GaveUp, "bare arm: nothing but the policy may act, and " + g.reason);
     }
     // Another capability would not see the scene any better than this one.
-    if (g.refusal == Refusal::PlannerRefused || g.refusal == Refusal::Budget || g.refusal == Refusal::Perception)
+    if (g.refusal == Refusal::PlannerRefused || g.refusal == Refusal::PlannerUnavailable ||
+        g.refusal == Refusal::PlannerMalformed || g.refusal == Refusal::Budget ||
+        g.refusal == Refusal::Perception)
       return refuse(g.refusal, g.reason, now);
     // The advised capability cannot serve this step here: the executor decides what instead.
     ++refusals_total_;
@@ -684,7 +686,7 @@ Effects EpisodeMachine::on_tick(Clock::time_point now) {
       break;  // handled above
     case Phase::Planning:
       pending_request_.clear();
-      return refuse(Refusal::PlannerRefused, "planner timeout: no " + what, now);
+      return refuse(Refusal::PlannerUnavailable, "planner timeout: no " + what, now);
     case Phase::Running:
       if (!acknowledged_) {
         if (!recovering_) count_failure();

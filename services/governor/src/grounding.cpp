@@ -8,6 +8,8 @@ namespace dh::gov {
 const char* to_string(Refusal r) {
   switch (r) {
     case Refusal::PlannerRefused: return "planner_refused";
+    case Refusal::PlannerUnavailable: return "planner_unavailable";
+    case Refusal::PlannerMalformed: return "planner_malformed";
     case Refusal::UnknownCapability: return "unknown_capability";
     case Refusal::CapabilityNotAlive: return "capability_not_alive";
     case Refusal::CapabilityMasked: return "capability_masked";
@@ -67,7 +69,13 @@ std::optional<std::string> precondition_fails(const std::string& pre, const Advi
 
 GroundingResult ground(const GroundingInput& in) {
   const Advice& a = in.advice;
-  if (a.refused) return refuse(Refusal::PlannerRefused, "planner refused: " + a.reason);
+  if (a.refused) {
+    if (a.why == PlannerRefusal::Unavailable)
+      return refuse(Refusal::PlannerUnavailable, "planner unavailable: " + a.reason);
+    if (a.why == PlannerRefusal::Malformed)
+      return refuse(Refusal::PlannerMalformed, "planner reply unusable: " + a.reason);
+    return refuse(Refusal::PlannerRefused, "planner refused: " + a.reason);
+  }
   if (in.masked.count(a.capability))
     return refuse(Refusal::CapabilityMasked, "capability '" + a.capability + "' is switched off in this arm");
   if (!in.registry.known(a.capability))

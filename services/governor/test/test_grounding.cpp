@@ -47,6 +47,21 @@ TEST_F(Grounding, ThePlannersRefusalIsRecordedAsSuch) {
   EXPECT_NE(g.reason.find("cannot parse"), std::string::npos);
 }
 
+TEST_F(Grounding, WhyThePlannerRefusedIsKeptAsItsCode) {
+  advice.refused = true;
+  advice.reason = "cannot connect";
+  advice.why = PlannerRefusal::Unavailable;
+  auto g = run();
+  EXPECT_EQ(g.refusal, Refusal::PlannerUnavailable);
+  EXPECT_STREQ(to_string(g.refusal), "planner_unavailable");
+  advice.why = PlannerRefusal::Malformed;
+  g = run();
+  EXPECT_EQ(g.refusal, Refusal::PlannerMalformed);
+  EXPECT_STREQ(to_string(g.refusal), "planner_malformed");
+  advice.why = PlannerRefusal::Planning;
+  EXPECT_EQ(run().refusal, Refusal::PlannerRefused);
+}
+
 TEST_F(Grounding, UnknownCapability) {
   advice.capability = "teleport";
   EXPECT_EQ(run().refusal, Refusal::UnknownCapability);

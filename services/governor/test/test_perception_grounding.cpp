@@ -121,7 +121,7 @@ TEST_F(PerceptionMachine, NoFrameWithinTheWaitIsARefusalWithItsReason) {
 // The perceived world and the perceived verdict's frames are in the snapshot: a machine restored from it
 // goes on as the original does, the held bowl carried with the tool.
 struct PerceptionVerdictMachine : PerceptionMachine {
-  void configure_spec(EpisodeSpec& s) override { s.goal = {{"On", {"bowl", "plate"}}}; }
+  void configure_spec(EpisodeSpec& s) override { s.goal = {{"On", {"bowl", "plate"}, "", 0, 0}}; }
 };
 
 TEST_F(PerceptionVerdictMachine, ASnapshotHoldsThePerceivedWorldAndTheVerdictsFramesAndRestoresThem) {

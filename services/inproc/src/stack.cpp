@@ -256,6 +256,7 @@ EpisodeOutcome Stack::drive(Episode ep, const std::function<gov::CoreEffects()>&
         gov::Advice adv{r.request_id, a.refused, a.capability, a.args, a.rationale,
                         a.reason,     "rules",   a.done,       {},     answer.injected};
         for (const auto& s : a.rest) adv.rest.push_back({s.capability, s.args});
+        adv.why = a.why;
         from_governor(governor_.on_advice(kChannel, episode_id, adv, now));
       }
     }

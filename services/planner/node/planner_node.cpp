@@ -43,6 +43,7 @@ msg::Advice to_msg(const planner::Answer& answer, const std::string& backend) {
   m.request_id(answer.request_id);
   m.episode_id(answer.episode_id);
   m.refused(a.refused);
+  m.refusal(convert::to_msg(a.why));
   m.capability(a.capability);
   m.args(convert::to_msg(a.args));
   m.rationale(a.rationale);

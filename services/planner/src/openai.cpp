@@ -362,6 +362,7 @@ ReplyContent reply_content(const std::string& body) {
     out.text = text;
   } else if (message.contains("refusal") && message["refusal"].is_string()) {
     out.error = "the model refused to answer: " + message["refusal"].get<std::string>();
+    out.model_refused = true;
   } else {
     out.error = "the completion's message has no text content: " + snippet(dump(message));
   }
@@ -418,6 +419,7 @@ ParsedAdvisory parse_advisory(const std::string& content, const std::vector<std:
     }
     if (a.done) {
       a.refused = true;  // as the rules backend: done is a refusal that says every step completed
+      a.why = PlannerRefusal::Planning;
       a.reason = why.empty() ? "the model judges every step of the instruction completed" : why;
       a.capability.clear();
       a.args.clear();
@@ -425,6 +427,7 @@ ParsedAdvisory parse_advisory(const std::string& content, const std::vector<std:
     } else if (refused) {
       if (why.empty()) throw Violation{"/reason is missing or empty while refused is true"};
       a.refused = true;
+      a.why = PlannerRefusal::Planning;
       a.reason = "the model refused: " + why;
       a.capability.clear();
       a.args.clear();
@@ -434,12 +437,14 @@ ParsedAdvisory parse_advisory(const std::string& content, const std::vector<std:
         throw Violation{"/capability is empty while neither done nor refused is true"};
       if (!is_eligible(eligible, a.capability)) {
         out.error = not_eligible("/capability", a.capability, eligible);
+        out.ineligible = true;
         return out;
       }
       for (std::size_t i = 0; i < a.rest.size(); ++i) {
         if (!is_eligible(eligible, a.rest[i].capability)) {
           out.error =
               not_eligible("/rest/" + std::to_string(i) + "/capability", a.rest[i].capability, eligible);
+          out.ineligible = true;
           return out;
         }
       }
@@ -467,9 +472,10 @@ using nlohmann::json;
 
 std::string seconds(std::chrono::milliseconds ms) { return fmt::format("{:.3g} s", ms.count() / 1000.0); }
 
-PlannerAdvice refusal(std::string reason) {
+PlannerAdvice refusal(PlannerRefusal why, std::string reason) {
   PlannerAdvice a;
   a.refused = true;
+  a.why = why;
   a.reason = std::move(reason);
   return a;
 }
@@ -513,7 +519,8 @@ PlannerAdvice OpenAiPlanner::plan(const PlanContext& ctx, const CapabilityRoles&
   try {
     return plan_or_refuse(ctx, roles, images, cancelled);
   } catch (const std::exception& e) {
-    return refusal("openai backend at " + url_ + ": internal error: " + e.what() + "; please report it");
+    return refusal(PlannerRefusal::Unavailable,
+                   "openai backend at " + url_ + ": internal error: " + e.what() + "; please report it");
   }
 }
 
@@ -521,7 +528,7 @@ PlannerAdvice OpenAiPlanner::plan_or_refuse(const PlanContext& ctx, const Capabi
                                             const std::vector<EncodedImage>& images,
                                             const std::function<bool()>& cancelled) const {
   const std::string at = "openai backend at " + url_ + " (model '" + config_.model + "'): ";
-  if (!key_problem_.empty()) return refusal(at + key_problem_);
+  if (!key_problem_.empty()) return refusal(PlannerRefusal::Unavailable, at + key_problem_);
   using Clock = std::chrono::steady_clock;
   const auto deadline = Clock::now() + config_.timeout;
 
@@ -530,37 +537,43 @@ PlannerAdvice OpenAiPlanner::plan_or_refuse(const PlanContext& ctx, const Capabi
   enum class Outcome { Final, Repairable };
   PlannerAdvice final;
   std::string repairable, bad, finish;
+  bool ineligible = false;  // what `repairable` says is an ineligible capability, not a malformed reply
   auto attempt = [&](const json& body, const char* which) -> Outcome {
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
     if (left.count() <= 0) {
-      final = refusal(at + "no time left for the " + which + " within the " + seconds(config_.timeout) +
-                      " timeout; raise --timeout-s (and the governor's planner_timeout_ms above it)");
+      final = refusal(PlannerRefusal::Unavailable,
+                      at + "no time left for the " + which + " within the " + seconds(config_.timeout) +
+                          " timeout; raise --timeout-s (and the governor's planner_timeout_ms above it)");
       return Outcome::Final;
     }
     const HttpResponse r = http_.post({url_, openai::wire(body), headers_, left}, cancelled);
     switch (r.failure) {
       case HttpResponse::Failure::Connect:
-        final =
-            refusal(at + "cannot connect for the " + which + " (" + r.error +
-                    "): start the model server (vLLM, llama.cpp, Ollama) there or point --endpoint at it");
+        final = refusal(
+            PlannerRefusal::Unavailable,
+            at + "cannot connect for the " + which + " (" + r.error +
+                "): start the model server (vLLM, llama.cpp, Ollama) there or point --endpoint at it");
         return Outcome::Final;
       case HttpResponse::Failure::Timeout:
-        final =
-            refusal(at + "no reply to the " + which + " within " +
-                    (std::string(which) == "request"
-                         ? "the " + seconds(config_.timeout) + " timeout"
-                         : "the " + seconds(left) + " left of the " + seconds(config_.timeout) + " timeout") +
-                    ": the server is overloaded or the model too slow; raise --timeout-s (and the governor's "
-                    "planner_timeout_ms above it) or serve a smaller model");
+        final = refusal(
+            PlannerRefusal::Unavailable,
+            at + "no reply to the " + which + " within " +
+                (std::string(which) == "request"
+                     ? "the " + seconds(config_.timeout) + " timeout"
+                     : "the " + seconds(left) + " left of the " + seconds(config_.timeout) + " timeout") +
+                ": the server is overloaded or the model too slow; raise --timeout-s (and the governor's "
+                "planner_timeout_ms above it) or serve a smaller model");
         return Outcome::Final;
       case HttpResponse::Failure::Cancelled:
-        final =
-            refusal(at + "the " + std::string(which) +
-                    " was cancelled (a newer request for the channel arrived, or the planner is stopping)");
+        final = refusal(
+            PlannerRefusal::Unavailable,
+            at + "the " + std::string(which) +
+                " was cancelled (a newer request for the channel arrived, or the planner is stopping)");
         return Outcome::Final;
       case HttpResponse::Failure::Other:
-        final = refusal(at + "the " + std::string(which) + " failed (" + r.error +
-                        "): check --endpoint (http://host:port of an OpenAI-compatible server)");
+        final = refusal(PlannerRefusal::Unavailable,
+                        at + "the " + std::string(which) + " failed (" + r.error +
+                            "): check --endpoint (http://host:port of an OpenAI-compatible server)");
         return Outcome::Final;
       case HttpResponse::Failure::None:
         break;
@@ -582,14 +595,16 @@ PlannerAdvice OpenAiPlanner::plan_or_refuse(const PlanContext& ctx, const Capabi
         todo = "the model server failed; see its log";
       else
         todo = "check --endpoint";
-      final = refusal(at + "the " + std::string(which) + " got HTTP " + std::to_string(r.status) + " (" +
-                      error_text(r.body) + "): " + todo);
+      final = refusal(PlannerRefusal::Unavailable, at + "the " + std::string(which) + " got HTTP " +
+                                                       std::to_string(r.status) + " (" + error_text(r.body) +
+                                                       "): " + todo);
       return Outcome::Final;
     }
     const openai::ReplyContent content = openai::reply_content(r.body);
     if (!content.text) {
-      final = refusal(at + "unusable reply to the " + which + ": " + content.error +
-                      "; check that --endpoint is an OpenAI-compatible chat-completions server");
+      final = refusal(content.model_refused ? PlannerRefusal::Planning : PlannerRefusal::Malformed,
+                      at + "unusable reply to the " + which + ": " + content.error +
+                          "; check that --endpoint is an OpenAI-compatible chat-completions server");
       return Outcome::Final;
     }
     openai::ParsedAdvisory parsed = openai::parse_advisory(*content.text, ctx.capabilities);
@@ -598,6 +613,7 @@ PlannerAdvice OpenAiPlanner::plan_or_refuse(const PlanContext& ctx, const Capabi
       return Outcome::Final;
     }
     repairable = parsed.error;
+    ineligible = parsed.ineligible;
     if (content.finish_reason == "length")
       repairable += " (the reply was cut at max_tokens " + std::to_string(config_.max_tokens) + ")";
     bad = *content.text;
@@ -617,12 +633,13 @@ PlannerAdvice OpenAiPlanner::plan_or_refuse(const PlanContext& ctx, const Capabi
     return final;
   }
   return refusal(
+      ineligible ? PlannerRefusal::Planning : PlannerRefusal::Malformed,
       at + "no usable advisory after one repair request: " + repairable +
-      (repairable == first_error ? std::string(", as in the first reply")
-                                 : "; the first reply: " + first_error) +
-      " (last reply: '" + openai::snippet(bad, 120) +
-      "'); the server may ignore response_format (enable structured outputs, e.g. vLLM's xgrammar or "
-      "llama-server's json_schema) or the model does not follow the schema");
+          (repairable == first_error ? std::string(", as in the first reply")
+                                     : "; the first reply: " + first_error) +
+          " (last reply: '" + openai::snippet(bad, 120) +
+          "'); the server may ignore response_format (enable structured outputs, e.g. vLLM's xgrammar or "
+          "llama-server's json_schema) or the model does not follow the schema");
 }
 
 }  // namespace dh::planner

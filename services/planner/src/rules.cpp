@@ -13,6 +13,7 @@ namespace {
 PlannerAdvice refusal(std::string why) {
   PlannerAdvice a;
   a.refused = true;
+  a.why = PlannerRefusal::Planning;
   a.reason = std::move(why);
   return a;
 }

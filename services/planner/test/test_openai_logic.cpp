@@ -273,6 +273,7 @@ TEST(OpenAiLogic, DoneAndRefusalAreRefusalsWithTheirReason) {
   ASSERT_TRUE(p.advice) << p.error;
   EXPECT_TRUE(p.advice->done);
   EXPECT_TRUE(p.advice->refused);
+  EXPECT_EQ(p.advice->why, PlannerRefusal::Planning);
   EXPECT_FALSE(p.advice->reason.empty());
   EXPECT_EQ(p.advice->rationale, "all placed");
 
@@ -282,6 +283,7 @@ TEST(OpenAiLogic, DoneAndRefusalAreRefusalsWithTheirReason) {
   ASSERT_TRUE(p.advice) << p.error;
   EXPECT_TRUE(p.advice->refused);
   EXPECT_FALSE(p.advice->done);
+  EXPECT_EQ(p.advice->why, PlannerRefusal::Planning);
   EXPECT_EQ(p.advice->reason, "the model refused: no bowl here");
 }
 
@@ -369,6 +371,7 @@ TEST(OpenAiPlanner, AnUnsetKeyVariableRefusesWithoutARequest) {
   EXPECT_FALSE(p.key_problem().empty());
   const PlannerAdvice a = p.plan(kitchen_context(), roles(), {});
   EXPECT_TRUE(a.refused);
+  EXPECT_EQ(a.why, PlannerRefusal::Unavailable);
   EXPECT_TRUE(has(a.reason, "DH_TEST_OPENAI_MISSING")) << a.reason;
   EXPECT_TRUE(has(a.reason, "127.0.0.1:8000")) << a.reason;
   EXPECT_TRUE(http.requests.empty());
@@ -410,6 +413,8 @@ TEST(OpenAiPlanner, GivesUpAfterOneRepair) {
                                  : has(bad, "teleport") ? "'teleport' is not among the eligible"
                                                         : "schema violation";
     EXPECT_TRUE(has(a.reason, expected)) << a.reason;
+    EXPECT_EQ(a.why, has(bad, "teleport") ? PlannerRefusal::Planning : PlannerRefusal::Malformed)
+        << "an ineligible capability is the planner's planning, not a reply that cannot be read: " << bad;
   }
 }
 
@@ -439,6 +444,7 @@ TEST(OpenAiPlanner, TransportFailuresAreRefusalsThatSayWhatToDo) {
     http.fail(c.failure, "Connection refused");
     const PlannerAdvice a = OpenAiPlanner(config(), http).plan(kitchen_context(), roles(), {});
     EXPECT_TRUE(a.refused);
+    EXPECT_EQ(a.why, PlannerRefusal::Unavailable);
     EXPECT_EQ(http.requests.size(), 1u) << "no repair after a transport failure";
     EXPECT_TRUE(
         has(a.reason, "openai backend at http://127.0.0.1:8000/v1/chat/completions (model 'qwen3-vl-4b')"))
@@ -453,6 +459,8 @@ TEST(OpenAiPlanner, HttpErrorsAndForeignBodiesAreRefusals) {
     http.ok(body, status);
     const PlannerAdvice a = OpenAiPlanner(config(), http).plan(kitchen_context(), roles(), {});
     EXPECT_TRUE(a.refused);
+    EXPECT_EQ(a.why, status == 200 ? PlannerRefusal::Malformed : PlannerRefusal::Unavailable)
+        << status << " " << body;
     EXPECT_EQ(http.requests.size(), 1u);
     EXPECT_TRUE(has(a.reason, "127.0.0.1:8000")) << a.reason;
     return a.reason;

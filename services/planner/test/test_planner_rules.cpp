@@ -150,6 +150,7 @@ TEST(Rules, TheNextStepIsTheFirstWhoseArgumentsHaveNotCompleted) {
 TEST(Rules, WhatCannotBeFormedIsARefusalWithItsReason) {
   auto a = plan_rules(ctx("put the mug on the plate"));
   EXPECT_TRUE(a.refused);
+  EXPECT_EQ(a.why, PlannerRefusal::Planning);
   EXPECT_EQ(a.reason, "no 'mug' in this scene");
   EXPECT_FALSE(a.done);
   a = plan_rules(ctx("dance"));

@@ -96,7 +96,7 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
       std::string d = text(r, "decision");
       if (d == "request_replan" && text(r, "phase") == "completed") d = "next_step";
       if (!d.empty() && d != "continue") ++episode.decisions[d];
-    } else if (kind == "refusal" && text(r, "refusal") != "planner_refused") {
+    } else if (kind == "refusal" && text(r, "refusal").rfind("planner_", 0) != 0) {
       ++episode.refusals;  // the planner's own refusals and timeouts are the slow brain's, not execution's
     } else if (kind == "grounding" && text(r, "result") == "grounded") {
       capability_of[text(r, "command_id")] = text(r, "capability");

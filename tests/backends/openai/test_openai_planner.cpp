@@ -157,6 +157,12 @@ TEST(OpenAiPlannerNode, EveryFailureIsARefusalWithItsReason) {
       {"notjson", {"not JSON", "OpenAI-compatible"}},
       {"sleep", {"no reply", "--timeout-s", "planner_timeout_ms"}},
   };
+  // Why, typed on the wire: attribution reads this, not the words.
+  const std::map<std::string, msg::PlannerRefusal> why{
+      {"garbage", msg::PLANNER_REFUSAL_MALFORMED}, {"schema", msg::PLANNER_REFUSAL_MALFORMED},
+      {"unknown", msg::PLANNER_REFUSAL_PLANNING},  {"http500", msg::PLANNER_REFUSAL_UNAVAILABLE},
+      {"notjson", msg::PLANNER_REFUSAL_MALFORMED}, {"sleep", msg::PLANNER_REFUSAL_UNAVAILABLE},
+  };
   // One channel per mode, all at once: the planner serves them concurrently.
   std::uint32_t channel = 0;
   for (const auto& [mode, _] : expect)
@@ -165,6 +171,7 @@ TEST(OpenAiPlannerNode, EveryFailureIsARefusalWithItsReason) {
     const auto a = client.wait_for("req-" + mode);
     ASSERT_TRUE(a) << mode << ": no advice";
     EXPECT_TRUE(a->refused()) << mode;
+    EXPECT_EQ(a->refusal(), why.at(mode)) << mode;
     EXPECT_EQ(a->backend(), "openai");
     EXPECT_TRUE(a->capability().empty()) << mode;
     EXPECT_TRUE(has(a->reason(), server.endpoint() + "/v1/chat/completions")) << mode << ": " << a->reason();
@@ -183,6 +190,7 @@ TEST(OpenAiPlannerNode, AnUnreachableEndpointIsARefusal) {
   const auto a = client.wait_for("ep-0/p0");
   ASSERT_TRUE(a) << "no advice";
   EXPECT_TRUE(a->refused());
+  EXPECT_EQ(a->refusal(), msg::PLANNER_REFUSAL_UNAVAILABLE);
   EXPECT_TRUE(has(a->reason(), endpoint + "/v1/chat/completions")) << a->reason();
   EXPECT_TRUE(has(a->reason(), "cannot connect")) << a->reason();
   EXPECT_TRUE(has(a->reason(), "start the model server")) << a->reason();

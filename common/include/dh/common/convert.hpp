@@ -12,6 +12,7 @@
 #include "dh/common/observation.hpp"
 #include "dh/common/perceived_world.hpp"
 #include "dh/common/planner_errors.hpp"
+#include "dh/common/planner_refusal.hpp"
 #include "dh/msg/episode.h"
 #include "dh/msg/perception.h"
 #include "dh/msg/robot.h"
@@ -47,6 +48,8 @@ msg::Verifier to_msg(Verifier v);
 /// An error code this build does not know reads as none: the advice is taken as the planner gave it.
 PlannerError from_msg(msg::PlannerError e);
 msg::PlannerError to_msg(PlannerError e);
+PlannerRefusal from_msg(msg::PlannerRefusal r);
+msg::PlannerRefusal to_msg(PlannerRefusal r);
 
 std::map<std::string, double> from_msg(const std::vector<msg::Param>& p);
 std::vector<msg::Param> to_msg(const std::map<std::string, double>& p);

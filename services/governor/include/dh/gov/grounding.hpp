@@ -15,7 +15,9 @@
 namespace dh::gov {
 
 enum class Refusal {
-  PlannerRefused,      ///< the slow brain itself returned a refusal
+  PlannerRefused,      ///< the slow brain read the request and gave no step
+  PlannerUnavailable,  ///< the slow brain could not be asked: its model server, or no advice in time
+  PlannerMalformed,    ///< the slow brain's model answered what cannot be read as an advisory
   UnknownCapability,   ///< never announced
   CapabilityNotAlive,  ///< announced, but its liveliness lapsed
   CapabilityMasked,    ///< switched off by the executor configuration

@@ -2,14 +2,15 @@
 #pragma once
 
 #include <cstdint>
-#include <optional>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "dh/common/command.hpp"
 #include "dh/common/perceived_world.hpp"
 #include "dh/common/planner_errors.hpp"
+#include "dh/common/planner_refusal.hpp"
 #include "dh/common/robot_contract.hpp"
 
 namespace dh::gov {
@@ -30,6 +31,7 @@ struct Advice {
   bool done = false;            ///< the planner judges every step completed
   std::vector<PlanStep> rest;   ///< the plan's later steps (seq runs them in order)
   PlannerError injected = PlannerError::None;  ///< the error the planner made on purpose
+  PlannerRefusal why = PlannerRefusal::None;   ///< set with refused
 };
 
 struct CapabilityInfo {

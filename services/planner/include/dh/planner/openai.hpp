@@ -79,6 +79,7 @@ nlohmann::json repair_request(const nlohmann::json& request, const std::string& 
 struct ReplyContent {
   std::optional<std::string> text;
   std::string error;          ///< set when text is empty: the body is not JSON, not a completion, ...
+  bool model_refused = false;  ///< the error is the model's own refusal (the message's `refusal`)
   std::string finish_reason;  ///< "stop", "length", ... as the server gave it
 };
 ReplyContent reply_content(const std::string& body);
@@ -88,6 +89,8 @@ ReplyContent reply_content(const std::string& body);
 struct ParsedAdvisory {
   std::optional<PlannerAdvice> advice;
   std::string error;  ///< set when advice is empty: "not JSON: ...", "schema: /args/object: ...", ...
+  bool ineligible =
+      false;  ///< the error is a capability that is not eligible (a planning error, not a malformed reply)
 };
 ParsedAdvisory parse_advisory(const std::string& content, const std::vector<std::string>& eligible);
 

@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "dh/common/observation.hpp"
+#include "dh/common/planner_refusal.hpp"
 
 namespace dh::planner {
 
@@ -34,6 +35,7 @@ struct PlanStep {
 
 struct PlannerAdvice {
   bool refused = false;
+  PlannerRefusal why = PlannerRefusal::None;  ///< set with refused
   bool done = false;            ///< every step of the plan completed (a refusal that says so)
   std::string capability;
   Args args;
