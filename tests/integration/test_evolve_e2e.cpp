@@ -1,14 +1,16 @@
 // `dh evolve` over real processes (every service of campaign_local.yaml): one round on goal-swap 5 (Figure
 // 3's task: the push is refused and pick_place substituted; four of these six seeds fail in the
-// substitute), SIGKILLed in the candidate's campaign and run again. The rerun goes on from where the kill left it: no recorded episode runs again, the round
-// ends with the gate's decision in the registry, and the JSON and the report say so. Then `dh transfer`
+// substitute), stopped by Ctrl-C in its revision search and run again, SIGKILLed in the candidate's
+// campaign and run again. The rerun goes on from where the kill left it: no recorded episode runs again, the
+// round ends with the gate's decision in the registry, and the JSON and the report say so. Then `dh transfer`
 // sets the parent and the candidate on a fresh block beside their development success.
 #include <signal.h>
 #include <sys/wait.h>
 
-#include <nlohmann/json.hpp>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "campaign_helpers.hpp"
 #include "harness.hpp"
@@ -26,6 +28,41 @@ TEST(EvolveE2E, ARoundKilledInTheCandidatesCampaignResumesAndRegistersItsDecisio
                              " --rounds 1 --cells goal-swap --tasks 5 --dev-seeds 21,22,27,28,33,34 --regression-seeds 41"
                              " --no-bare --max-evals 4 --successes 1 --ready-timeout-ms 20000 --out " +
                              out.string();
+
+  // Ctrl-C in the revision search: the climb stops after the candidate at hand, says where it stopped, and
+  // keeps its state for the run that goes on.
+  const auto stage = [&] {
+    try {
+      const auto s = nlohmann::json::parse(std::ifstream(out / "evolve.json"));
+      return s["rounds"].empty() ? std::string() : s["rounds"][0]["stage"].get<std::string>();
+    } catch (const std::exception&) {
+      return std::string();  // not written yet, or being written
+    }
+  };
+  const pid_t stopped =
+      itest::spawn_shell("exec " + evolve + " > " + (env.runs / "stopped.log").string() + " 2>&1");
+  ASSERT_GT(stopped, 0);
+  const auto searching_by = std::chrono::steady_clock::now() + 300s;
+  while (stage() != "revise" && std::chrono::steady_clock::now() < searching_by)
+    std::this_thread::sleep_for(20ms);
+  ASSERT_EQ(stage(), "revise") << std::ifstream(env.runs / "stopped.log").rdbuf();
+  kill(stopped, SIGINT);
+  int stopped_status = 0;
+  const auto stop_by = std::chrono::steady_clock::now() + 180s;
+  bool ended = false;
+  while (!(ended = waitpid(stopped, &stopped_status, WNOHANG) == stopped) &&
+         std::chrono::steady_clock::now() < stop_by)
+    std::this_thread::sleep_for(50ms);
+  if (!ended) kill(stopped, SIGKILL);
+  ASSERT_TRUE(ended) << "dh evolve did not stop on Ctrl-C in its search";
+  EXPECT_TRUE(WIFEXITED(stopped_status) && WEXITSTATUS(stopped_status) == 1);
+  std::ostringstream stopped_log;
+  stopped_log << std::ifstream(env.runs / "stopped.log").rdbuf();
+  EXPECT_NE(
+      stopped_log.str().find("interrupted in round 1, at its revise stage; run the same command to go on"),
+      std::string::npos)
+      << stopped_log.str();
+  EXPECT_EQ(stage(), "revise");
 
   const pid_t first = itest::spawn_shell("exec " + evolve + " > " + (env.runs / "first.log").string() + " 2>&1");
   ASSERT_GT(first, 0);

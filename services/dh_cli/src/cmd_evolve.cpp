@@ -110,7 +110,14 @@ class Climb {
     while (rounds.size() < a_.rounds || (!rounds.empty() && rounds.back()["decision"].is_null())) {
       if (!(*state_)["stop"].is_null()) break;
       if (rounds.empty() || !rounds.back()["decision"].is_null()) rounds.push_back(next_round(rounds));
-      if (!advance(rounds.back())) return 1;  // interrupted: the state says where to go on
+      if (!advance(rounds.back())) {  // the state says where to go on
+        if (shutdown_requested())
+          std::cerr << fmt::format(
+              "dh evolve: interrupted in round {}, at its {} stage; run the same command to go on (recorded "
+              "episodes are kept and not run again)\n",
+              rounds.back()["round"].get<unsigned>(), str(rounds.back()["stage"]));
+        return 1;
+      }
       state_.save();
     }
     write_report();
@@ -230,6 +237,9 @@ class Climb {
         (*state_)["stop"] = e.what();
         spent();
         return true;
+      } catch (...) {
+        if (shutdown_requested()) return false;  // interrupted: the search runs again on resume
+        throw;
       }
       if (!r["revision"]["improved"].get<bool>()) {
         r["decision"] = "no_candidate";
@@ -452,6 +462,7 @@ int cmd_evolve(const EvolveArgs& a) {
   if (!a.robot.empty()) sim::robot_profile(a.robot);  // named before a climb's state holds it
   const fs::path out = a.out.empty() ? paths::runs_dir() / "evolve" : fs::path(a.out);
   fs::create_directories(out);
+  install_shutdown_handlers();  // Ctrl-C: the climb stops after the episode or probe at hand
   return Climb(a, out).run();
 }
 

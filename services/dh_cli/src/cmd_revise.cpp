@@ -10,6 +10,7 @@
 #include "dh/cap/library.hpp"
 #include "dh/cap/library_theta.hpp"
 #include "dh/common/paths.hpp"
+#include "dh/common/shutdown.hpp"
 #include "dh/evo/attribution.hpp"
 #include "dh/evo/gate.hpp"
 #include "dh/evo/perturb.hpp"
@@ -49,13 +50,20 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
   report_skipped(set);
   // Progress on stderr: a search over a large set runs for minutes.
   const char* judged = a.rest ? "episodes won from the state" : "effects held";
+  // Ctrl-C stops the search after the candidate being probed (NLopt ends its run on the throw); the
+  // caller tells an interruption from a failure by shutdown_requested().
+  const auto stop_if_asked = [] {
+    if (shutdown_requested()) throw std::runtime_error("the revision search was interrupted");
+  };
   const auto on_eval = [&](unsigned eval, unsigned max_evals, unsigned held, unsigned best) {
     std::cerr << fmt::format("{}: candidate θ {} of at most {}: {} of {} {}, best {}\n", capability, eval, max_evals,
                              held, set.states.size(), judged, best);
+    stop_if_asked();
   };
   const auto on_screen = [&](unsigned k, unsigned n, unsigned held, unsigned best) {
     std::cerr << fmt::format("{}: the parent holds nothing; screened θ {} of {}: {} of {} {}, best {}\n", capability,
                              k, n, held, std::min<std::size_t>(a.screen_states, set.states.size()), judged, best);
+    stop_if_asked();
   };
   evo::ReviseOptions options;
   options.capability = capability;
@@ -73,6 +81,7 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
   options.on_prune = [&](const std::string& parameter, bool reverted, unsigned held, unsigned best) {
     std::cerr << fmt::format("{}: κ pruned: without {} {} of {} {}, best {}: {}\n", capability, parameter, held,
                              set.states.size(), judged, best, reverted ? "back to the parent's" : "kept");
+    stop_if_asked();
   };
   const evo::Revision rev = evo::revise(set.states, options);
   nlohmann::json kappa = nlohmann::json::object();
@@ -125,7 +134,15 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
 }
 
 int cmd_revise(const ReviseArgs& a) {
-  const nlohmann::json r = revise_candidate(a);
+  install_shutdown_handlers();
+  nlohmann::json r;
+  try {
+    r = revise_candidate(a);
+  } catch (...) {
+    if (!shutdown_requested()) throw;
+    std::cerr << "dh revise: interrupted; nothing was written (the search starts again when run again)\n";
+    return 1;
+  }
   const bool improved = r["improved"].get<bool>();
   if (a.json) {
     std::cout << r.dump() << "\n";
