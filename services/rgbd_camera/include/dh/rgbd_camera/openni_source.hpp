@@ -50,8 +50,9 @@ class OpenNiSource {
   OpenNiSource(const OpenNiSource&) = delete;
   OpenNiSource& operator=(const OpenNiSource&) = delete;
 
-  /// Discards what the streams hold and returns the next depth and colour frames, taken within one frame
-  /// period of each other. Throws SourceError when a stream gives nothing within the timeout.
+  /// Discards what the streams hold and returns the next depth and colour frames, within one frame period
+  /// of each other by the device's timestamps (the older read again, four times at most). Throws
+  /// SourceError when a stream gives nothing within the timeout.
   LiveFrame grab();
 
   const std::string& uri() const;
