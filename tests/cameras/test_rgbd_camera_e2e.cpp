@@ -12,6 +12,7 @@
 #include "dh/common/dds.hpp"
 #include "dh/common/topics.hpp"
 #include "dh/msg/cameraPubSubTypes.h"
+#include "rgbd_pixels.hpp"
 
 namespace dh {
 using namespace std::chrono_literals;
@@ -64,18 +65,14 @@ class Requester {
   dds::Writer<msg::RgbdRequestPubSubType> req_;
 };
 
-std::uint16_t depth_at(const msg::RgbdFrame& f, std::size_t x, std::size_t y) {
-  const std::size_t i = 2 * (y * f.width() + x);
-  return static_cast<std::uint16_t>(f.depth()[i] | (f.depth()[i + 1] << 8));
-}
-
-/// Waits for the one service to end on its own and returns its log.
-std::string log_after_exit(cli::Deployment& d, const fs::path& log) {
+/// Starts rgbd_camera with `args`, waits for it to end on its own (a refusal at start) and returns its log.
+std::string log_of_refused_start(const itest::IsolatedEnv& env, std::vector<std::string> args) {
+  cli::Deployment cam({itest::service("rgbd_camera", std::move(args))}, paths::bin_dir(), env.runs / "logs");
   const auto t0 = Clock::now();
   std::vector<std::string> exited;
-  while ((exited = d.exited()).empty() && Clock::now() - t0 < 20s) std::this_thread::sleep_for(50ms);
+  while ((exited = cam.exited()).empty() && Clock::now() - t0 < 20s) std::this_thread::sleep_for(50ms);
   EXPECT_EQ(exited, std::vector<std::string>{"rgbd_camera"}) << "rgbd_camera kept running";
-  return itest::read_text(log);
+  return itest::read_text(env.runs / "logs/rgbd_camera.log");
 }
 
 TEST(RgbdCameraE2E, ALiveDeviceAnswersEachRequestWithItsPicturesPixelForPixel) {
@@ -114,7 +111,7 @@ TEST(RgbdCameraE2E, ALiveDeviceAnswersEachRequestWithItsPicturesPixelForPixel) {
     int disc = 0;
     for (std::size_t y = 0; y < 240; ++y)
       for (std::size_t x = 0; x < 320; ++x) {
-        const std::uint16_t d = depth_at(*f, x, y);
+        const std::uint16_t d = camtest::depth_mm(*f, y, x);
         if (y == 0) {
           ASSERT_EQ(d, 2000) << x;
         } else if (d != 0) {
@@ -146,27 +143,21 @@ TEST(RgbdCameraE2E, ADeviceThatCannotRegisterDepthToColourIsRefusedAtStart) {
   itest::IsolatedEnv env;
   const fs::path file = env.runs / "cam.yaml";
   std::ofstream(file) << "width: 320\nheight: 240\nfx: 280\nfy: 280\ncx: 159.5\ncy: 119.5\n";
-  cli::Deployment cam({itest::service("rgbd_camera", {"--device", "Dummy", "--camera-file", file.string()})},
-                      paths::bin_dir(), env.runs / "logs");
-  const std::string log = log_after_exit(cam, env.runs / "logs/rgbd_camera.log");
+  const std::string log = log_of_refused_start(env, {"--device", "Dummy", "--camera-file", file.string()});
   EXPECT_NE(log.find("cannot register depth to colour"), std::string::npos) << log;
   EXPECT_NE(log.find("--registration none"), std::string::npos) << log;
 }
 
 TEST(RgbdCameraE2E, WithoutIntrinsicsFromTheFileOrTheDeviceItSaysWhatToGive) {
   itest::IsolatedEnv env;
-  cli::Deployment cam({itest::service("rgbd_camera", {"--device", "Dummy", "--registration", "none"})},
-                      paths::bin_dir(), env.runs / "logs");
-  const std::string log = log_after_exit(cam, env.runs / "logs/rgbd_camera.log");
+  const std::string log = log_of_refused_start(env, {"--device", "Dummy", "--registration", "none"});
   EXPECT_NE(log.find("fields of view"), std::string::npos) << log;
   EXPECT_NE(log.find("--camera-file"), std::string::npos) << log;
 }
 
 TEST(RgbdCameraE2E, ADeviceThatIsNotThereIsNamedWithWhatOpenNI2Sees) {
   itest::IsolatedEnv env;
-  cli::Deployment cam({itest::service("rgbd_camera", {"--device", "usb-no-such-camera"})}, paths::bin_dir(),
-                      env.runs / "logs");
-  const std::string log = log_after_exit(cam, env.runs / "logs/rgbd_camera.log");
+  const std::string log = log_of_refused_start(env, {"--device", "usb-no-such-camera"});
   EXPECT_NE(log.find("camera usb-no-such-camera: cannot be opened"), std::string::npos) << log;
   EXPECT_NE(log.find("OpenNI2 sees"), std::string::npos) << log;
 }

@@ -25,6 +25,7 @@
 #include "dh/msg/robotPubSubTypes.h"
 #include "dh/sim/rgbd.hpp"
 #include "dh/sim/scene.hpp"
+#include "rgbd_pixels.hpp"
 
 namespace dh {
 using namespace std::chrono_literals;
@@ -195,10 +196,7 @@ class Client {
   dds::Writer<msg::RgbdRequestPubSubType> req_;
 };
 
-std::uint16_t depth_mm(const msg::RgbdFrame& f, std::size_t row, std::size_t col) {
-  const std::size_t i = 2 * (row * f.width() + col);
-  return static_cast<std::uint16_t>(f.depth()[i] | (f.depth()[i + 1] << 8));
-}
+using camtest::depth_mm;
 
 /// Which palette colour (linear 0..1) a pixel is, allowing for shading (a factor 0.55 .. 1.5).
 std::size_t nearest_colour(const std::uint8_t* c, const std::vector<std::array<double, 4>>& palette) {
