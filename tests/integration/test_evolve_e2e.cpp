@@ -24,10 +24,11 @@ TEST(EvolveE2E, ARoundKilledInTheCandidatesCampaignResumesAndRegistersItsDecisio
   const auto out = env.runs / "climb";
   cli::Deployment deployment(cli::load_launch_file(paths::home() / "deploy" / "campaign_local.yaml"), paths::bin_dir(),
                              env.runs / "logs");
-  const std::string evolve = dh + " evolve --library " + (paths::config_dir() / "library").string() +
-                             " --rounds 1 --cells goal-swap --tasks 5 --dev-seeds 21,22,27,28,33,34 --regression-seeds 41"
-                             " --no-bare --max-evals 4 --successes 1 --ready-timeout-ms 20000 --out " +
-                             out.string();
+  const std::string evolve =
+      dh + " evolve --library " + (paths::config_dir() / "library").string() +
+      " --rounds 1 --cells goal-swap --tasks 5 --dev-seeds 21,22,27,28,33,34 --regression-seeds 41"
+      " --no-bare --max-evals 4 --scan-levels 2 --successes 1 --ready-timeout-ms 20000 --out " +
+      out.string();
 
   // Ctrl-C in the revision search: the climb stops after the candidate at hand, says where it stopped, and
   // keeps its state for the run that goes on.
@@ -93,6 +94,9 @@ TEST(EvolveE2E, ARoundKilledInTheCandidatesCampaignResumesAndRegistersItsDecisio
   const std::string decision = round["decision"];
   EXPECT_TRUE(decision == "admitted" || decision == "rejected") << j.dump();
   EXPECT_EQ(round["capability"], "pick_place");
+  // The search scanned each parameter at the two ends of its range on the failing states first.
+  const auto revision = nlohmann::json::parse(std::ifstream(out / "evolve.json"))["rounds"][0]["revision"];
+  EXPECT_GT(revision["scanned"].get<unsigned>(), 0u) << revision.dump();
   EXPECT_EQ(round["admitted"].size() + round["rejected"].size(), 1u);
   EXPECT_FALSE(round["reason"].get<std::string>().empty());
   EXPECT_GT(round["wall_s"].get<double>(), 0.0);

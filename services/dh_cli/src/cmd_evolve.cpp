@@ -50,6 +50,8 @@ json plan_of(const EvolveArgs& a, const std::string& start_version) {
   // With --rest the plan says so; without, it stays as climbs before --rest wrote it, so they resume.
   if (a.rest) plan["rest"] = true;
   if (!a.robot.empty()) plan["robot"] = a.robot;  // likewise
+  // Climbs before the scan searched without one; such a climb resumes with --scan-levels 0.
+  if (a.scan_levels > 0) plan["scan_levels"] = a.scan_levels;
   return plan;
 }
 
@@ -219,6 +221,7 @@ class Climb {
       v.library = library;
       v.out = (dir / "candidate").string();
       v.max_evals = a_.max_evals;
+      v.scan_levels = a_.scan_levels;
       v.screen = a_.screen;
       v.prune = a_.prune;
       v.successes = a_.successes;

@@ -1,6 +1,7 @@
 // `dh revise` (the revision search on a probe set) and `dh library perturb` (an untuned library).
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <ctime>
 #include <fstream>
 #include <iostream>
@@ -65,6 +66,14 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
                              k, n, held, std::min<std::size_t>(a.screen_states, set.states.size()), judged, best);
     stop_if_asked();
   };
+  const auto failing = static_cast<std::size_t>(
+      std::count_if(set.states.begin(), set.states.end(), [](const auto& o) { return o.state.failing; }));
+  const auto on_scan = [&](const std::string& parameter, double value, unsigned held, unsigned best) {
+    std::cerr << fmt::format("{}: scanned {} = {:g}: {} of {} failing states {}, best {}\n", capability,
+                             parameter, value, held, std::min<std::size_t>(a.screen_states, failing), judged,
+                             best);
+    stop_if_asked();
+  };
   evo::ReviseOptions options;
   options.capability = capability;
   options.config_dir = paths::config_dir();
@@ -73,6 +82,8 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
   options.jobs = jobs;
   options.max_probes = a.max_probes;
   options.rest = a.rest;
+  options.scan_levels = a.scan_levels;
+  options.on_scan = on_scan;
   options.screen = a.screen;
   options.screen_states = a.screen_states;
   options.prune = a.prune;
@@ -113,7 +124,11 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
                             {"fixed", rev.fixed},
                             {"kept", rev.kept}}},
                           {"search",
-                           {{"screened", rev.screened},
+                           {{"scanned", rev.scanned},
+                            {"scan_states", rev.scan_states},
+                            {"scan_best", rev.scan_best},
+                            {"scan_start", rev.scan_start},
+                            {"screened", rev.screened},
                             {"screen_states", rev.screen_states},
                             {"screen_best", rev.screen_best},
                             {"pruned", rev.pruned},
@@ -124,13 +139,29 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
                .dump(2)
         << "\n";
   }
-  return {{"capability", capability}, {"states", rev.states},       {"failing", rev.failing},
-          {"parent_held", rev.parent_held}, {"best_held", rev.best_held}, {"fixed", rev.fixed},
-          {"kept", rev.kept},             {"evals", rev.evals},         {"max_evals", rev.max_evals},
-          {"wall_s", rev.wall_s},         {"kappa", kappa},             {"out", out},
-          {"version", version},           {"improved", rev.improved()},
-          {"screened", rev.screened},      {"screen_states", rev.screen_states}, {"screen_best", rev.screen_best},
-          {"pruned", rev.pruned},          {"reverted", rev.reverted}};
+  return {{"capability", capability},
+          {"states", rev.states},
+          {"failing", rev.failing},
+          {"parent_held", rev.parent_held},
+          {"best_held", rev.best_held},
+          {"fixed", rev.fixed},
+          {"kept", rev.kept},
+          {"evals", rev.evals},
+          {"max_evals", rev.max_evals},
+          {"wall_s", rev.wall_s},
+          {"kappa", kappa},
+          {"out", out},
+          {"version", version},
+          {"improved", rev.improved()},
+          {"scanned", rev.scanned},
+          {"scan_states", rev.scan_states},
+          {"scan_best", rev.scan_best},
+          {"scan_start", rev.scan_start},
+          {"screened", rev.screened},
+          {"screen_states", rev.screen_states},
+          {"screen_best", rev.screen_best},
+          {"pruned", rev.pruned},
+          {"reverted", rev.reverted}};
 }
 
 int cmd_revise(const ReviseArgs& a) {
@@ -151,6 +182,11 @@ int cmd_revise(const ReviseArgs& a) {
   std::cout << fmt::format("{}: probe set of {} states ({} failing); the parent holds {} effects",
                            r["capability"].get<std::string>(), r["states"].get<unsigned>(),
                            r["failing"].get<unsigned>(), r["parent_held"].get<unsigned>());
+  if (r["scanned"].get<unsigned>() > 0)
+    std::cout << fmt::format(
+        "; {} θ scanned one parameter at a time on {} failing states, the best held {}{}",
+        r["scanned"].get<unsigned>(), r["scan_states"].get<unsigned>(), r["scan_best"].get<unsigned>(),
+        r["scan_start"].get<bool>() ? " (the search started there)" : "");
   if (r["screened"].get<unsigned>() > 0)
     std::cout << fmt::format("; {} θ screened on {} failing states, the best held {}", r["screened"].get<unsigned>(),
                              r["screen_states"].get<unsigned>(), r["screen_best"].get<unsigned>());

@@ -61,7 +61,10 @@ int cmd_probe(const ProbeArgs& a);
 struct ReviseArgs {
   std::string db, capability, arm = "full", library, out;
   unsigned max_evals = 40, max_probes = 0, jobs = 0;
-  unsigned screen = 64, screen_states = 6;  ///< θ screened, on how many failing states, when the parent holds nothing
+  unsigned scan_levels = 4;  ///< levels of each parameter in the one-at-a-time scan (0: none)
+  unsigned screen = 64,
+           screen_states =
+               6;  ///< θ screened when the parent holds nothing; failing states scanned or screened on
   bool prune = true;                        ///< κ pruned after the search
   std::size_t successes = 20;
   std::uint64_t draw_seed = 0;
@@ -100,6 +103,8 @@ struct EvolveArgs {
   std::string cells = "goal-task,goal-swap,long-task,long-swap";  ///< the paper's four perturbed cells
   std::string tasks, dev_seeds = "21-40", regression_seeds = "41-42";
   unsigned rounds = 3, max_evals = 12, ready_ms = 20000;
+  unsigned scan_levels =
+      4;  ///< levels of each parameter in a round's one-at-a-time scan (dh revise --scan-levels)
   unsigned screen = 64;  ///< θ screened by a round's search whose parent holds nothing (dh revise --screen)
   bool prune = true;     ///< each round's κ pruned (dh revise --no-prune)
   std::size_t successes = 20;

@@ -26,14 +26,16 @@
 //   dh probe --db FILE --capability C [--library DIR] [--jobs N] [--json]
 //                                            the capability's probe set (its failed commands and as many
 //                                            successes), probed in parallel
-//   dh revise --db FILE [--capability C] [--library DIR] [--max-evals N] [--screen N] [--no-prune] [--out DIR]
-//                                            searches C's θ within its ranges on its probe set (screening the
-//                                            ranges first when the parent holds nothing; κ pruned); writes the
+//   dh revise --db FILE [--capability C] [--library DIR] [--max-evals N] [--scan-levels L] [--screen N]
+//             [--no-prune] [--out DIR]       searches C's θ within its ranges on its probe set (one parameter
+//                                            at a time first, then the whole ranges when the parent holds
+//                                            nothing; κ pruned); writes the
 //                                            candidate library (exit 3: nothing better than the parent)
 //   dh gate --parent DB --candidate DB --library DIR --capability C [--bare DB]
 //                                            the paired gate (Eq. 6) of a candidate against its parent, on
 //                                            the pairs where C's failures were attributed (exit 3: fails)
-//   dh evolve --library DIR [--rounds K] [--cells ...] [--dev-seeds 21-40] [--regression-seeds 41-42] [--out DIR]
+//   dh evolve --library DIR [--rounds K] [--cells ...] [--dev-seeds 21-40] [--regression-seeds 41-42] [--out
+//   DIR]
 //                                            the loop, automatic and resumable: campaign, revise, candidate
 //                                            campaign, gate, broader round, register; per round
 //   dh transfer --snapshots A,B,... --salt S [--fresh-seeds 20] [--dev-dbs F,...] [--out DIR]
@@ -45,8 +47,8 @@
 //   dh attribute --db FILE [--config FILE] [--export F.jsonl] [--json] | dh attribute --checks
 //                                            labels every failed episode with its attribution layer (exit 3:
 //                                            one matched no layer or its evidence is unreadable)
-//   dh launch [FILE] [--host H] [--restart]  runs a deployment (a multi-host file: host H's share) until Ctrl-C
-//   dh dds-profile FILE --host H             writes host H's DDS profile, prints its path
+//   dh launch [FILE] [--host H] [--restart]  runs a deployment (a multi-host file: host H's share) until
+//   Ctrl-C dh dds-profile FILE --host H             writes host H's DDS profile, prints its path
 // Exit codes: 0 done (an episode that fails is a result), 1 infrastructure failure or interrupted
 // campaign, 2 bad input (unknown cell/task/arm, bad config, malformed option, foreign database).
 #include <CLI/CLI.hpp>
@@ -271,15 +273,24 @@ int main(int argc, char** argv) {
                      "whose θ (default: the capability the most harness-attributed failures name)");
   revise->add_option("--arm", revise_args.arm, "the arm whose episodes (default full)");
   revise->add_option("--library", revise_args.library, "the parent library the campaign ran (default configs/library)");
-  revise->add_option("--max-evals", revise_args.max_evals, "candidate θ probed at most, the parent's included (default 40)")
+  revise
+      ->add_option("--max-evals", revise_args.max_evals,
+                   "Subplex's candidate θ at most, its start included (the parent's is known from the set; "
+                   "default 40)")
       ->check(CLI::Range(1u, 100000u));
   revise->add_option("--max-probes", revise_args.max_probes,
                      "probes at most over the search (each candidate probes the whole set; default no bound)");
+  revise->add_option(
+      "--scan-levels", revise_args.scan_levels,
+      "when the set has failing states: levels of each parameter, moved alone across its range, "
+      "probed on a few failing states before the search; it starts from the best when that holds "
+      "more on the set than the parent (default 4; 0: no scan)");
   revise->add_option("--screen", revise_args.screen,
                      "when the parent holds nothing on the set: θ screened over the whole ranges (a Sobol sequence) "
                      "before the search starts from the best of them (default 64; 0: none)");
-  revise->add_option("--screen-states", revise_args.screen_states,
-                     "failing states each screened θ is probed on (default 6)")
+  revise
+      ->add_option("--screen-states", revise_args.screen_states,
+                   "failing states each scanned or screened θ is probed on (default 6)")
       ->check(CLI::Range(1u, 100000u));
   revise->add_flag("!--no-prune", revise_args.prune,
                    "keep every changed parameter (default: each goes back to the parent's value when the set "
@@ -328,6 +339,9 @@ int main(int argc, char** argv) {
   evolve->add_flag("!--no-bare", evolve_args.bare,
                    "skip the bare arm's campaign (the gate's third condition is then vacuous)");
   evolve->add_option("--max-evals", evolve_args.max_evals, "candidate θ probed at most per round (default 12)");
+  evolve->add_option(
+      "--scan-levels", evolve_args.scan_levels,
+      "levels of each parameter in a round's one-at-a-time scan (dh revise --scan-levels; default 4)");
   evolve->add_option("--screen", evolve_args.screen,
                      "θ screened by a round's search whose parent holds nothing (dh revise --screen; default 64)");
   evolve->add_flag("!--no-prune", evolve_args.prune, "keep each round's κ unpruned (dh revise --no-prune)");

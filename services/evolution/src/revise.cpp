@@ -26,6 +26,8 @@ class Search {
       names_.push_back(name);
       x0_.push_back((value - r.min) / (r.max - r.min));
     }
+    // What the parent holds is the probe set itself: its failing states fail, its successes hold.
+    on_set_[rev_.parent] = {rev_.parent_held, 0, rev_.parent_held, false};
   }
 
   /// θ at a point of the unit cube: the parent's own value where the point is the parent's (not its round
@@ -44,14 +46,38 @@ class Search {
     return th;
   }
 
+  /// Scans one parameter at a time, the others at the parent's values, over `scan_levels` levels spread
+  /// across its range, on a few failing states spread over the set. Returns the point that held most (the
+  /// first of equals), or nothing when none held a single effect.
+  std::optional<std::vector<double>> scan() {
+    const std::vector<ProbeState> subset = failing_subset();
+    rev_.scan_states = static_cast<unsigned>(subset.size());
+    std::optional<std::vector<double>> best;
+    for (std::size_t i = 0; i < names_.size(); ++i)
+      for (unsigned k = 0; k < o_.scan_levels; ++k) {
+        const double level = o_.scan_levels == 1 ? 0.5 : static_cast<double>(k) / (o_.scan_levels - 1);
+        std::vector<double> at = x0_;
+        at[i] = level;
+        const cap::Theta th = theta_at(at);
+        if (th.at(names_[i]) == rev_.parent.at(names_[i])) continue;  // the parent's own value, already known
+        const Held h = held_on(subset, th);
+        ++rev_.scanned;
+        if (h.held > rev_.scan_best) {
+          rev_.scan_best = h.held;
+          best = at;
+        }
+        if (o_.on_scan) o_.on_scan(names_[i], th.at(names_[i]), h.held, rev_.scan_best);
+        if (h.held == subset.size()) return best;  // none later can hold more
+      }
+    return best;
+  }
+
   /// Screens Sobol points over the whole ranges on a few failing states spread over the set's order
   /// (cells, tasks, seeds), not the first few of one task. Returns the point that held most (the first of
   /// equals), or nothing when none held a single effect.
   std::optional<std::vector<double>> screen() {
-    std::vector<ProbeState> subset;
-    const std::size_t n = std::min<std::size_t>(o_.screen_states, states_.size());
-    for (std::size_t i = 0; i < n; ++i) subset.push_back(states_[i * states_.size() / n]);
-    rev_.screen_states = static_cast<unsigned>(n);
+    const std::vector<ProbeState> subset = failing_subset();
+    rev_.screen_states = static_cast<unsigned>(subset.size());
     boost::random::sobol sobol(names_.size());
     boost::random::uniform_01<double> unit;
     std::vector<double> at(names_.size());
@@ -86,9 +112,10 @@ class Search {
     opt.set_max_objective(
         [](const std::vector<double>& at, std::vector<double>&, void* self) {
           auto& s = *static_cast<Search*>(self);
-          ++s.rev_.evals;
-          const unsigned held = s.try_on_set(s.theta_at(at), false).held;
-          if (s.o_.on_eval) s.o_.on_eval(s.rev_.evals, s.rev_.max_evals, held, s.rev_.best_held);
+          const unsigned before = s.rev_.evals;
+          const unsigned held = s.try_on_set(s.theta_at(at), false, true).held;
+          if (s.o_.on_eval && s.rev_.evals != before)
+            s.o_.on_eval(s.rev_.evals, s.rev_.max_evals, held, s.rev_.best_held);
           return static_cast<double>(held);
         },
         this);
@@ -114,11 +141,14 @@ class Search {
       cap::Theta without = rev_.best;
       without[name] = rev_.parent.at(name);
       ++rev_.pruned;
-      const Held h = try_on_set(without, true);
+      const Held h = try_on_set(without, true, false);
       rev_.reverted += h.taken;
       if (o_.on_prune) o_.on_prune(name, h.taken, h.held, rev_.best_held);
     }
   }
+
+  /// `at` on the whole set, taken as the best when it holds more than the best so far.
+  bool take_if_more(const std::vector<double>& at) { return try_on_set(theta_at(at), false, true).taken; }
 
   std::vector<double> parent_point() const { return x0_; }
 
@@ -139,9 +169,26 @@ class Search {
     return h;
   }
 
-  /// `th` on the whole set; it becomes the best when it holds more (`or_as_many`: as many).
-  Held try_on_set(const cap::Theta& th, bool or_as_many) {
-    Held h = held_on(states_, th);
+  /// Up to `screen_states` failing states, spread over the set's order (cells, tasks, seeds), not the
+  /// first few of one task.
+  std::vector<ProbeState> failing_subset() const {
+    std::vector<ProbeState> failing;
+    for (const auto& s : states_)
+      if (s.failing) failing.push_back(s);
+    std::vector<ProbeState> subset;
+    const std::size_t n = std::min<std::size_t>(o_.screen_states, failing.size());
+    for (std::size_t i = 0; i < n; ++i) subset.push_back(failing[i * failing.size() / n]);
+    return subset;
+  }
+
+  /// `th` on the whole set; it becomes the best when it holds more (`or_as_many`: as many). Probes are
+  /// deterministic, so a θ met again (the parent's, a scanned start, a step count rounded back to the same
+  /// whole step) is not probed again. A `candidate` probed is one of the search's evaluations; the
+  /// pruning's are counted apart.
+  Held try_on_set(const cap::Theta& th, bool or_as_many, bool candidate) {
+    const auto known = on_set_.find(th);
+    if (known == on_set_.end() && candidate) ++rev_.evals;
+    Held h = known != on_set_.end() ? known->second : on_set_[th] = held_on(states_, th);
     h.taken = h.held > rev_.best_held || (or_as_many && h.held == rev_.best_held);
     if (h.taken) {
       rev_.best = th;
@@ -158,6 +205,7 @@ class Search {
   const ReviseOptions& o_;
   std::vector<std::string> names_;
   std::vector<double> x0_;
+  std::map<cap::Theta, Held> on_set_;  ///< θ probed on the whole set, and what it held
 };
 
 }  // namespace
@@ -196,7 +244,14 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
   const auto t0 = std::chrono::steady_clock::now();
   Search search(rev, lib.ranges.at(o.capability), std::move(states), o);
   std::vector<double> start = search.parent_point();
-  if (rev.parent_held == 0 && o.screen > 0) {
+  // Subplex moves a few parameters at a time from where it starts; a failure one parameter far from the
+  // parent's value turns (a slide too fast for the hook) may lie outside its first steps.
+  if (rev.failing > 0 && o.scan_levels > 0) {
+    auto scanned = search.scan();
+    rev.scan_start = scanned && search.take_if_more(*scanned);
+    if (rev.scan_start) start = std::move(*scanned);
+  }
+  if (!rev.scan_start && rev.parent_held == 0 && o.screen > 0) {
     auto screened = search.screen();
     if (!screened) {  // not one effect anywhere screened: Subplex would only walk the plateau
       rev.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

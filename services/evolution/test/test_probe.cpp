@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -62,7 +63,8 @@ struct Probe : ::testing::Test {
     std::ofstream(lib / (capability + ".yaml")) << text;
     return lib;
   }
-  /// The search's options over `library` (configs/library when empty), on two threads.
+  /// The search's options over `library` (configs/library when empty), on two threads, Subplex alone (no
+  /// one-at-a-time scan unless a test asks for one).
   static evo::ReviseOptions search(const fs::path& library, unsigned max_evals, unsigned max_probes = 0, bool rest = false) {
     evo::ReviseOptions o;
     o.capability = "pick_place";
@@ -72,6 +74,7 @@ struct Probe : ::testing::Test {
     o.jobs = 2;
     o.max_probes = max_probes;
     o.rest = rest;
+    o.scan_levels = 0;
     return o;
   }
   /// Figure 3's task on seeds 27 and 28, run in process now: their rows, whose placements fail.
@@ -369,9 +372,10 @@ TEST_F(Probe, TheRevisionSearchStaysInTheRangesWithinItsBudgetAndNeedsTheParents
   const auto other = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
   EXPECT_THROW(evo::revise(set, search(other, 4)), std::invalid_argument);
   EXPECT_THROW(evo::revise({}, search(parent, 4)), std::invalid_argument);
-  // --max-probes bounds the round: two states per candidate, three probes at most, so one candidate.
-  const evo::Revision bounded = evo::revise(set, search(parent, 4, 3));
-  EXPECT_EQ(bounded.max_evals, 1u);
+  // --max-probes bounds the round: two states per candidate, five probes at most, so two candidates, the
+  // first of which, the parent's, is known from the set and not probed again.
+  const evo::Revision bounded = evo::revise(set, search(parent, 4, 5));
+  EXPECT_EQ(bounded.max_evals, 2u);
   EXPECT_EQ(bounded.evals, 1u);
 }
 
@@ -392,6 +396,47 @@ TEST_F(Probe, TheRevisionSearchFindsAThetaThatMakesAFailedEffectHold) {
   EXPECT_GT(rev.fixed, 0u);
   EXPECT_EQ(rev.kept, 1u) << "Figure 3's success kept";
   EXPECT_TRUE(rev.kappa.count("approach_height"));
+}
+
+TEST_F(Probe, TheSearchScansOneParameterAtATimeOnTheFailingStatesAndStartsFromTheBest) {
+  // The set of the test above: seeds 27 and 28 fail, Figure 3's seed 21 holds. The scan moves one
+  // parameter at a time across its range on the two failing states; a higher approach turns them, so
+  // Subplex starts there, and the success is kept.
+  std::vector<EpisodeRecord> rows{row("ep")};
+  for (const auto& r : goal_swap5_seeds_27_28()) rows.push_back(r);
+  const auto set = evo::probe_set(rows, {"pick_place", 1, 0}, paths::config_dir(), 2).states;
+  ASSERT_EQ(set.size(), 3u);
+  evo::ReviseOptions o = search({}, 2);
+  o.scan_levels = 3;
+  const cap::LibraryTheta lib = cap::load_library_theta(paths::config_dir() / "library");
+  const cap::Theta& parent = lib.theta.at("pick_place");
+  const auto& ranges = lib.ranges.at("pick_place");
+  std::vector<std::string> moved;
+  o.on_scan = [&](const std::string& parameter, double value, unsigned held, unsigned best) {
+    moved.push_back(parameter);
+    EXPECT_NE(value, parent.at(parameter)) << "the parent's own value scanned again";
+    EXPECT_GE(value, ranges.at(parameter).min) << parameter;
+    EXPECT_LE(value, ranges.at(parameter).max) << parameter;
+    EXPECT_LE(held, 2u);
+    EXPECT_GE(best, held);
+  };
+  const evo::Revision rev = evo::revise(set, o);
+  EXPECT_EQ(rev.scan_states, 2u) << "the scan probes the failing states only";
+  ASSERT_EQ(moved.size(), rev.scanned);
+  EXPECT_TRUE(std::is_sorted(moved.begin(), moved.end())) << "one parameter after another, in name order";
+  for (const auto& name : moved) EXPECT_LE(std::count(moved.begin(), moved.end(), name), 3) << name;
+  EXPECT_GT(rev.scan_best, 0u) << "no parameter alone turned a failing state";
+  EXPECT_TRUE(rev.scan_start) << "the best scanned θ did not hold more on the set than the parent";
+  EXPECT_TRUE(rev.improved());
+  EXPECT_GT(rev.fixed, 0u);
+  EXPECT_EQ(rev.kept, 1u) << "Figure 3's success kept";
+  EXPECT_EQ(rev.screened, 0u) << "the parent holds a state: no Sobol screen";
+  EXPECT_LE(rev.evals, 2u) << "the scanned start is Subplex's first candidate, not probed twice";
+  // Without the scan, the same bound starts at the parent.
+  o.scan_levels = 0;
+  const evo::Revision plain = evo::revise(set, o);
+  EXPECT_EQ(plain.scanned, 0u);
+  EXPECT_FALSE(plain.scan_start);
 }
 
 TEST_F(Probe, ASearchFromAParentThatHoldsNothingScreensTheRangesFirst) {
