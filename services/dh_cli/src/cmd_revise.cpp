@@ -21,6 +21,20 @@
 
 namespace dh::cli {
 
+namespace {
+
+/// How the search went: its scan, screen, pruning and candidates, and its wall time.
+nlohmann::json search_of(const evo::Revision& rev) {
+  return {{"scanned", rev.scanned},         {"scan_states", rev.scan_states},
+          {"scan_best", rev.scan_best},     {"scan_start", rev.scan_start},
+          {"screened", rev.screened},       {"screen_states", rev.screen_states},
+          {"screen_best", rev.screen_best}, {"pruned", rev.pruned},
+          {"reverted", rev.reverted},       {"evals", rev.evals},
+          {"max_evals", rev.max_evals},     {"wall_s", rev.wall_s}};
+}
+
+}  // namespace
+
 nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>& excluded) {
   const std::vector<EpisodeRecord> rows = arm_rows(a.db, a.arm);
   const unsigned jobs = probe_jobs(a.jobs);
@@ -123,45 +137,23 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
                             {"held_after", rev.best_held},
                             {"fixed", rev.fixed},
                             {"kept", rev.kept}}},
-                          {"search",
-                           {{"scanned", rev.scanned},
-                            {"scan_states", rev.scan_states},
-                            {"scan_best", rev.scan_best},
-                            {"scan_start", rev.scan_start},
-                            {"screened", rev.screened},
-                            {"screen_states", rev.screen_states},
-                            {"screen_best", rev.screen_best},
-                            {"pruned", rev.pruned},
-                            {"reverted", rev.reverted},
-                            {"evals", rev.evals},
-                            {"max_evals", rev.max_evals},
-                            {"wall_s", rev.wall_s}}}}
+                          {"search", search_of(rev)}}
                .dump(2)
         << "\n";
   }
-  return {{"capability", capability},
-          {"states", rev.states},
-          {"failing", rev.failing},
-          {"parent_held", rev.parent_held},
-          {"best_held", rev.best_held},
-          {"fixed", rev.fixed},
-          {"kept", rev.kept},
-          {"evals", rev.evals},
-          {"max_evals", rev.max_evals},
-          {"wall_s", rev.wall_s},
-          {"kappa", kappa},
-          {"out", out},
-          {"version", version},
-          {"improved", rev.improved()},
-          {"scanned", rev.scanned},
-          {"scan_states", rev.scan_states},
-          {"scan_best", rev.scan_best},
-          {"scan_start", rev.scan_start},
-          {"screened", rev.screened},
-          {"screen_states", rev.screen_states},
-          {"screen_best", rev.screen_best},
-          {"pruned", rev.pruned},
-          {"reverted", rev.reverted}};
+  nlohmann::json r = search_of(rev);
+  r.update({{"capability", capability},
+            {"states", rev.states},
+            {"failing", rev.failing},
+            {"parent_held", rev.parent_held},
+            {"best_held", rev.best_held},
+            {"fixed", rev.fixed},
+            {"kept", rev.kept},
+            {"kappa", kappa},
+            {"out", out},
+            {"version", version},
+            {"improved", rev.improved()}});
+  return r;
 }
 
 int cmd_revise(const ReviseArgs& a) {
