@@ -5,13 +5,10 @@
 // 1000 + 3 (x − y) mm, zero elsewhere; colour black but for pixel (0, 0)'s blue and a disc whose pixel is
 // (255 x / 320, 255 y / 240, 255 (320 − x) / 320). So the test checks every pixel, not only sizes.
 // It cannot register depth to colour, which is refused unless --registration none says it need not.
-#include <algorithm>
 #include <fstream>
 
 #include "../integration/harness.hpp"
-#include "dh/common/dds.hpp"
-#include "dh/common/topics.hpp"
-#include "dh/msg/cameraPubSubTypes.h"
+#include "frame_requests.hpp"
 #include "rgbd_pixels.hpp"
 
 namespace dh {
@@ -21,48 +18,22 @@ namespace fs = std::filesystem;
 
 namespace {
 
+/// A participant of its own, asking for frames as perception does.
 class Requester {
  public:
-  Requester()
-      : frames_(p_, topics::kRgbd, dds::Qos::Rgbd,
-                {[this](const msg::RgbdFrame& f, const auto&) {
-                   std::lock_guard l(m_);
-                   got_.push_back(f);
-                   cv_.notify_all();
-                 },
-                 {},
-                 {}}),
-        req_(p_, topics::kRgbdRequest, dds::Qos::RgbdRequest) {}
-
   bool wait_ready() {
     const auto end = Clock::now() + 30s;
-    while (Clock::now() < end && !(req_.matched() >= 1 && frames_.matched() >= 1))
-      std::this_thread::sleep_for(20ms);
-    return req_.matched() >= 1 && frames_.matched() >= 1;
+    while (Clock::now() < end && !frames_.matched()) std::this_thread::sleep_for(20ms);
+    return frames_.matched();
   }
-
   std::optional<msg::RgbdFrame> request(std::uint32_t channel, const std::string& camera,
                                         const std::string& id, std::chrono::milliseconds timeout = 10s) {
-    msg::RgbdRequest r;
-    r.channel(channel);
-    r.camera(camera);
-    r.request_id(id);
-    req_.write(r);
-    std::unique_lock l(m_);
-    const auto it = [&] {
-      return std::find_if(got_.begin(), got_.end(), [&](const auto& g) { return g.request_id() == id; });
-    };
-    if (!cv_.wait_for(l, timeout, [&] { return it() != got_.end(); })) return std::nullopt;
-    return *it();
+    return frames_.request(channel, camera, id, timeout);
   }
 
  private:
   dds::Participant p_{"rgbd_camera_test"};
-  std::mutex m_;
-  std::condition_variable cv_;
-  std::vector<msg::RgbdFrame> got_;
-  dds::Reader<msg::RgbdFramePubSubType> frames_;
-  dds::Writer<msg::RgbdRequestPubSubType> req_;
+  camtest::FrameRequests frames_{p_};
 };
 
 /// Starts rgbd_camera with `args`, waits for it to end on its own (a refusal at start) and returns its log.

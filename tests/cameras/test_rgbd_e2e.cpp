@@ -25,6 +25,7 @@
 #include "dh/msg/robotPubSubTypes.h"
 #include "dh/sim/rgbd.hpp"
 #include "dh/sim/scene.hpp"
+#include "frame_requests.hpp"
 #include "rgbd_pixels.hpp"
 
 namespace dh {
@@ -62,18 +63,10 @@ class Client {
               },
               {},
               {}}),
-        frames_(p_, topics::kRgbd, dds::Qos::Rgbd,
-                {[this](const msg::RgbdFrame& f, const auto&) {
-                   std::lock_guard l(m_);
-                   frames_got_.push_back({f, Clock::now()});
-                   cv_.notify_all();
-                 },
-                 {},
-                 {}}),
         ep_(p_, topics::kEpisodeRequest, dds::Qos::Episode),
         lease_(p_, topics::kLease, dds::Qos::Lease),
         act_(p_, topics::kAction, dds::Qos::Action),
-        req_(p_, topics::kRgbdRequest, dds::Qos::RgbdRequest) {}
+        rgbd_(p_) {}
 
   static constexpr const char* kEpisode = "rgbd-e2e";
 
@@ -88,11 +81,11 @@ class Client {
   bool wait_sim_ready() {
     return poll(30s, [&] {
       return idle_.has_value() && ep_.matched() >= 1 && act_.matched() >= 1 && lease_.matched() >= 1 &&
-             req_.matched() >= 1 && frames_.matched() >= 1;
+             rgbd_.matched();
     });
   }
   bool wait_player_ready() {
-    return poll(30s, [&] { return req_.matched() >= 1 && frames_.matched() >= 1; });
+    return poll(30s, [&] { return rgbd_.matched(); });
   }
 
   /// "put the bowl on the plate" (goal task 8), seed 4, on channel 0; waits for the step-0 observation.
@@ -119,7 +112,7 @@ class Client {
     a.a({0.1, t < 20 ? 0.2 : -0.2, 0, 0, 0, 0, -1});
     act_.write(a);
     if (!itest::wait_until(m_, cv_, 10s, [&] { return step_ == t + 1; })) return false;
-    if (ask) return request(0, "workcell", "s" + std::to_string(t + 1)).has_value();
+    if (ask) return rgbd_.request(0, "workcell", "s" + std::to_string(t + 1)).has_value();
     return true;
   }
 
@@ -134,36 +127,7 @@ class Client {
     renew(t, budget);
   }
 
-  /// Asks for a frame and waits for the answer with that id.
-  std::optional<msg::RgbdFrame> request(std::uint32_t channel, const std::string& camera,
-                                        const std::string& id, std::chrono::milliseconds timeout = 10s,
-                                        double* latency_ms = nullptr) {
-    msg::RgbdRequest r;
-    r.channel(channel);
-    r.camera(camera);
-    r.request_id(id);
-    const auto sent = Clock::now();
-    req_.write(r);
-    std::unique_lock l(m_);
-    const auto it = [&] {
-      return std::find_if(frames_got_.begin(), frames_got_.end(),
-                          [&](const auto& g) { return g.first.request_id() == id; });
-    };
-    if (!cv_.wait_for(l, timeout, [&] { return it() != frames_got_.end(); })) return std::nullopt;
-    if (latency_ms) *latency_ms = std::chrono::duration<double, std::milli>(it()->second - sent).count();
-    return it()->first;
-  }
-
-  /// The frames received so far; only inside poll()'s predicate (the lock is held there).
-  std::vector<msg::RgbdFrame> frames_locked() {
-    std::vector<msg::RgbdFrame> out;
-    for (const auto& g : frames_got_) out.push_back(g.first);
-    return out;
-  }
-  std::size_t frames_received() {
-    std::lock_guard l(m_);
-    return frames_got_.size();
-  }
+  camtest::FrameRequests& rgbd() { return rgbd_; }
   msg::Observation observation() {
     std::lock_guard l(m_);
     return obs_msg_;
@@ -186,14 +150,12 @@ class Client {
   std::optional<bool> idle_;
   std::optional<std::uint32_t> step_;
   msg::Observation obs_msg_;
-  std::vector<std::pair<msg::RgbdFrame, Clock::time_point>> frames_got_;
   dds::Reader<msg::ChannelStatusPubSubType> status_;
   dds::Reader<msg::ObservationPubSubType> obs_;
-  dds::Reader<msg::RgbdFramePubSubType> frames_;
   dds::Writer<msg::EpisodeRequestPubSubType> ep_;
   dds::Writer<msg::LeasePubSubType> lease_;
   dds::Writer<msg::ActionPubSubType> act_;
-  dds::Writer<msg::RgbdRequestPubSubType> req_;
+  camtest::FrameRequests rgbd_;
 };
 
 using camtest::depth_mm;
@@ -223,7 +185,7 @@ TEST(RgbdE2E, SimWorkerAnswersARequestWithAMetricFrameOfTheChannelsCurrentStep) 
   ASSERT_TRUE(c.wait_sim_ready()) << itest::read_text(env.runs / "logs/sim_worker.log");
 
   // Before any episode there is no state to show: an error frame, at once.
-  const auto early = c.request(0, "workcell", "early");
+  const auto early = c.rgbd().request(0, "workcell", "early");
   ASSERT_TRUE(early.has_value()) << "no answer to a request before any episode";
   EXPECT_EQ(early->width(), 0u);
   EXPECT_TRUE(early->rgb().empty());
@@ -232,7 +194,7 @@ TEST(RgbdE2E, SimWorkerAnswersARequestWithAMetricFrameOfTheChannelsCurrentStep) 
   constexpr std::uint32_t kBudget = 100;
   ASSERT_TRUE(c.start(kBudget));
   for (int i = 0; i < 5; ++i) ASSERT_TRUE(c.step(kBudget));
-  const auto f = c.request(0, "workcell", "r1");
+  const auto f = c.rgbd().request(0, "workcell", "r1");
   ASSERT_TRUE(f.has_value()) << itest::read_text(env.runs / "logs/sim_worker.log");
   EXPECT_EQ(f->error(), "");
   EXPECT_EQ(f->request_id(), "r1");
@@ -299,7 +261,7 @@ TEST(RgbdE2E, SimWorkerAnswersARequestWithAMetricFrameOfTheChannelsCurrentStep) 
   for (int i = 0; i < 20; ++i) {
     c.keep_lease(kBudget);  // twenty frames can take longer than the lease's deadline under load
     double l = 0;
-    ASSERT_TRUE(c.request(0, "workcell", "lat" + std::to_string(i), 10s, &l).has_value())
+    ASSERT_TRUE(c.rgbd().request(0, "workcell", "lat" + std::to_string(i), 10s, &l).has_value())
         << "request " << i << " lost";
     ms.push_back(l);
   }
@@ -307,13 +269,13 @@ TEST(RgbdE2E, SimWorkerAnswersARequestWithAMetricFrameOfTheChannelsCurrentStep) 
               percentile(ms, 0.5), percentile(ms, 0.9), percentile(ms, 1.0));
   // One step later: the next step's state, 50 ms of simulated time later.
   ASSERT_TRUE(c.step(kBudget));
-  const auto g = c.request(0, "workcell", "r2");
+  const auto g = c.rgbd().request(0, "workcell", "r2");
   ASSERT_TRUE(g.has_value());
   EXPECT_EQ(g->step(), 6u);
   EXPECT_NEAR(g->stamp_s() - f->stamp_s(), 0.05, 1e-9);
   EXPECT_NE(g->rgb(), f->rgb()) << "the hand moved; the image did not";
   // A camera the worker does not have is not its to answer (a frames_player might serve it).
-  EXPECT_FALSE(c.request(0, "no_such_camera", "nobody", 1s).has_value());
+  EXPECT_FALSE(c.rgbd().request(0, "no_such_camera", "nobody", 1s).has_value());
   EXPECT_TRUE(sim.exited().empty()) << "sim_worker crashed";
 }
 
@@ -329,7 +291,7 @@ TEST(RgbdE2E, WithoutRequestsSimWorkerRendersNothing) {
   for (std::uint32_t i = 0; i < kSteps; ++i) ASSERT_TRUE(c.step(kBudget));
   const double plain = kSteps / std::chrono::duration<double>(Clock::now() - t0).count();
   std::this_thread::sleep_for(300ms);
-  EXPECT_EQ(c.frames_received(), 0u) << "frames without a request";
+  EXPECT_EQ(c.rgbd().received(), 0u) << "frames without a request";
   const std::string log = itest::read_text(env.runs / "logs/sim_worker.log");
   EXPECT_EQ(log.find("OpenGL context for RGB-D"), std::string::npos)
       << "an OpenGL context without a request: " << log;
@@ -338,7 +300,7 @@ TEST(RgbdE2E, WithoutRequestsSimWorkerRendersNothing) {
   t0 = Clock::now();
   for (std::uint32_t i = 0; i < kSteps; ++i) ASSERT_TRUE(c.step(kBudget, true)) << "step " << i;
   const double asked = kSteps / std::chrono::duration<double>(Clock::now() - t0).count();
-  EXPECT_EQ(c.frames_received(), kSteps);
+  EXPECT_EQ(c.rgbd().received(), kSteps);
   std::printf(
       "lock-step rate: %.1f steps/s without requests, %.1f steps/s with a 640x480 RGB-D frame per step\n",
       plain, asked);
@@ -366,9 +328,9 @@ TEST(RgbdE2E, RgbdEveryPublishesFramesAtEpisodeStartAndEveryNSteps) {
   ASSERT_TRUE(c.start(kBudget));
   for (int i = 0; i < 10; ++i) ASSERT_TRUE(c.step(kBudget));
   std::set<std::uint32_t> steps;
-  ASSERT_TRUE(c.poll(10s, [&] {
+  ASSERT_TRUE(c.rgbd().wait(10s, [&](const std::vector<msg::RgbdFrame>& frames) {
     steps.clear();
-    for (const auto& f : c.frames_locked()) {
+    for (const auto& f : frames) {
       EXPECT_EQ(f.request_id(), "");
       EXPECT_EQ(f.error(), "");
       EXPECT_EQ(f.width(), 640u);
@@ -420,10 +382,10 @@ TEST(RgbdE2E, FramesPlayerPlaysARecordedFolderFrameByFrameOnRequest) {
                          paths::bin_dir(), env.runs / "logs");
   Client c;
   ASSERT_TRUE(c.wait_player_ready()) << itest::read_text(env.runs / "logs/frames_player.log");
-  EXPECT_FALSE(c.request(0, "workcell", "other-channel", 1s).has_value())
+  EXPECT_FALSE(c.rgbd().request(0, "workcell", "other-channel", 1s).has_value())
       << "answered another channel's request";
   for (int i = 0; i < 4; ++i) {
-    const auto f = c.request(3, "workcell", "p" + std::to_string(i));
+    const auto f = c.rgbd().request(3, "workcell", "p" + std::to_string(i));
     ASSERT_TRUE(f.has_value()) << "request " << i << ": "
                                << itest::read_text(env.runs / "logs/frames_player.log");
     const int k = i % 3;  // in order, then again from the first
@@ -463,11 +425,11 @@ TEST(RgbdE2E, FramesPlayerAtARateAndAnUndecodableFrameAnsweredWithItsName) {
   Client c;
   ASSERT_TRUE(c.wait_player_ready()) << itest::read_text(env.runs / "logs/frames_player.log");
   std::vector<msg::RgbdFrame> got;
-  ASSERT_TRUE(c.poll(10s,
-                     [&] {
-                       got = c.frames_locked();
-                       return got.size() >= 6;
-                     }))
+  ASSERT_TRUE(c.rgbd().wait(10s,
+                            [&](const std::vector<msg::RgbdFrame>& frames) {
+                              got = frames;
+                              return got.size() >= 6;
+                            }))
       << got.size() << " frames";
   // In order, round and round (the first few may have gone before the reader matched).
   for (std::size_t i = 1; i < got.size(); ++i) EXPECT_EQ(got[i].step(), (got[i - 1].step() + 1) % 3);
@@ -483,7 +445,7 @@ TEST(RgbdE2E, FramesPlayerAtARateAndAnUndecodableFrameAnsweredWithItsName) {
     }
   }
   // A request now gets the frame published last, with the request's id.
-  const auto r = c.request(0, "workcell", "while-playing");
+  const auto r = c.rgbd().request(0, "workcell", "while-playing");
   ASSERT_TRUE(r.has_value());
   EXPECT_LT(r->step(), 3u);
   EXPECT_TRUE(player.exited().empty());
