@@ -245,7 +245,8 @@ Revision revise(const std::vector<ProbeOutcome>& set, const ReviseOptions& o) {
   Search search(rev, lib.ranges.at(o.capability), std::move(states), o);
   std::vector<double> start = search.parent_point();
   // Subplex moves a few parameters at a time from where it starts; a failure one parameter far from the
-  // parent's value turns (a slide too fast for the hook) may lie outside its first steps.
+  // parent's value turns (services/evolution/README.md: the seed-2 library's slide speed) may lie outside its
+  // first steps.
   if (rev.failing > 0 && o.scan_levels > 0) {
     auto scanned = search.scan();
     rev.scan_start = scanned && search.take_if_more(*scanned);
