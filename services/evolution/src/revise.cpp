@@ -28,6 +28,9 @@ class Search {
     }
     // What the parent holds is the probe set itself: its failing states fail, its successes hold.
     on_set_[rev_.parent] = {rev_.parent_held, 0, rev_.parent_held, false};
+    // The round's bound on Subplex: candidates, and probes (each candidate probes the whole set).
+    rev_.max_evals = o_.max_evals;
+    if (o_.max_probes) rev_.max_evals = std::min(rev_.max_evals, std::max(1u, o_.max_probes / rev_.states));
   }
 
   /// θ at a point of the unit cube: the parent's own value where the point is the parent's (not its round
@@ -102,21 +105,13 @@ class Search {
     opt.set_lower_bounds(0.0);
     opt.set_upper_bounds(1.0);
     opt.set_initial_step(0.25);
-    // A round's bound after any screening: candidates, and probes (each candidate probes the whole set).
-    rev_.max_evals = o_.max_evals;
-    if (o_.max_probes) rev_.max_evals = std::min(rev_.max_evals, std::max(1u, o_.max_probes / rev_.states));
     opt.set_maxeval(static_cast<int>(rev_.max_evals));
     // Every state holds: nothing left to search for. NLopt stops once the objective passes stopval
     // strictly, and the count reaches the number of states at most.
     opt.set_stopval(rev_.states - 0.5);
     opt.set_max_objective(
         [](const std::vector<double>& at, std::vector<double>&, void* self) {
-          auto& s = *static_cast<Search*>(self);
-          const unsigned before = s.rev_.evals;
-          const unsigned held = s.try_on_set(s.theta_at(at), false, true).held;
-          if (s.o_.on_eval && s.rev_.evals != before)
-            s.o_.on_eval(s.rev_.evals, s.rev_.max_evals, held, s.rev_.best_held);
-          return static_cast<double>(held);
+          return static_cast<double>(static_cast<Search*>(self)->candidate(at).held);
         },
         this);
     double fx = 0;
@@ -148,7 +143,7 @@ class Search {
   }
 
   /// `at` on the whole set, taken as the best when it holds more than the best so far.
-  bool take_if_more(const std::vector<double>& at) { return try_on_set(theta_at(at), false, true).taken; }
+  bool take_if_more(const std::vector<double>& at) { return candidate(at).taken; }
 
   std::vector<double> parent_point() const { return x0_; }
 
@@ -166,6 +161,14 @@ class Search {
       h.held += passed;
       (r.state.failing ? h.fixed : h.kept) += passed;
     }
+    return h;
+  }
+
+  /// A candidate θ of the search on the whole set; one not probed before is counted and reported.
+  Held candidate(const std::vector<double>& at) {
+    const unsigned before = rev_.evals;
+    const Held h = try_on_set(theta_at(at), false, true);
+    if (o_.on_eval && rev_.evals != before) o_.on_eval(rev_.evals, rev_.max_evals, h.held, rev_.best_held);
     return h;
   }
 

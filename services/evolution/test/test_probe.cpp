@@ -420,6 +420,8 @@ TEST_F(Probe, TheSearchScansOneParameterAtATimeOnTheFailingStatesAndStartsFromTh
     EXPECT_LE(held, 2u);
     EXPECT_GE(best, held);
   };
+  std::vector<unsigned> evals;
+  o.on_eval = [&](unsigned eval, unsigned, unsigned, unsigned) { evals.push_back(eval); };
   const evo::Revision rev = evo::revise(set, o);
   EXPECT_EQ(rev.scan_states, 2u) << "the scan probes the failing states only";
   ASSERT_EQ(moved.size(), rev.scanned);
@@ -432,6 +434,8 @@ TEST_F(Probe, TheSearchScansOneParameterAtATimeOnTheFailingStatesAndStartsFromTh
   EXPECT_EQ(rev.kept, 1u) << "Figure 3's success kept";
   EXPECT_EQ(rev.screened, 0u) << "the parent holds a state: no Sobol screen";
   EXPECT_LE(rev.evals, 2u) << "the scanned start is Subplex's first candidate, not probed twice";
+  ASSERT_EQ(evals.size(), rev.evals) << "each candidate probed on the set is reported once";
+  EXPECT_EQ(evals.front(), 1u) << "the scanned start is reported as the first";
   // Without the scan, the same bound starts at the parent.
   o.scan_levels = 0;
   const evo::Revision plain = evo::revise(set, o);
