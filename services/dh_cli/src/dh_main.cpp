@@ -34,8 +34,8 @@
 //   dh gate --parent DB --candidate DB --library DIR --capability C [--bare DB]
 //                                            the paired gate (Eq. 6) of a candidate against its parent, on
 //                                            the pairs where C's failures were attributed (exit 3: fails)
-//   dh evolve --library DIR [--rounds K] [--cells ...] [--dev-seeds 21-40] [--regression-seeds 41-42] [--out
-//   DIR]
+//   dh evolve --library DIR [--rounds K] [--cells ...] [--dev-seeds 21-40] [--regression-seeds 41-42]
+//             [--out DIR]
 //                                            the loop, automatic and resumable: campaign, revise, candidate
 //                                            campaign, gate, broader round, register; per round
 //   dh transfer --snapshots A,B,... --salt S [--fresh-seeds 20] [--dev-dbs F,...] [--out DIR]
@@ -48,7 +48,8 @@
 //                                            labels every failed episode with its attribution layer (exit 3:
 //                                            one matched no layer or its evidence is unreadable)
 //   dh launch [FILE] [--host H] [--restart]  runs a deployment (a multi-host file: host H's share) until
-//   Ctrl-C dh dds-profile FILE --host H             writes host H's DDS profile, prints its path
+//                                            Ctrl-C
+//   dh dds-profile FILE --host H             writes host H's DDS profile, prints its path
 // Exit codes: 0 done (an episode that fails is a result), 1 infrastructure failure or interrupted
 // campaign, 2 bad input (unknown cell/task/arm, bad config, malformed option, foreign database).
 #include <CLI/CLI.hpp>
