@@ -80,12 +80,10 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
                              k, n, held, std::min<std::size_t>(a.screen_states, set.states.size()), judged, best);
     stop_if_asked();
   };
-  const auto failing = static_cast<std::size_t>(
-      std::count_if(set.states.begin(), set.states.end(), [](const auto& o) { return o.state.failing; }));
-  const auto on_scan = [&](const std::string& parameter, double value, unsigned held, unsigned best) {
+  const auto on_scan = [&](const std::string& parameter, double value, unsigned held, unsigned states,
+                           unsigned best) {
     std::cerr << fmt::format("{}: scanned {} = {:g}: {} of {} failing states {}, best {}\n", capability,
-                             parameter, value, held, std::min<std::size_t>(a.screen_states, failing), judged,
-                             best);
+                             parameter, value, held, states, judged, best);
     stop_if_asked();
   };
   evo::ReviseOptions options;

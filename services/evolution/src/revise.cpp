@@ -69,7 +69,7 @@ class Search {
           rev_.scan_best = h.held;
           best = at;
         }
-        if (o_.on_scan) o_.on_scan(names_[i], th.at(names_[i]), h.held, rev_.scan_best);
+        if (o_.on_scan) o_.on_scan(names_[i], th.at(names_[i]), h.held, rev_.scan_states, rev_.scan_best);
         if (h.held == subset.size()) return best;  // none later can hold more
       }
     return best;

@@ -412,8 +412,9 @@ TEST_F(Probe, TheSearchScansOneParameterAtATimeOnTheFailingStatesAndStartsFromTh
   const cap::Theta& parent = lib.theta.at("pick_place");
   const auto& ranges = lib.ranges.at("pick_place");
   std::vector<std::string> moved;
-  o.on_scan = [&](const std::string& parameter, double value, unsigned held, unsigned best) {
+  o.on_scan = [&](const std::string& parameter, double value, unsigned held, unsigned states, unsigned best) {
     moved.push_back(parameter);
+    EXPECT_EQ(states, 2u) << "the failing states of the set";
     EXPECT_NE(value, parent.at(parameter)) << "the parent's own value scanned again";
     EXPECT_GE(value, ranges.at(parameter).min) << parameter;
     EXPECT_LE(value, ranges.at(parameter).max) << parameter;

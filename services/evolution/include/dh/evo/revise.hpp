@@ -46,11 +46,14 @@ struct ReviseOptions {
   /// Called after each screened θ: its number, how many are screened, the effects it held, the best so far.
   std::function<void(unsigned screened, unsigned screen, unsigned held, unsigned best_held)> on_screen;
   unsigned scan_levels = 4;  ///< levels of each parameter in the one-at-a-time scan (0: no scan)
-  /// Called after each scanned θ: the parameter moved, its value, the effects held, the best so far.
-  std::function<void(const std::string& parameter, double value, unsigned held, unsigned best_held)> on_scan;
+  /// Called after each scanned θ: the parameter moved, its value, the effects held on how many failing
+  /// states, the best so far.
+  std::function<void(const std::string& parameter, double value, unsigned held, unsigned states,
+                     unsigned best_held)>
+      on_scan;
   unsigned screen = 64;               ///< θ screened when the parent holds nothing (0: no screening)
-  unsigned screen_states =
-      6;  ///< failing states each scanned or screened θ is probed on, spread over the set
+  /// Failing states each scanned or screened θ is probed on, spread over the set.
+  unsigned screen_states = 6;
   bool prune = true;                  ///< prune κ after the search (each changed parameter: one probe of the set)
   /// Called after each parameter the pruning tried: whether it went back to the parent's value.
   std::function<void(const std::string& parameter, bool reverted, unsigned held, unsigned best_held)> on_prune;
