@@ -4,15 +4,15 @@
 // commands, probed from the state recorded at their start under the recorded θ (every failed one and one
 // other per episode), run as recorded, and so does the rest of each episode from there. And
 // `dh replay` refuses a changed θ.
-#include <nlohmann/json.hpp>
-
+#include <algorithm>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <set>
 
+#include "campaign_helpers.hpp"
 #include "dh/evo/probe.hpp"
 #include "dh/inproc/replay.hpp"
-#include "campaign_helpers.hpp"
 #include "harness.hpp"
 
 using namespace dh;
@@ -107,6 +107,17 @@ TEST(ReplayE2E, EpisodesRecordedOverDdsReplayBitForBit) {
   EXPECT_TRUE(j["identical"].get<bool>());
   EXPECT_TRUE(j["first_divergence"].is_null());
   EXPECT_EQ(j["steps"].get<unsigned>(), rows.front().steps);
+
+  // A probe repeated side by side: every run ends alike, physics included, and reproduces the recording.
+  const auto& full = *std::find_if(rows.begin(), rows.end(), [](const auto& r) { return r.arm == "full"; });
+  auto [repeat_out, repeat_status] = itest::run_command(dh + " probe --evidence " + full.evidence_path +
+                                                        " --command 0 --rest --repeats 3 --json");
+  const auto repeats = nlohmann::json::parse(repeat_out);
+  EXPECT_EQ(repeat_status, full.success ? 0 : 3) << repeat_out;
+  EXPECT_TRUE(repeats["reproduces"].get<bool>()) << repeat_out;
+  EXPECT_EQ(repeats["repeats"]["runs"].get<unsigned>(), 3u);
+  EXPECT_EQ(repeats["repeats"]["passed"].get<unsigned>(), full.success ? 3u : 0u);
+  EXPECT_TRUE(repeats["repeats"]["alike"].get<bool>()) << repeat_out;
 
   const auto library = env.runs / "library";
   std::filesystem::copy(paths::config_dir() / "library", library);

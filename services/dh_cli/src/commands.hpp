@@ -51,11 +51,13 @@ struct ProbeArgs {
   std::size_t successes = 20;
   std::uint64_t draw_seed = 0;
   unsigned jobs = 0;  ///< 0: every core
+  unsigned repeats = 1;  ///< runs of each probe, compared with the first
   bool json = false;
 };
-/// One command: exit 0 its effect held (with rest: the episode succeeded), 3 it did not. A probe set: exit 0 when every state was probed.
-/// 2 bad input (a missing or corrupt recording or database, a command out of range or one a probe cannot
-/// re-run, a library that does not load).
+/// One command: exit 0 its effect held (with rest: the episode succeeded) in every run, 3 it did not. A
+/// probe set: exit 0 when every state was probed. 2 bad input (a missing or corrupt recording or
+/// database, a command out of range or one a probe cannot re-run, a library that does not load). 4 with
+/// --repeats: a run did not end as the first did.
 int cmd_probe(const ProbeArgs& a);
 
 struct ReviseArgs {

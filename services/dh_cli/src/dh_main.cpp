@@ -19,11 +19,11 @@
 //   dh film EVIDENCE --out F.png [--steps auto|S1,S2,..] [--camera agentview|wrist|workcell] [--video F.webm]
 //                                            re-runs a recorded episode and renders the chosen steps into a
 //                                            labelled strip (auto: refusals, recoveries, commands, verdict)
-//   dh probe --evidence E --command K [--library DIR] [--rest [--rest-evidence F]] [--json]
+//   dh probe --evidence E --command K [--library DIR] [--rest [--rest-evidence F]] [--repeats R] [--json]
 //                                            re-runs command K from the state recorded at its start under the
 //                                            recorded θ or DIR's (exit 0 its effect held, 3 it did not);
 //                                            --rest: and the rest of the episode after it
-//   dh probe --db FILE --capability C [--library DIR] [--jobs N] [--json]
+//   dh probe --db FILE --capability C [--library DIR] [--repeats R] [--jobs N] [--json]
 //                                            the capability's probe set (its failed commands and as many
 //                                            successes), probed in parallel
 //   dh revise --db FILE [--capability C] [--library DIR] [--max-evals N] [--scan-levels L] [--screen N]
@@ -256,7 +256,13 @@ int main(int argc, char** argv) {
   probe->add_option("--successes", probe_args.successes,
                     "with --db: successful commands kept beside the failing ones, at least (default 20)");
   probe->add_option("--draw-seed", probe_args.draw_seed, "with --db: seed of the draw of successes (default 0)");
-  probe->add_option("--jobs", probe_args.jobs, "with --db: probes at once (default: every core)");
+  probe->add_option("--jobs", probe_args.jobs, "probes at once (default: every core)");
+  probe
+      ->add_option(
+          "--repeats", probe_args.repeats,
+          "run each probe R times, side by side, and say in how many it held and whether every run ended "
+          "as the first, physics included (exit 4 when one did not; default 1)")
+      ->check(CLI::Range(1u, 1000u));
   probe->add_option("--library", probe_args.library,
                     "a candidate library folder (descriptors as configs/library); default: the θ the episode recorded");
   probe->add_flag("--rest", probe_args.rest,

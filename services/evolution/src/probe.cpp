@@ -1,5 +1,6 @@
 #include "dh/evo/probe.hpp"
 
+#include <fmt/format.h>
 #include <mujoco/mujoco.h>
 #include <unistd.h>
 
@@ -7,6 +8,7 @@
 #include <map>
 #include <stdexcept>
 #include <thread>
+#include <tuple>
 
 #include "dh/cap/descriptor.hpp"
 #include "dh/cap/library.hpp"
@@ -28,10 +30,12 @@ namespace {
 using nlohmann::json;
 constexpr const char* kHost = "probe";
 
-/// Counts the cell's state at `step` against the step log's; the first difference is kept.
-void compare_step(ProbeReport& r, const sim::Workcell& cell, std::uint32_t step, const sim::StepLog& log) {
+/// Counts the cell's state at `step`, digested as `digest`, against the step log's; the first difference is
+/// kept.
+void compare_step(ProbeReport& r, const sim::Workcell& cell, const sim::StateDigest& digest,
+                  std::uint32_t step, const sim::StepLog& log) {
   ++r.steps_compared;
-  if (!r.first_divergence && cell.digest() != log.records[step].digest)
+  if (!r.first_divergence && digest != log.records[step].digest)
     r.first_divergence = inproc::divergence_at(cell, step, log.records[step].digest);
 }
 
@@ -51,7 +55,9 @@ void rest_of_episode(ProbeReport& r, const inproc::Stack::Resume& from, const si
   inproc::StepTap tap;
   tap.on_step = [&](std::uint32_t step, const sim::Workcell& cell) {
     if (!effect.empty()) held[step] = cell.holds(effect);
-    if (step < log.records.size()) compare_step(r, cell, step, log);
+    const sim::StateDigest digest = cell.digest();
+    r.end_digest = digest.state;
+    if (step < log.records.size()) compare_step(r, cell, digest, step, log);
   };
   const bool temporary = o.rest_evidence.empty();
   const std::filesystem::path out =
@@ -194,6 +200,7 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
       r.reason = "budget: " + std::to_string(remaining) + " steps remain, '" + k.capability +
                  "' under this θ costs " + std::to_string(cost);
       cell.restore(from->state);
+      r.end_digest = cell.digest().state;
       r.effect_held = !effect.empty() && cell.holds(effect);
       // With the rest of the episode: not run, and not won (the governor would not dispatch K under it).
       if (o.rest) r.rest = RestReport{false, to_string(CommandState::Refused), r.reason, from->step, rec.end};
@@ -217,13 +224,15 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
   runner.resume_episode(rec.episode_id, goal_text(task.goal), *from);
   // Each step's physics against the step log, while the recording ran this command.
   runner.after_step = [&](std::uint32_t step) {
-    if (step < log.records.size() && log.records[step].command_id == k.id) compare_step(r, cell, step, log);
+    if (step < log.records.size() && log.records[step].command_id == k.id)
+      compare_step(r, cell, cell.digest(), step, log);
   };
   cap::CommandStart start = inproc::command_start(rec, k, from->step, theta, kHost);
   start.budget_steps = r.budget_steps;
   const inproc::CommandOutcome out = runner.run(std::move(start));
 
   r.end_step = out.last.step;
+  r.end_digest = cell.digest().state;
   r.state = to_string(out.state);
   r.failure = to_string(out.failure);
   r.stage = out.stage;
@@ -236,6 +245,15 @@ ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& o) 
   // command with neither recorded steps nor a recorded end has nothing to reproduce.
   r.reproduces = !r.first_divergence && (k.end ? r.same_end : r.steps_compared > 0);
   return r;
+}
+
+bool same_result(const ProbeReport& a, const ProbeReport& b) {
+  const auto rest = [](const ProbeReport& r) {
+    return r.rest ? std::tuple(true, r.rest->success, r.rest->outcome, r.rest->steps)
+                  : std::tuple(false, false, std::string(), 0u);
+  };
+  return a.state == b.state && a.failure == b.failure && a.stage == b.stage && a.end_step == b.end_step &&
+         a.effect_held == b.effect_held && a.end_digest == b.end_digest && rest(a) == rest(b);
 }
 
 json to_json(const ProbeReport& r) {
@@ -258,6 +276,7 @@ json to_json(const ProbeReport& r) {
          {"steps_compared", r.steps_compared},
          {"first_divergence", inproc::to_json(r.first_divergence)},
          {"reproduces", r.reproduces},
+         {"end_digest", fmt::format("{:016x}", r.end_digest)},
          {"rest", nullptr}};
   if (r.rest) {
     j["rest"] = {{"success", r.rest->success},

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <atomic>
+#include <iterator>
 #include <random>
+#include <stdexcept>
 #include <thread>
 
 #include "dh/cap/library.hpp"
@@ -103,6 +105,33 @@ std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
   for (unsigned j = 1; j < std::max(1u, jobs); ++j) threads.emplace_back(work);
   work();
   for (auto& t : threads) t.join();
+  return out;
+}
+
+std::vector<RepeatedProbe> probe_repeats(const std::vector<ProbeState>& states,
+                                         const std::filesystem::path& config_dir,
+                                         const std::filesystem::path& library_dir, unsigned repeats,
+                                         unsigned jobs, bool rest) {
+  if (repeats == 0) throw std::invalid_argument("--repeats 0: a probe runs at least once");
+  std::vector<ProbeState> runs;
+  for (const auto& s : states) runs.insert(runs.end(), repeats, s);
+  std::vector<ProbeOutcome> all = probe_states(runs, config_dir, library_dir, jobs, std::nullopt, rest);
+  std::vector<RepeatedProbe> out(states.size());
+  for (std::size_t i = 0; i < states.size(); ++i) {
+    RepeatedProbe& r = out[i];
+    r.runs.assign(std::make_move_iterator(all.begin() + i * repeats),
+                  std::make_move_iterator(all.begin() + (i + 1) * repeats));
+    for (std::size_t k = 0; k < r.runs.size(); ++k) {
+      const ProbeOutcome& run = r.runs[k];
+      if (!run.report) {
+        if (r.error.empty()) r.error = run.error;
+        continue;
+      }
+      r.passed += run.report->passed();
+      if (!r.first_different && r.runs[0].report && !same_result(*r.runs[0].report, *run.report))
+        r.first_different = k;
+    }
+  }
   return out;
 }
 

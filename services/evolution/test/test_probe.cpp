@@ -329,6 +329,36 @@ TEST_F(Probe, AProbeSetHoldsTheFailingStatesAndDrawnSuccessesTheSameOnAnyNumberO
   }
 }
 
+TEST_F(Probe, RepeatedProbesRunSideBySideAndEndAlikePhysicsIncluded) {
+  // The missed grasp (fails) and Figure 3's substitute (holds), three runs each on three threads.
+  const std::vector<evo::ProbeState> states{{*dir / "missed.jsonl", 0, true, "missed"},
+                                            {*dir / "ep.jsonl", 1, false, "ep"}};
+  const auto repeated = evo::probe_repeats(states, paths::config_dir(), {}, 3, 3);
+  ASSERT_EQ(repeated.size(), 2u);
+  for (const auto& r : repeated) {
+    ASSERT_EQ(r.runs.size(), 3u);
+    ASSERT_TRUE(r.error.empty()) << r.error;
+    EXPECT_FALSE(r.first_different);
+    for (const auto& run : r.runs) {
+      EXPECT_EQ(run.state.label, r.runs[0].state.label);
+      EXPECT_TRUE(run.report->reproduces) << run.state.label;
+      EXPECT_EQ(run.report->end_digest, r.runs[0].report->end_digest);
+    }
+    EXPECT_NE(r.runs[0].report->end_digest, 0u);
+  }
+  EXPECT_EQ(repeated[0].passed, 0u);
+  EXPECT_EQ(repeated[1].passed, 3u);
+  // The end digest tells another θ's physics apart, and a result with it changed is not alike.
+  const auto lib = library_with("pick_place", "max_speed: 0.35", "max_speed: 0.2");
+  const auto other = evo::probe(*dir / "ep.jsonl", {paths::config_dir(), lib, 1, std::nullopt, false, {}});
+  EXPECT_NE(other.end_digest, repeated[1].runs[0].report->end_digest);
+  evo::ProbeReport moved = *repeated[1].runs[0].report;
+  EXPECT_TRUE(evo::same_result(moved, *repeated[1].runs[1].report));
+  moved.end_digest ^= 1;
+  EXPECT_FALSE(evo::same_result(moved, *repeated[1].runs[1].report));
+  EXPECT_THROW(evo::probe_repeats(states, paths::config_dir(), {}, 0, 1), std::invalid_argument);
+}
+
 TEST_F(Probe, AProbeSetJudgedByTheRestOfItsEpisodesCountsTheirSuccesses) {
   const std::vector<EpisodeRecord> rows{row("ep"), row("missed")};
   const auto set = evo::probe_set(rows, {"pick_place", 20, 7, true}, paths::config_dir(), 2).states;

@@ -56,6 +56,8 @@ struct ProbeReport {
   std::optional<inproc::Divergence> first_divergence;
   bool reproduces = false;  ///< every compared step identical, and the recorded end (if any) the same
   std::optional<RestReport> rest;  ///< with ProbeOptions::rest; then `reproduces` also asks the same episode end
+  /// The physics state's digest (sim::StateDigest::state) after the last step run.
+  std::uint64_t end_digest = 0;
   /// What a probe set counts: with the rest of the episode, its success; else the command's effect.
   bool passed() const { return rest ? rest->success : effect_held; }
 };
@@ -69,6 +71,10 @@ struct ProbeReport {
 /// without the governor's snapshot at K. A candidate θ whose cost exceeds what
 /// the episode had left is refused, as the governor refuses it, without running.
 ProbeReport probe(const std::filesystem::path& evidence, const ProbeOptions& options);
+
+/// Two probes of one state ended alike: the same end (state, failure, stage, step), effect, rest of the
+/// episode and physics state at the end. On the in-process bus a probe is deterministic, so repeats do.
+bool same_result(const ProbeReport& a, const ProbeReport& b);
 
 nlohmann::json to_json(const ProbeReport& r);
 

@@ -63,4 +63,20 @@ std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
                                        const std::filesystem::path& library_dir, unsigned jobs,
                                        const std::optional<cap::Theta>& theta = std::nullopt, bool rest = false);
 
+/// One state probed `repeats` times: how many runs passed, and whether every run ended as the first did.
+struct RepeatedProbe {
+  std::vector<ProbeOutcome> runs;
+  unsigned passed = 0;
+  std::optional<std::size_t> first_different;  ///< the first run whose result is not run 0's (same_result)
+  /// The first error of a run that could not probe; then the others are not compared.
+  std::string error;
+};
+
+/// Probes every state `repeats` times, all runs spread over `jobs` threads (so repeats of one state run
+/// side by side, each on its own workcell), as probe_states does; results in the states' order.
+std::vector<RepeatedProbe> probe_repeats(const std::vector<ProbeState>& states,
+                                         const std::filesystem::path& config_dir,
+                                         const std::filesystem::path& library_dir, unsigned repeats,
+                                         unsigned jobs, bool rest = false);
+
 }  // namespace dh::evo
