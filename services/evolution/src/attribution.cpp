@@ -24,9 +24,9 @@ bool any_wait(const EpisodeFacts& f, std::initializer_list<const char*> waits) {
   });
 }
 
-bool any_refusal(const EpisodeFacts& f, std::initializer_list<const char*> codes) {
+bool any_refusal(const EpisodeFacts& f, std::initializer_list<Refusal> codes) {
   return std::any_of(f.refusals.begin(), f.refusals.end(), [&](const RefusalFacts& r) {
-    return std::any_of(codes.begin(), codes.end(), [&](const char* x) { return r.code == x; });
+    return std::find(codes.begin(), codes.end(), r.code) != codes.end();
   });
 }
 
@@ -34,7 +34,7 @@ bool any_refusal(const EpisodeFacts& f, std::initializer_list<const char*> codes
 /// episode started without.
 bool needed_missing(const EpisodeFacts& f) {
   return std::any_of(f.refusals.begin(), f.refusals.end(), [&](const RefusalFacts& r) {
-    return (r.code == "unknown_capability" || r.code == "capability_not_alive") &&
+    return (r.code == Refusal::UnknownCapability || r.code == Refusal::CapabilityNotAlive) &&
            std::find(f.missing.begin(), f.missing.end(), r.capability) != f.missing.end();
   });
 }
@@ -81,27 +81,28 @@ const std::vector<NamedCheck>& checks() {
       {"observation_missing", "the first or the next observation did not come in time",
        [](const EpisodeFacts& f) { return any_wait(f, {"first_observation", "observation"}); }},
       {"scene_stale", "no fresh scene estimate in time, or an argument's entity unseen (perception refusal)",
-       [](const EpisodeFacts& f) { return any_refusal(f, {"perception"}); }},
+       [](const EpisodeFacts& f) { return any_refusal(f, {Refusal::Perception}); }},
       {"planner_silent", "the planner did not answer in time",
        [](const EpisodeFacts& f) { return any_wait(f, {"planner"}); }},
       {"planner_unreachable", "the planner's model server could not be asked (no key, no connection, no reply, HTTP error)",
-       [](const EpisodeFacts& f) { return any_refusal(f, {"planner_unavailable"}); }},
+       [](const EpisodeFacts& f) { return any_refusal(f, {Refusal::PlannerUnavailable}); }},
       {"planner_malformed", "the planner's reply could not be read as an advisory (not JSON, the schema broken)",
-       [](const EpisodeFacts& f) { return any_refusal(f, {"planner_malformed"}); }},
+       [](const EpisodeFacts& f) { return any_refusal(f, {Refusal::PlannerMalformed}); }},
       {"planner_refused", "the planner refused to give a step",
-       [](const EpisodeFacts& f) { return any_refusal(f, {"planner_refused"}); }},
+       [](const EpisodeFacts& f) { return any_refusal(f, {Refusal::PlannerRefused}); }},
       {"ineligible_step", "a step names an unknown or masked capability, or arguments that do not resolve",
        [](const EpisodeFacts& f) {
-         return any_refusal(f, {"unknown_capability", "capability_masked", "missing_argument", "unresolved_entity"});
+         return any_refusal(f, {Refusal::UnknownCapability, Refusal::CapabilityMasked,
+                                Refusal::MissingArgument, Refusal::UnresolvedEntity});
        }},
       {"grounding_refused", "a step's precondition did not hold at grounding",
-       [](const EpisodeFacts& f) { return any_refusal(f, {"precondition"}); }},
+       [](const EpisodeFacts& f) { return any_refusal(f, {Refusal::Precondition}); }},
       // The remaining budget could not pay for a step: a consequence of what spent it, so it sits with the
       // budget, downstream of a failure that made the steps run out.
       {"budget_refused", "the remaining steps could not pay for a step's cost at grounding",
-       [](const EpisodeFacts& f) { return any_refusal(f, {"budget"}); }},
+       [](const EpisodeFacts& f) { return any_refusal(f, {Refusal::Budget}); }},
       {"dispatch_failed", "no live instance, or no acknowledgement of a dispatched command",
-       [](const EpisodeFacts& f) { return any_wait(f, {"acknowledgement"}) || any_refusal(f, {"capability_not_alive"}); }},
+       [](const EpisodeFacts& f) { return any_wait(f, {"acknowledgement"}) || any_refusal(f, {Refusal::CapabilityNotAlive}); }},
       {"capability_refused", "a capability refused a command at its check, and no command ran after it",
        [](const EpisodeFacts& f) {
          for (std::size_t i = 0; i < f.commands.size(); ++i)
@@ -152,7 +153,7 @@ Signature signature_of(const EpisodeFacts& f) {
     s.stage = c->stage;
     s.step = c->end_step ? c->end_step : c->dispatch_step;
   } else {
-    s.failure = !f.refusals.empty() ? f.refusals.back().code
+    s.failure = !f.refusals.empty() ? to_string(f.refusals.back().code)
                                     : (!f.missed_waits.empty() ? f.missed_waits.back() : f.outcome);
     s.step = f.steps;
   }

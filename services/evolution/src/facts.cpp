@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <map>
+#include <optional>
 #include <stdexcept>
 
 namespace dh::evo {
@@ -58,7 +59,13 @@ EpisodeFacts read_facts(const std::vector<json>& records, bool flagged_infrastru
     } else if (kind == "deadline_missed") {
       f.missed_waits.push_back(field<std::string>(r, "wait"));
     } else if (kind == "refusal") {
-      f.refusals.push_back({field<std::string>(r, "refusal"), r.value("capability", "")});
+      const std::string code = field<std::string>(r, "refusal");
+      const std::optional<Refusal> refusal = refusal_from_string(code);
+      if (!refusal)
+        throw std::runtime_error("evidence record 'refusal' (seq " + std::to_string(r.value("seq", -1)) +
+                                 ") has the unknown code '" + code +
+                                 "' (written by another build? run the episodes again with this one)");
+      f.refusals.push_back({*refusal, r.value("capability", "")});
     } else if (kind == "grounding" && r.value("result", "") == "grounded") {
       grounded[field<std::string>(r, "command_id")] = r;
     } else if (kind == "dispatch") {

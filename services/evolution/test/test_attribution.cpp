@@ -231,6 +231,17 @@ TEST(Attribution, EvidenceWithoutTheCodesItNeedsIsUnreadableNotMislabelled) {
   }
 }
 
+TEST(Attribution, ARefusalCodeThisBuildDoesNotKnowIsUnreadable) {
+  Evidence e;
+  e.add("refusal", {{"refusal", "planner_sulked"}, {"capability", "push"}}).end();
+  try {
+    read_facts(e.records);
+    ADD_FAILURE() << "an unknown refusal code was read";
+  } catch (const std::runtime_error& err) {
+    EXPECT_NE(std::string(err.what()).find("'planner_sulked'"), std::string::npos) << err.what();
+  }
+}
+
 TEST(Attribution, AnEpisodeNoCheckMatchesIsNotLabelled) {
   Evidence e;
   e.command("c0", "pick_place", "running").add("decision", {{"decision", "give_up"}, {"stagnant", 3}}).end();

@@ -248,9 +248,7 @@ Effects EpisodeMachine::ground_and_dispatch(const Advice& advice, Clock::time_po
       return end(false, Outcome::GaveUp, "bare arm: nothing but the policy may act, and " + g.reason);
     }
     // Another capability would not see the scene any better than this one.
-    if (g.refusal == Refusal::PlannerRefused || g.refusal == Refusal::PlannerUnavailable ||
-        g.refusal == Refusal::PlannerMalformed || g.refusal == Refusal::Budget ||
-        g.refusal == Refusal::Perception)
+    if (is_planner(g.refusal) || g.refusal == Refusal::Budget || g.refusal == Refusal::Perception)
       return refuse(g.refusal, g.reason, now);
     // The advised capability cannot serve this step here: the executor decides what instead.
     ++refusals_total_;

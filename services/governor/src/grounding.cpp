@@ -5,23 +5,6 @@
 
 namespace dh::gov {
 
-const char* to_string(Refusal r) {
-  switch (r) {
-    case Refusal::PlannerRefused: return "planner_refused";
-    case Refusal::PlannerUnavailable: return "planner_unavailable";
-    case Refusal::PlannerMalformed: return "planner_malformed";
-    case Refusal::UnknownCapability: return "unknown_capability";
-    case Refusal::CapabilityNotAlive: return "capability_not_alive";
-    case Refusal::CapabilityMasked: return "capability_masked";
-    case Refusal::MissingArgument: return "missing_argument";
-    case Refusal::UnresolvedEntity: return "unresolved_entity";
-    case Refusal::Precondition: return "precondition";
-    case Refusal::Budget: return "budget";
-    case Refusal::Perception: return "perception";
-  }
-  return "?";
-}
-
 std::uint32_t command_budget(std::uint32_t cost_steps, std::uint32_t remaining_steps) {
   const std::uint32_t b = (cost_steps * 3 + 1) / 2 + 10;  // ceil(cost × 1.5) + 10, in integers
   return std::min(b, remaining_steps);

@@ -1,6 +1,7 @@
 #include "latency.hpp"
 
 #include "dh/common/evidence.hpp"
+#include "dh/common/grounding_refusal.hpp"
 #include "dh/common/seam_event.hpp"
 
 #include <algorithm>
@@ -33,6 +34,13 @@ void read_verdict_end(const nlohmann::json& end, EpisodeTrace& trace) {
     all = all && v->get<bool>();
   }
   trace.terms_hold_on_true_poses = all;
+}
+
+/// A refusal the evidence records with `code` is the slow brain's own; a code this build does not know is
+/// counted with execution's.
+bool is_planner_refusal(const std::string& code) {
+  const std::optional<Refusal> r = refusal_from_string(code);
+  return r && is_planner(*r);
 }
 
 }  // namespace
@@ -96,7 +104,7 @@ EvidenceStatus collect_evidence(const std::string& path, Latencies& into, Mechan
       std::string d = text(r, "decision");
       if (d == "request_replan" && text(r, "phase") == "completed") d = "next_step";
       if (!d.empty() && d != "continue") ++episode.decisions[d];
-    } else if (kind == "refusal" && text(r, "refusal").rfind("planner_", 0) != 0) {
+    } else if (kind == "refusal" && !is_planner_refusal(text(r, "refusal"))) {
       ++episode.refusals;  // the planner's own refusals and timeouts are the slow brain's, not execution's
     } else if (kind == "grounding" && text(r, "result") == "grounded") {
       capability_of[text(r, "command_id")] = text(r, "capability");

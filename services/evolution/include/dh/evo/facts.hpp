@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "dh/common/grounding_refusal.hpp"
+
 namespace dh::evo {
 
 struct CommandFacts {
@@ -25,7 +27,7 @@ struct CommandFacts {
 };
 
 struct RefusalFacts {
-  std::string code;        ///< grounding's Refusal: planner_refused, unknown_capability, precondition, ...
+  Refusal code = Refusal::PlannerRefused;  ///< why grounding refused
   std::string capability;  ///< the advised capability, when the record names it
 };
 

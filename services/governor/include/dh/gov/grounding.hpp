@@ -8,26 +8,14 @@
 #include <set>
 #include <string>
 
+#include "dh/common/grounding_refusal.hpp"
 #include "dh/common/observation.hpp"
 #include "dh/gov/registry.hpp"
 #include "dh/gov/types.hpp"
 
 namespace dh::gov {
 
-enum class Refusal {
-  PlannerRefused,      ///< the slow brain read the request and gave no step
-  PlannerUnavailable,  ///< the slow brain could not be asked: its model server, or no advice in time
-  PlannerMalformed,    ///< the slow brain's model answered what cannot be read as an advisory
-  UnknownCapability,   ///< never announced
-  CapabilityNotAlive,  ///< announced, but its liveliness lapsed
-  CapabilityMasked,    ///< switched off by the executor configuration
-  MissingArgument,     ///< a role the capability needs is absent, undeclared, or not one of its symbols
-  UnresolvedEntity,    ///< an argument names no entity in the scene
-  Precondition,        ///< a declared precondition does not hold
-  Budget,              ///< remaining steps cannot pay for the cost model
-  Perception,          ///< grounding from perception: no fresh estimate, or an argument's entity unseen
-};
-const char* to_string(Refusal r);
+using dh::Refusal;
 
 struct GroundingResult {
   std::optional<Command> command;  ///< set when grounded
