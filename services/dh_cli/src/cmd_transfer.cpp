@@ -120,10 +120,21 @@ int cmd_transfer(const TransferArgs& a) {
                     {"dev_episodes", r.dev_episodes},
                     {"fresh_success", r.fresh.interval.point},
                     {"fresh_episodes", r.fresh_episodes}});
+  json paired;
+  if (const auto& p = summary.fresh_paired)
+    paired = {{"pairs", p->n},
+              {"won", p->wins_a},
+              {"lost", p->wins_b},
+              {"diff", p->diff},
+              {"bootstrap_lo", p->bootstrap.lo},
+              {"bootstrap_hi", p->bootstrap.hi},
+              {"clusters", p->clusters},
+              {"sign_p", p->p}};
   std::cout << json{{"snapshots", rows},
                     {"rho", summary.rho ? json(*summary.rho) : json()},
                     {"dev_gain_pp", summary.dev_gain_pp},
-                    {"fresh_gain_pp", summary.fresh_gain_pp}}
+                    {"fresh_gain_pp", summary.fresh_gain_pp},
+                    {"fresh_paired", paired}}
                    .dump()
             << "\n";
   return 0;

@@ -382,7 +382,9 @@ int main(int argc, char** argv) {
   transfer->add_option("--out", transfer_args.out, "folder of its databases and transfer.md (default runs/transfer)");
   transfer->add_option("--launch", transfer_args.launch_file, "launch file for a local deployment when none is running");
   transfer->add_option("--ready-timeout-ms", transfer_args.ready_ms, "wait for a deployment (default 20000)");
-  transfer->add_flag("--json", transfer_args.json, "one JSON object: snapshots, rho, dev_gain_pp, fresh_gain_pp");
+  transfer->add_flag("--json", transfer_args.json,
+                     "one JSON object: snapshots, rho, dev_gain_pp, fresh_gain_pp, fresh_paired (the last "
+                     "snapshot against the first, paired by seed)");
   std::string registry_dir, registry_id;
   auto* registry = app.add_subcommand("registry", "the candidates and the decisions on them");
   registry->require_subcommand(1);

@@ -3,6 +3,7 @@
 #include <spdlog/fmt/fmt.h>
 
 #include <algorithm>
+#include <map>
 #include <stdexcept>
 
 namespace dh::evo {
@@ -15,6 +16,19 @@ unsigned successes(const std::vector<EpisodeRecord>& rows) {
 std::string rate(unsigned k, unsigned n, const stats::ClusteredRate& c) {
   return fmt::format("{}/{} = {:.1f} % [{:.1f}, {:.1f}]", k, n, 100 * c.interval.point, 100 * c.interval.lo,
                      100 * c.interval.hi);
+}
+
+/// The episodes of `a` and `b` on the same cell, task and seed, clustered by cell × task.
+stats::PairedSummary paired_by_seed(const std::vector<EpisodeRecord>& a, const std::vector<EpisodeRecord>& b,
+                                    unsigned resamples) {
+  std::map<std::string, bool> b_success;
+  for (const auto& r : b) b_success[r.cluster() + "/" + std::to_string(r.seed)] = r.success;
+  std::vector<stats::PairedOutcome> pairs;
+  for (const auto& r : a) {
+    const auto other = b_success.find(r.cluster() + "/" + std::to_string(r.seed));
+    if (other != b_success.end()) pairs.push_back({r.cluster(), r.success, other->second});
+  }
+  return stats::paired(pairs, resamples);
 }
 
 }  // namespace
@@ -48,6 +62,8 @@ TransferSummary summarise_transfer(const std::vector<SnapshotEpisodes>& snapshot
   if (s.snapshots.empty()) throw std::invalid_argument("no snapshots to compare");
   s.dev_gain_pp = 100 * (dev.back() - dev.front());
   s.fresh_gain_pp = 100 * (fresh.back() - fresh.front());
+  if (snapshots.size() > 1)
+    s.fresh_paired = paired_by_seed(snapshots.back().fresh, snapshots.front().fresh, resamples);
   try {
     s.rho = stats::spearman(dev, fresh);
   } catch (const std::invalid_argument& e) {
@@ -70,6 +86,13 @@ std::string transfer_markdown(const TransferSummary& s) {
   md += s.rho ? fmt::format("Spearman ρ of the two columns over {} snapshots: {:.2f}.\n", s.snapshots.size(),
                             *s.rho)
               : "Spearman ρ is undefined: " + s.rho_note + ".\n";
+  if (const auto& p = s.fresh_paired)
+    md += fmt::format(
+        "Last against first on the fresh block, paired by cell, task and seed: {} won, {} lost, {} alike of "
+        "{} pairs; {:+.1f} points, cell × task cluster bootstrap [{:+.1f}, {:+.1f}] ({} clusters); exact "
+        "sign test p = {:.2g}.\n",
+        p->wins_a, p->wins_b, p->ties, p->n, 100 * p->diff, 100 * p->bootstrap.lo, 100 * p->bootstrap.hi,
+        p->clusters, p->p);
   return md;
 }
 

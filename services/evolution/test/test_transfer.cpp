@@ -50,6 +50,30 @@ TEST(Transfer, RatesGainsAndTheRankCorrelationOfTheTwoColumns) {
   EXPECT_NE(md.find("| 4 | d | lib-d | 32/40 = 80.0 %"), std::string::npos) << md;
   EXPECT_NE(md.find("development +30.0 points, fresh block +22.5 points"), std::string::npos) << md;
   EXPECT_NE(md.find("ρ of the two columns over 4 snapshots: 0.80"), std::string::npos) << md;
+  // d against a on the fresh block: the first 18 episodes succeed in both, the next 9 in d alone.
+  ASSERT_TRUE(s.fresh_paired);
+  EXPECT_EQ(s.fresh_paired->n, 40u);
+  EXPECT_EQ(s.fresh_paired->wins_a, 9u);
+  EXPECT_EQ(s.fresh_paired->wins_b, 0u);
+  EXPECT_DOUBLE_EQ(s.fresh_paired->diff, 9.0 / 40);
+  EXPECT_NEAR(s.fresh_paired->p, 2.0 / 512, 1e-12);
+  EXPECT_EQ(s.fresh_paired->clusters, 4u);
+  EXPECT_NE(md.find("9 won, 0 lost, 31 alike of 40 pairs; +22.5 points"), std::string::npos) << md;
+}
+
+TEST(Transfer, TheLastSnapshotIsPairedWithTheFirstByCellTaskAndSeed) {
+  auto first = snapshot("a", 10, 10), last = snapshot("b", 10, 10);
+  last.fresh[0].success = false;            // a loss on seed 21's task 0
+  last.fresh[12].success = true;            // a win on seed 24's task 0
+  last.fresh.pop_back();                    // seed 30's task 3 only in the first: not a pair
+  std::swap(last.fresh[1], last.fresh[2]);  // order does not matter
+  const auto s = summarise_transfer({first, last}, 0);
+  ASSERT_TRUE(s.fresh_paired);
+  EXPECT_EQ(s.fresh_paired->n, 39u);
+  EXPECT_EQ(s.fresh_paired->wins_a, 1u);
+  EXPECT_EQ(s.fresh_paired->wins_b, 1u);
+  EXPECT_DOUBLE_EQ(s.fresh_paired->p, 1.0);
+  EXPECT_FALSE(summarise_transfer({snapshot("only", 10, 12)}, 0).fresh_paired);
 }
 
 TEST(Transfer, AnUndefinedRhoSaysWhyAndLossesCountAsFailures) {

@@ -32,6 +32,9 @@ struct TransferSummary {
   std::optional<double> rho;
   std::string rho_note;
   double dev_gain_pp = 0, fresh_gain_pp = 0;  ///< last snapshot's rate minus the first's, points
+  /// The last snapshot (A) against the first (B) on the fresh block, paired by cell, task and seed: the
+  /// exact sign test and the cell × task cluster bootstrap of the difference. None with one snapshot.
+  std::optional<stats::PairedSummary> fresh_paired;
 };
 
 /// The pooled success of `rows` with its cell × task cluster-bootstrap interval (a loss to infrastructure
