@@ -60,13 +60,13 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
   }
   if (!lib.theta.count(capability))
     throw std::invalid_argument("library " + parent.string() + " has no " + capability + ".yaml");
-  const evo::ProbeSet set =
-      evo::probe_set(rows, {capability, a.successes, a.draw_seed, a.rest}, paths::config_dir(), jobs);
+  const evo::ProbeSet set = evo::probe_set(
+      rows, {capability, a.successes, a.draw_seed, a.rest, shutdown_requested}, paths::config_dir(), jobs);
   report_skipped(set);
   // Progress on stderr: a search over a large set runs for minutes.
   const char* judged = a.rest ? "episodes won from the state" : "effects held";
-  // Ctrl-C stops the search after the candidate being probed (NLopt ends its run on the throw); the
-  // caller tells an interruption from a failure by shutdown_requested().
+  // Ctrl-C stops the search within the probes at hand (probe_states throws, NLopt ends its run on the
+  // throw); the caller tells an interruption from a failure by shutdown_requested().
   const auto stop_if_asked = [] {
     if (shutdown_requested()) throw std::runtime_error("the revision search was interrupted");
   };
@@ -94,6 +94,7 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
   options.jobs = jobs;
   options.max_probes = a.max_probes;
   options.rest = a.rest;
+  options.stop = shutdown_requested;
   options.scan_levels = a.scan_levels;
   options.on_scan = on_scan;
   options.screen = a.screen;

@@ -54,7 +54,7 @@ ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions
     for (auto& s : all) (s.failing ? chosen : won).push_back(std::move(s));
     for (std::size_t i : draw(won.size(), std::max(o.min_successes, chosen.size()), o.draw_seed))
       chosen.push_back(std::move(won[i]));
-    for (auto& p : probe_states(chosen, config_dir, {}, jobs, std::nullopt, true)) {
+    for (auto& p : probe_states(chosen, config_dir, {}, jobs, std::nullopt, true, o.stop)) {
       if (!p.report) {
         set.skipped.push_back(std::move(p));
         continue;
@@ -66,7 +66,7 @@ ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions
                           [](const ProbeOutcome& p) { return p.state.failing; });
     return set;
   }
-  std::vector<ProbeOutcome> parent = probe_states(all, config_dir, {}, jobs);
+  std::vector<ProbeOutcome> parent = probe_states(all, config_dir, {}, jobs, std::nullopt, false, o.stop);
   std::vector<ProbeOutcome> failing, held;
   for (auto& p : parent) {
     if (!p.report) {
@@ -86,13 +86,19 @@ ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions
 std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
                                        const std::filesystem::path& config_dir,
                                        const std::filesystem::path& library_dir, unsigned jobs,
-                                       const std::optional<cap::Theta>& theta, bool rest) {
+                                       const std::optional<cap::Theta>& theta, bool rest,
+                                       const std::function<bool()>& stop) {
   std::vector<ProbeOutcome> out(states.size());
   std::atomic<std::size_t> next{0};
+  std::atomic<bool> stopped{false};
   // Each probe owns its workcell, host and seam; MuJoCo models and data are not shared between threads
   // (as the simulator worker runs one channel per thread).
   const auto work = [&] {
     for (std::size_t i = next++; i < states.size(); i = next++) {
+      if (stopped || (stop && stop())) {
+        stopped = true;
+        return;
+      }
       out[i].state = states[i];
       try {
         out[i].report = probe(states[i].evidence, {config_dir, library_dir, states[i].command, theta, rest, {}});
@@ -105,6 +111,10 @@ std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
   for (unsigned j = 1; j < std::max(1u, jobs); ++j) threads.emplace_back(work);
   work();
   for (auto& t : threads) t.join();
+  if (stopped)
+    throw ProbesInterrupted("probing interrupted after " +
+                            std::to_string(std::min(next.load(), states.size())) + " of " +
+                            std::to_string(states.size()) + " probes began");
   return out;
 }
 

@@ -156,7 +156,7 @@ class Search {
   /// The effects `th` holds on `states`: failing states fixed and successes kept.
   Held held_on(const std::vector<ProbeState>& states, const cap::Theta& th) const {
     Held h;
-    for (const auto& r : probe_states(states, o_.config_dir, {}, o_.jobs, th, o_.rest)) {
+    for (const auto& r : probe_states(states, o_.config_dir, {}, o_.jobs, th, o_.rest, o_.stop)) {
       const bool passed = r.report && r.report->passed();
       h.held += passed;
       (r.state.failing ? h.fixed : h.kept) += passed;

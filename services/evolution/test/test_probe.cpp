@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <filesystem>
 #include <fstream>
 
@@ -357,6 +358,19 @@ TEST_F(Probe, RepeatedProbesRunSideBySideAndEndAlikePhysicsIncluded) {
   moved.end_digest ^= 1;
   EXPECT_FALSE(evo::same_result(moved, *repeated[1].runs[1].report));
   EXPECT_THROW(evo::probe_repeats(states, paths::config_dir(), {}, 0, 1), std::invalid_argument);
+}
+
+TEST_F(Probe, ProbingStopsWhenAskedAndSaysSo) {
+  // Ctrl-C during a revision search: once `stop` says true no probe starts, and the caller is told.
+  const std::vector<evo::ProbeState> states(4, {*dir / "ep.jsonl", 1, false, "ep"});
+  std::atomic<unsigned> asked{0};
+  EXPECT_THROW(
+      evo::probe_states(states, paths::config_dir(), {}, 2, std::nullopt, false, [&] { return ++asked > 1; }),
+      evo::ProbesInterrupted);
+  // Asked before the first probe and again before the next; a thread that asks while another is being
+  // told to stop may ask once more, and then no one asks again.
+  EXPECT_GE(asked.load(), 2u);
+  EXPECT_LE(asked.load(), 3u);
 }
 
 TEST_F(Probe, AProbeSetJudgedByTheRestOfItsEpisodesCountsTheirSuccesses) {

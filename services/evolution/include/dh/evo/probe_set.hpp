@@ -9,7 +9,9 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -34,6 +36,13 @@ struct ProbeSetOptions {
   /// step undoes) is then seen. The states are then drawn by their episodes' recorded outcomes and only
   /// those drawn are probed (under the recorded θ the rest reproduces the recorded episode).
   bool rest = false;
+  /// Asked before each probe: true ends the probing (ProbesInterrupted), as Ctrl-C does.
+  std::function<bool()> stop = nullptr;
+};
+
+/// A run of probes asked to stop before every state was probed.
+struct ProbesInterrupted : std::runtime_error {
+  using std::runtime_error::runtime_error;
 };
 
 struct ProbeOutcome {
@@ -57,11 +66,13 @@ ProbeSet probe_set(const std::vector<EpisodeRecord>& rows, const ProbeSetOptions
 
 /// Probes every state under `library_dir`, or else `theta` for the commands' capability, or else each
 /// recording's own θ, on `jobs` threads, with the rest of each episode when `rest`; results in the
-/// states' order.
+/// states' order. `stop` is asked before each probe; once it says true no probe starts, the running ones
+/// end, and ProbesInterrupted is thrown.
 std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
                                        const std::filesystem::path& config_dir,
                                        const std::filesystem::path& library_dir, unsigned jobs,
-                                       const std::optional<cap::Theta>& theta = std::nullopt, bool rest = false);
+                                       const std::optional<cap::Theta>& theta = std::nullopt,
+                                       bool rest = false, const std::function<bool()>& stop = {});
 
 /// One state probed `repeats` times: how many runs passed, and whether every run ended as the first did.
 struct RepeatedProbe {

@@ -41,6 +41,8 @@ struct ReviseOptions {
   unsigned jobs = 1;                  ///< probes at once
   unsigned max_probes = 0;  ///< probes at most over the search after any screening (0: max_evals × the set's size)
   bool rest = false;                  ///< the set is judged by the rest of each episode (ProbeSetOptions)
+  /// Asked before each probe: true ends the search with ProbesInterrupted (Ctrl-C).
+  std::function<bool()> stop = nullptr;
   /// Called after each candidate is probed: its number, the bound, the effects it held, the best so far.
   std::function<void(unsigned eval, unsigned max_evals, unsigned held, unsigned best_held)> on_eval;
   /// Called after each screened θ: its number, how many are screened, the effects it held, the best so far.
