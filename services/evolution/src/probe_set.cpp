@@ -112,9 +112,7 @@ std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
   work();
   for (auto& t : threads) t.join();
   if (stopped)
-    throw ProbesInterrupted("probing interrupted after " +
-                            std::to_string(std::min(next.load(), states.size())) + " of " +
-                            std::to_string(states.size()) + " probes began");
+    throw ProbesInterrupted("probing interrupted before all " + std::to_string(states.size()) + " probes ran");
   return out;
 }
 
