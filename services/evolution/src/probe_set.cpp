@@ -112,7 +112,8 @@ std::vector<ProbeOutcome> probe_states(const std::vector<ProbeState>& states,
   work();
   for (auto& t : threads) t.join();
   if (stopped)
-    throw ProbesInterrupted("probing interrupted before all " + std::to_string(states.size()) + " probes ran");
+    throw ProbesInterrupted("probing interrupted before all " + std::to_string(states.size()) +
+                            " probes ran");
   return out;
 }
 
