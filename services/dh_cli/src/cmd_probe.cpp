@@ -25,7 +25,7 @@ std::string repeats_text(const evo::RepeatedProbe& r, unsigned repeats) {
 nlohmann::json repeats_json(const evo::RepeatedProbe& r, unsigned repeats) {
   nlohmann::json j{{"runs", repeats},
                    {"passed", r.passed},
-                   {"alike", !r.first_different && r.error.empty()},
+                   {"alike", r.alike()},
                    {"first_different", nullptr}};
   if (r.first_different) j["first_different"] = *r.first_different;
   if (!r.error.empty()) j["error"] = r.error;
@@ -83,7 +83,7 @@ int probe_set(const ProbeArgs& a) {
     std::string runs;
     if (!repeated.empty()) {
       j["repeats"] = repeats_json(repeated[i], a.repeats);
-      unalike += repeated[i].first_different || !repeated[i].error.empty();
+      unalike += !repeated[i].alike();
       runs = "; " + repeats_text(repeated[i], a.repeats);
     }
     list.push_back(std::move(j));
@@ -156,7 +156,7 @@ int cmd_probe(const ProbeArgs& a) {
       return 2;
     }
   }
-  const bool unalike = repeated && (repeated->first_different || !repeated->error.empty());
+  const bool unalike = repeated && !repeated->alike();
   const int code = unalike ? 4 : (repeated ? repeated->passed == a.repeats : r.passed()) ? 0 : 3;
   if (a.json) {
     nlohmann::json j = evo::to_json(r);

@@ -65,26 +65,18 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
   report_skipped(set);
   // Progress on stderr: a search over a large set runs for minutes.
   const char* judged = a.rest ? "episodes won from the state" : "effects held";
-  // Ctrl-C stops the search within the probes at hand (probe_states throws, NLopt ends its run on the
-  // throw); the caller tells an interruption from a failure by shutdown_requested().
-  const auto stop_if_asked = [] {
-    if (shutdown_requested()) throw std::runtime_error("the revision search was interrupted");
-  };
   const auto on_eval = [&](unsigned eval, unsigned max_evals, unsigned held, unsigned best) {
     std::cerr << fmt::format("{}: candidate θ {} of at most {}: {} of {} {}, best {}\n", capability, eval, max_evals,
                              held, set.states.size(), judged, best);
-    stop_if_asked();
   };
   const auto on_screen = [&](unsigned k, unsigned n, unsigned held, unsigned best) {
     std::cerr << fmt::format("{}: the parent holds nothing; screened θ {} of {}: {} of {} {}, best {}\n", capability,
                              k, n, held, std::min<std::size_t>(a.screen_states, set.states.size()), judged, best);
-    stop_if_asked();
   };
   const auto on_scan = [&](const std::string& parameter, double value, unsigned held, unsigned states,
                            unsigned best) {
     std::cerr << fmt::format("{}: scanned {} = {:g}: {} of {} failing states {}, best {}\n", capability,
                              parameter, value, held, states, judged, best);
-    stop_if_asked();
   };
   evo::ReviseOptions options;
   options.capability = capability;
@@ -94,6 +86,8 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
   options.jobs = jobs;
   options.max_probes = a.max_probes;
   options.rest = a.rest;
+  // Ctrl-C stops the search within the probes at hand (probe_states throws ProbesInterrupted, NLopt ends
+  // its run on the throw); the caller tells an interruption from a failure by shutdown_requested().
   options.stop = shutdown_requested;
   options.scan_levels = a.scan_levels;
   options.on_scan = on_scan;
@@ -105,7 +99,6 @@ nlohmann::json revise_candidate(const ReviseArgs& a, const std::set<std::string>
   options.on_prune = [&](const std::string& parameter, bool reverted, unsigned held, unsigned best) {
     std::cerr << fmt::format("{}: κ pruned: without {} {} of {} {}, best {}: {}\n", capability, parameter, held,
                              set.states.size(), judged, best, reverted ? "back to the parent's" : "kept");
-    stop_if_asked();
   };
   const evo::Revision rev = evo::revise(set.states, options);
   nlohmann::json kappa = nlohmann::json::object();

@@ -81,6 +81,8 @@ struct RepeatedProbe {
   std::optional<std::size_t> first_different;  ///< the first run whose result is not run 0's (same_result)
   /// The first error of a run that could not probe; then the others are not compared.
   std::string error;
+  /// Every run probed and ended as the first did.
+  bool alike() const { return !first_different && error.empty(); }
 };
 
 /// Probes every state `repeats` times, all runs spread over `jobs` threads (so repeats of one state run
