@@ -30,7 +30,7 @@ TEST(EvolveE2E, ARoundKilledInTheCandidatesCampaignResumesAndRegistersItsDecisio
       " --no-bare --max-evals 4 --scan-levels 2 --successes 1 --ready-timeout-ms 20000 --out " +
       out.string();
 
-  // Ctrl-C in the revision search: the climb stops after the candidate at hand, says where it stopped, and
+  // Ctrl-C in the revision search: the climb stops within the probes at hand, says where it stopped, and
   // keeps its state for the run that goes on.
   const auto stage = [&] {
     try {
